@@ -1,0 +1,33 @@
+# Two commands do all set-up on a fresh machine (see README):
+#   make demo   creates .venv, installs, runs `nniquad report` on the paper's vehicle into out/
+#   make test   installs if needed, runs the whole test suite (notebooks included)
+PYTHON ?= python3
+VENV   ?= .venv
+PY      = $(VENV)/bin/python
+STAMP   = $(VENV)/.installed-stamp
+JOBS   ?= 2
+
+.PHONY: install demo test bench notebooks clean
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet -e '.[dev]'
+	touch $(STAMP)
+
+install: $(STAMP)
+
+demo: $(STAMP)
+	$(VENV)/bin/nniquad report --out out
+
+test: $(STAMP)
+	MPLBACKEND=Agg $(PY) -m pytest -n $(JOBS) -q
+
+bench: $(STAMP)
+	MPLBACKEND=Agg $(PY) benchmarks/run.py --json benchmarks/results/latest.json
+
+notebooks: $(STAMP)
+	$(VENV)/bin/jupytext --to ipynb notebooks/*.py
+
+clean:
+	rm -rf $(VENV) out build *.egg-info benchmarks/results

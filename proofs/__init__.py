@@ -1,0 +1,1 @@
+"""The paper audit: one module per paper section, each claim a function returning a record."""
