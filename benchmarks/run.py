@@ -1,0 +1,70 @@
+"""Run every benchmark in this folder, print a table and write JSON.
+
+Each ``bench_*.py`` module defines ``run() -> list[dict]``; every dict is one row
+with at least ``name``, ``value``, ``unit`` and, where a target exists,
+``target`` (same unit) and ``ok`` (bool).  Timings that are compared with each
+other are measured in the same run and reported as ratios.
+
+Usage: ``python benchmarks/run.py [--json FILE] [--only NAME,...]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import platform
+import sys
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent))
+
+from design.io import atomic_write_json  # noqa: E402
+
+
+def _modules(only: set[str] | None):
+    for path in sorted(HERE.glob("bench_*.py")):
+        name = path.stem.removeprefix("bench_")
+        if only and name not in only:
+            continue
+        spec = importlib.util.spec_from_file_location(path.stem, path)
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        yield name, module
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--json", default=None, help="write all rows to this JSON file")
+    parser.add_argument("--only", default=None, help="comma-separated benchmark names (file stems without bench_)")
+    args = parser.parse_args(argv)
+    only = set(args.only.split(",")) if args.only else None
+    rows = []
+    for name, module in _modules(only):
+        print(f"[bench] {name} ...", file=sys.stderr, flush=True)
+        t0 = time.perf_counter()
+        for row in module.run():
+            rows.append({"benchmark": name, **row})
+        print(f"[bench] {name} done in {time.perf_counter() - t0:.1f} s", file=sys.stderr, flush=True)
+    header = f"{'benchmark':<14} {'name':<52} {'value':>12} {'unit':<10} {'target':>10}  ok"
+    print(header)
+    print("-" * len(header))
+    for r in rows:
+        target = r.get("target")
+        ok = r.get("ok")
+        print(
+            f"{r['benchmark']:<14} {r['name']:<52} {r['value']:>12.4g} {r['unit']:<10} "
+            f"{'' if target is None else f'{target:.4g}':>10}  {'' if ok is None else ('yes' if ok else 'NO')}"
+        )
+    if args.json:
+        atomic_write_json(
+            args.json,
+            {"machine": {"python": platform.python_version(), "processor": platform.machine()}, "rows": rows},
+        )
+        print(f"wrote {args.json}", file=sys.stderr)
+    return 0 if all(r.get("ok", True) for r in rows) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
