@@ -1,0 +1,245 @@
+"""Metrics against hand-made signals whose answers are known in closed form."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from design.errors import NniquadError, SimulationError
+from design.metrics import (
+    Metrics,
+    compute_metrics,
+    diverged,
+    diverged_batch,
+    overshoot_pct,
+    overshoot_pct_batch,
+    peak_abs,
+    peak_tilt_deg,
+    rms_after,
+    settling_time,
+    settling_time_batch,
+    tilt_deg,
+    time_on_limit_fraction,
+)
+
+E0 = np.array([2.0, -1.5]) / 2.5  # paper's initial direction
+E_PERP = np.array([-E0[1], E0[0]])
+
+
+def along(d: np.ndarray, direction: np.ndarray = E0) -> np.ndarray:
+    return np.outer(d, direction)
+
+
+def from_distances(d) -> np.ndarray:
+    return along(np.asarray(d, dtype=float))
+
+
+# --------------------------------------------------------------------- settling
+
+
+def test_settling_of_exponential_decay_is_ln50():
+    # ‖ξ‖ = 2.5 e^{-t} meets the 0.05 m band at t = ln(2.5/0.05) = ln 50.
+    h = 1e-3
+    t = np.arange(0.0, 8.0 + h / 2, h)
+    ts = settling_time(t, along(2.5 * np.exp(-t)))
+    # The distance is convex, so the chord lies above it and the interpolated
+    # crossing is late, by at most h²/8 · max|d''| / min|d'| = h²/8 · e^h.
+    err = ts - math.log(50.0)
+    assert 0.0 <= err <= h**2 / 8 * math.exp(h)
+
+
+def test_settling_counts_the_last_exit():
+    # Inside at t=1, out again at t=2 (0.07 m), back in at t=3: the crossing
+    # between t=2 and t=3 is at 2 + (0.07-0.05)/(0.07-0.03) = 2.5 s.
+    t = np.arange(6.0)
+    xy = from_distances([2.5, 0.03, 0.07, 0.03, 0.01, 0.0])
+    assert settling_time(t, xy) == pytest.approx(2.5, abs=1e-12)
+
+
+def test_run_ending_outside_the_band_did_not_settle():
+    t = np.linspace(0.0, 1.0, 11)
+    assert settling_time(t, along(2.5 * np.exp(-t))) is None
+
+
+def test_never_outside_settles_at_zero():
+    t = np.linspace(0.0, 1.0, 11)
+    xy = along(0.01 * np.ones_like(t))
+    assert settling_time(t, xy, reference_norm=2.5) == 0.0
+
+
+def test_non_finite_sample_counts_as_outside():
+    t = np.arange(5.0)
+    xy = from_distances([2.5, 0.01, np.nan, 0.01, 0.0])
+    assert settling_time(t, xy) == 3.0
+
+
+def test_band_fraction_and_reference_norm():
+    h = 1e-3
+    t = np.arange(0.0, 8.0 + h / 2, h)
+    xy = along(2.5 * np.exp(-t))
+    assert settling_time(t, xy, band_fraction=0.05) == pytest.approx(math.log(20.0), abs=1e-6)
+    assert settling_time(t, xy, reference_norm=5.0) == pytest.approx(math.log(25.0), abs=1e-6)
+
+
+def test_batch_matches_scalar_and_flags_unsettled_with_nan():
+    t = np.linspace(0.0, 8.0, 801)
+    runs = np.stack(
+        [
+            along(2.5 * np.exp(-t)),
+            along(2.5 * np.exp(-2 * t) * np.cos(3 * t), E_PERP),
+            along(2.5 * np.exp(-0.1 * t)),  # still outside at 8 s
+        ]
+    )
+    batch = settling_time_batch(t, runs)
+    assert batch.shape == (3,)
+    for k in range(2):
+        assert batch[k] == pytest.approx(settling_time(t, runs[k]), abs=1e-15)
+    assert math.isnan(batch[2])
+
+
+# -------------------------------------------------------------------- overshoot
+
+
+def test_overshoot_of_damped_step_response_matches_closed_form():
+    # x(t) = D e^{-σt}(cos ωt + σ/ω sin ωt) starts at rest at D; its first
+    # minimum is at t = π/ω with value -D e^{-σπ/ω}: overshoot 100 e^{-ζπ/√(1-ζ²)} %.
+    zeta, wn, D = 0.3, 2.0, 2.5
+    sigma, w = zeta * wn, wn * math.sqrt(1 - zeta**2)
+    t = np.arange(0.0, 10.0, 1e-4)
+    x = D * np.exp(-sigma * t) * (np.cos(w * t) + sigma / w * np.sin(w * t))
+    y = 0.5 * np.exp(-sigma * t) * np.sin(w * t)  # across the initial line: must not count
+    xy = along(x) + along(y, E_PERP)
+    expected = 100.0 * math.exp(-zeta * math.pi / math.sqrt(1 - zeta**2))
+    # Sampling misses the peak by at most |x''| (h/2)² / 2 ~ 1e-8 m, i.e. < 1e-6 %.
+    assert overshoot_pct(t, xy) == pytest.approx(expected, abs=1e-6)
+
+
+def test_overshoot_is_zero_for_monotone_decay():
+    t = np.linspace(0.0, 5.0, 501)
+    assert overshoot_pct(t, along(2.5 * np.exp(-t))) == 0.0
+
+
+def test_overshoot_batch_and_undefined_cases():
+    t = np.linspace(0.0, 1.0, 3)
+    runs = np.stack([from_distances([2.5, -0.25, 0.0]), from_distances([2.5, np.nan, 0.0])])
+    out = overshoot_pct_batch(t, runs)
+    assert out[0] == pytest.approx(10.0)
+    assert math.isnan(out[1])
+    with pytest.raises(SimulationError):
+        overshoot_pct(t, from_distances([0.0, 1.0, 0.0]))
+
+
+# ------------------------------------------------------------------------- tilt
+
+
+def test_tilt_of_pure_roll_or_pitch_equals_that_angle():
+    angles = np.array([1e-7, 0.01, 0.3, 1.0])
+    assert np.allclose(tilt_deg(angles, 0.0), np.degrees(angles), rtol=1e-12, atol=0)
+    assert np.allclose(tilt_deg(0.0, -angles), np.degrees(angles), rtol=1e-12, atol=0)
+
+
+def test_tilt_of_equal_roll_and_pitch():
+    a = math.radians(30.0)
+    assert tilt_deg(a, a) == pytest.approx(math.degrees(math.acos(0.75)), abs=1e-12)
+    # Generic pair against the defining arccos form (fine away from zero).
+    phi, theta = 0.4, -0.7
+    assert tilt_deg(phi, theta) == pytest.approx(math.degrees(math.acos(math.cos(phi) * math.cos(theta))), abs=1e-10)
+
+
+def test_peak_tilt():
+    phi = np.radians([0.0, 10.0, 20.0, 5.0])
+    assert peak_tilt_deg(phi, np.zeros(4)) == pytest.approx(20.0, abs=1e-12)
+
+
+# ---------------------------------------------------------------- other signals
+
+
+def test_time_on_limit_fraction_of_ramp_then_hold():
+    # 30 t for t < 1, then held at 30 until t = 2: at the limit half the time,
+    # give or take the rel_tol window (1 ms here) and half a sample.
+    t = np.linspace(0.0, 2.0, 2001)
+    v = 30.0 * np.minimum(t, 1.0)
+    assert time_on_limit_fraction(t, v, 30.0) == pytest.approx(0.5, abs=1e-3)
+    assert time_on_limit_fraction(t, -v, 30.0) == pytest.approx(0.5, abs=1e-3)
+    assert time_on_limit_fraction(t, 0.5 * v, 30.0) == 0.0
+
+
+def test_rms_after_of_sine_over_whole_periods():
+    t = np.linspace(0.0, 4.0, 40001)
+    s = np.where(t < 2.0, 10.0, 0.0) + 3.0 * np.sin(2 * np.pi * t)
+    assert rms_after(t, s, 2.0) == pytest.approx(3.0 / math.sqrt(2.0), rel=1e-6)
+    assert rms_after(t, 1.0 + s, 2.0, remove_mean=True) == pytest.approx(3.0 / math.sqrt(2.0), rel=1e-6)
+    assert rms_after(t, s, None) is None
+    assert rms_after(t, s, 5.0) is None
+
+
+def test_peak_abs():
+    assert peak_abs([[1.0, -4.0], [2.0, 3.0]]) == 4.0
+
+
+def test_divergence_detection():
+    xy = along(2.5 * np.exp(-np.linspace(0, 1, 5)))
+    assert not diverged(xy)
+    bad = xy.copy()
+    bad[3, 0] = np.nan
+    assert diverged(bad)
+    far = xy.copy()
+    far[2] = [300.0, 0.0]  # beyond 100 × 2.5 m
+    assert diverged(far)
+    assert not diverged(far, threshold_m=1e3)
+    inf = xy.copy()
+    inf[4, 1] = np.inf
+    assert diverged_batch(np.stack([xy, bad, far, inf])).tolist() == [False, True, True, True]
+
+
+# ----------------------------------------------------------------------- bundle
+
+
+def test_compute_metrics_fills_what_it_can():
+    t = np.linspace(0.0, 10.0, 10001)
+    xy = along(2.5 * np.exp(-t))
+    phi = np.radians(5.0) * np.exp(-t) * np.cos(t)
+    theta = np.zeros_like(t)
+    cmd = np.minimum(40.0 * np.exp(-t), 30.0)
+    rotors = np.column_stack([np.full_like(t, 600.0 + k) for k in range(4)])
+    z = 0.02 * np.sin(t)
+    m = compute_metrics(t, xy, phi=phi, theta=theta, cmd_tilt_deg=cmd, rotor_speeds=rotors, z=z, z_ref=0.0)
+    assert m.settling_s == pytest.approx(math.log(50.0), abs=1e-6)
+    assert m.overshoot_pct == 0.0
+    assert m.peak_tilt_deg == pytest.approx(5.0, abs=1e-9)
+    assert m.peak_cmd_tilt_deg == 30.0
+    # cmd = 30 while 40 e^{-t} >= 30·(1-1e-3), i.e. t <= ln(40/29.97) ≈ 0.2887 s.
+    assert m.tilt_limit_fraction == pytest.approx(math.log(40 / 29.97) / 10.0, abs=1e-3)
+    assert m.peak_rotor_speed_rad_s == 603.0
+    assert m.altitude_dev_m == pytest.approx(0.02, abs=1e-8)
+    assert m.tilt_jitter_rms_deg is not None and 0.0 < m.tilt_jitter_rms_deg < 5.0 * 0.02
+    assert m.diverged is False
+    assert m.horizon_s == 10.0
+    assert Metrics.from_json(m.to_json()) == m
+
+
+def test_compute_metrics_without_optional_signals_and_json_nulls():
+    t = np.linspace(0.0, 1.0, 101)
+    xy = along(2.5 * np.exp(-t))
+    m = compute_metrics(t, xy)
+    data = m.to_json()
+    assert data["settling_s"] is None  # still outside the band at 1 s
+    assert data["peak_tilt_deg"] is None and data["tilt_limit_fraction"] is None
+    json.dumps(data, allow_nan=False)
+    xy_bad = xy.copy()
+    xy_bad[50] = np.nan
+    m_bad = compute_metrics(t, xy_bad)
+    assert m_bad.diverged and m_bad.settling_s is None and m_bad.overshoot_pct is None
+
+
+def test_shape_errors_are_domain_errors():
+    t = np.linspace(0.0, 1.0, 5)
+    with pytest.raises(NniquadError):
+        settling_time(t, np.zeros((4, 2)))
+    with pytest.raises(NniquadError):
+        settling_time(t[::-1], np.ones((5, 2)))
+    with pytest.raises(NniquadError):
+        settling_time_batch(t, np.ones((5, 2)))
