@@ -1,0 +1,66 @@
+"""Time to build and solve each LMI for the paper's gains, and the whole ``nniquad lmi`` run.
+
+Each LMI is timed warm (second call: cvxpy and the lambdified model are loaded),
+which is what a sweep pays per gain set.  The CLI row is a cold subprocess, the
+number a user sees; its target (< 5 s on the 2-core reference machine) comes
+from the issue.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+CLI_TARGET_S = 5.0
+
+
+def _time(fn, repeat: int = 3) -> float:
+    fn()  # warm-up: compile / import
+    best = float("inf")
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def run() -> list[dict]:
+    from design import lmi
+    from design.linear import PAPER_GAINS, controller_matrices, plant_matrices
+    from design.vehicle import PAPER_VEHICLE
+
+    m, g = PAPER_VEHICLE.m, PAPER_VEHICLE.g
+    A, B, C, D = plant_matrices(m, PAPER_GAINS.kp)
+    Ac, Bc, Cc, _ = controller_matrices(PAPER_GAINS.Gamma, PAPER_GAINS.delta)
+    u0 = lmi.axis_acceleration_limit(g, 30.0)
+    cases = {
+        "ni_lemma_paper[plant]": lambda: lmi.ni_lemma_paper(A, B, C),
+        "ni_lemma_dissipation[plant]": lambda: lmi.ni_lemma_dissipation(A, B, C, D),
+        "ni_lemma_lanzon_petersen[plant]": lambda: lmi.ni_lemma_lanzon_petersen(A, B, C, D),
+        "sni_lemma[controller]": lambda: lmi.sni_lemma(Ac, Bc, Cc),
+        "ni_dissipation_strict[controller]": lambda: lmi.ni_dissipation_strict(Ac, Bc, Cc),
+        "closed_loop_decay (bisection)": lambda: lmi.closed_loop_decay(m, PAPER_GAINS),
+        "robust_mass_decay[common_P]": lambda: lmi.robust_mass_decay(0.8 * m, 1.2 * m, PAPER_GAINS),
+        "robust_mass_decay[pdlf] (bisection)": lambda: lmi.robust_mass_decay(0.8 * m, 1.2 * m, PAPER_GAINS, True),
+        "region_of_attraction[x]": lambda: lmi.region_of_attraction(m, PAPER_GAINS.kp, PAPER_GAINS.Gamma,
+                                                                    PAPER_GAINS.delta, u0),
+        "run_all": lambda: lmi.run_all(m, g, PAPER_GAINS),
+    }
+    rows = [{"name": f"lmi {name} build+solve", "value": _time(fn), "unit": "s"} for name, fn in cases.items()]
+    t0 = time.perf_counter()
+    proc = subprocess.run([sys.executable, "-m", "design.cli", "lmi"], cwd=ROOT, capture_output=True, text=True)
+    wall = time.perf_counter() - t0
+    rows.append({"name": "nniquad lmi (cold subprocess, wall)", "value": wall, "unit": "s",
+                 "target": CLI_TARGET_S, "ok": proc.returncode == 0 and wall < CLI_TARGET_S})
+    return rows
+
+
+if __name__ == "__main__":
+    for row in run():
+        print(row)

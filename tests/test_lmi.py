@@ -1,0 +1,250 @@
+"""LMIs: closed-form certificates, boundary perturbation, agreement with poles and frequency checks."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from design import lmi
+from design.errors import GainError, SolverError
+from design.frequency import ni_interconnection_check
+from design.linear import (
+    Gains,
+    PAPER_GAINS,
+    closed_loop_A_axis,
+    controller_matrices,
+    controller_ss,
+    plant_matrices,
+    plant_ss,
+    saturation_split,
+    stable,
+)
+
+
+@pytest.mark.parametrize("m, kp", [(0.5, 5.0), (1.3, 0.7), (0.2, 40.0)])
+def test_plant_certificate_is_the_hand_derived_unique_matrix(m, kp):
+    A, B, C, D = plant_matrices(m, kp)
+    r = lmi.ni_lemma_dissipation(A, B, C, D)
+    assert r.feasible and r.status == "optimal"
+    P = r.matrices["P"]
+    # by hand: PB = A'C' forces P12 = 0, P22 = m; PA + A'P <= 0 then forces P11 = m kp (lossless)
+    np.testing.assert_allclose(P, np.diag([m * kp, m]), rtol=1e-6, atol=1e-7 * m * kp)
+    np.testing.assert_allclose(P @ A + A.T @ P, 0.0, atol=1e-6 * m * kp)
+    y = lmi.ni_lemma_lanzon_petersen(A, B, C, D)
+    assert y.feasible
+    np.testing.assert_allclose(y.matrices["Y"] @ np.diag([m * kp, m]), np.eye(2), atol=1e-6)
+
+
+def test_paper_lemma_is_infeasible_on_the_plant():
+    A, B, C, _ = plant_matrices(0.5, 5.0)
+    r = lmi.ni_lemma_paper(A, B, C)
+    assert not r.feasible and r.status == "infeasible"
+
+
+@pytest.mark.parametrize("Gamma, delta", [(160.0, 0.6), (2.0, 0.5)])
+def test_controller_certificates_by_hand(Gamma, delta):
+    Ac, Bc, Cc, _ = controller_matrices(Gamma, delta)
+    paper = lmi.ni_lemma_paper(Ac, Bc, Cc)
+    assert paper.feasible
+    assert paper.matrices["P"][0, 0] == pytest.approx(1 / Gamma, rel=1e-7)
+    # with P = 1/Gamma, dV/dt - ydot u has the matrix [[-d, (1+Gd)/2], [., -G]] (times 2):
+    # det = -(1 - Gamma delta)^2 / 4 -> positive eigenvalue unless Gamma delta = 1
+    if abs(Gamma * delta - 1) > 1e-3:
+        assert paper.residuals["ni_dissipation_max_eig"] > 1e-6
+    else:
+        assert paper.residuals["ni_dissipation_max_eig"] < 1e-6
+    diss = lmi.ni_lemma_dissipation(Ac, Bc, Cc)
+    assert diss.feasible and diss.matrices["P"][0, 0] == pytest.approx(delta, rel=1e-4)  # unique P = delta
+    sni = lmi.sni_lemma(Ac, Bc, Cc)
+    assert sni.feasible
+    assert sni.matrices["Y"][0, 0] == pytest.approx(1 / delta, rel=1e-7)
+    assert sni.margin == pytest.approx(2 * Gamma, rel=1e-6)  # AY + YA' = -2 Gamma delta / delta
+    assert not lmi.ni_dissipation_strict(Ac, Bc, Cc).feasible
+
+
+def test_gamma_delta_one_makes_paper_storage_ni():
+    Ac, Bc, Cc, _ = controller_matrices(2.0, 0.5)
+    assert lmi.ni_lemma_paper(Ac, Bc, Cc).residuals["ni_dissipation_max_eig"] < 1e-6
+
+
+def test_plant_is_not_sni():
+    A, B, C, D = plant_matrices(0.5, 5.0)
+    r = lmi.sni_lemma(A, B, C, D)
+    assert not r.feasible and r.status == "infeasible"
+
+
+def test_closed_loop_decay_matches_pole_bound():
+    r = lmi.closed_loop_decay(0.5, PAPER_GAINS)
+    assert r.feasible
+    sup = r.values["decay_rate_poles"]
+    A = closed_loop_A_axis(0.5, 5.0, 160.0, 0.6)
+    assert sup == pytest.approx(-2 * np.max(np.linalg.eigvals(A).real), rel=1e-12)
+    assert (1 - 3e-3) * sup <= r.margin <= sup * (1 + 1e-6)
+    P = r.matrices["P"]
+    assert np.linalg.eigvalsh(P)[0] > 0
+    assert np.linalg.eigvalsh(A.T @ P + P @ A + r.margin * P)[-1] <= 1e-6 * np.linalg.norm(P, 2) * np.linalg.norm(A, 2)
+
+
+@pytest.mark.parametrize("eps, expected", [(1e-3, True), (-1e-3, False)])
+def test_closed_loop_lmi_at_stability_boundary(eps, expected):
+    m, kp = 0.5, 5.0
+    r = lmi.closed_loop_decay(m, Gains(kp=kp, Gamma=160.0, delta=(1 + eps) / (m * kp)))
+    assert r.feasible is expected
+    if not expected:
+        assert r.status == "infeasible"
+
+
+def test_random_gains_lmi_agrees_with_poles_and_frequency_check():
+    rng = np.random.default_rng(20240611)
+    seen = {True: 0, False: 0}
+    while sum(seen.values()) < 10:
+        m, kp, G, d = np.exp(rng.uniform(np.log([0.2, 1.0, 2.0, 0.1]), np.log([2.0, 30.0, 300.0, 3.0])))
+        if abs(m * kp * d - 1) < 0.05:
+            continue
+        g = Gains(kp=kp, Gamma=G, delta=d)
+        poles_ok = bool(np.max(np.linalg.eigvals(closed_loop_A_axis(m, kp, G, d)).real) < 0)
+        freq = ni_interconnection_check(plant_ss(m, kp), controller_ss(G, d))
+        r = lmi.closed_loop_decay(m, g, rtol=1e-2)
+        assert r.feasible == poles_ok == freq.predicted_stable == freq.poles_stable == stable(m, kp, G, d)
+        seen[poles_ok] += 1
+    assert seen[True] and seen[False]
+
+
+def test_robust_mass_common_p_fails_but_mass_dependent_p_certifies():
+    lo, hi = 0.4, 0.6
+    common = lmi.robust_mass_decay(lo, hi, PAPER_GAINS)
+    assert not common.feasible  # the slow pair's frequency moves with m: no common quadratic P
+    pdlf = lmi.robust_mass_decay(lo, hi, PAPER_GAINS, parameter_dependent=True)
+    assert pdlf.feasible
+    assert 0 < pdlf.margin <= pdlf.values["decay_rate_poles_pointwise_min"] * (1 + 1e-6)
+    assert lmi.robust_mass_decay(0.499, 0.501, PAPER_GAINS).feasible
+    # below the exact Routh bound m > 1/(kp delta) = 1/3 kg nothing can be certified
+    assert pdlf.values["m_min_exact"] == pytest.approx(1 / 3)
+    assert not lmi.robust_mass_decay(0.3, 0.6, PAPER_GAINS, parameter_dependent=True).feasible
+    with pytest.raises(GainError):
+        lmi.robust_mass_decay(0.6, 0.4, PAPER_GAINS)
+
+
+def test_region_of_attraction_is_invariant_and_attractive_in_simulation():
+    from scipy.integrate import solve_ivp
+
+    m, kp, G, d = 0.5, 5.0, 160.0, 0.6
+    u0 = lmi.axis_acceleration_limit(9.81, 30.0, "inscribed")
+    assert u0 == pytest.approx(9.81 * np.tan(np.radians(30)) / np.sqrt(2))
+    assert lmi.axis_acceleration_limit(9.81, 30.0) == pytest.approx(9.81 * np.tan(np.radians(30)))
+    r = lmi.region_of_attraction(m, kp, G, d, u0)
+    assert r.feasible and r.values["max_displacement_m"] > kp * 0 + u0 / kp  # beyond the linear (unsaturated) zone
+    P = r.matrices["P"]
+    x0 = np.array([r.margin, 0.0, 0.0])
+    assert x0 @ P @ x0 == pytest.approx(1.0, abs=1e-5)
+    A0, B, K = saturation_split(m, kp, G, d)
+
+    def f(t, x):
+        return A0 @ x + B[:, 0] * np.clip(K @ x, -u0, u0)[0]
+
+    rng = np.random.default_rng(3)
+    Lc = np.linalg.cholesky(P)
+    starts = [x0 * (1 - 1e-6)]
+    for _ in range(3):
+        v = rng.normal(size=3)
+        starts.append(np.linalg.solve(Lc.T, v / np.linalg.norm(v)) * (1 - 1e-6))
+    for xs in starts:
+        sol = solve_ivp(f, (0.0, 150.0), xs, method="LSODA", rtol=1e-8, atol=1e-10, dense_output=True)
+        X = sol.sol(np.linspace(0.0, 150.0, 1501))
+        V = np.einsum("it,ij,jt->t", X, P, X)
+        assert V.max() <= 1.0 + 1e-6  # invariance: never leaves the ellipsoid
+        assert V[-1] < 0.05  # attractivity: V decays (slowly: the dominant pair has zeta ~ 0.013)
+
+
+def test_nan_data_raises_solver_error():
+    A, B, C, D = plant_matrices(0.5, 5.0)
+    A = A.copy()
+    A[0, 0] = np.nan
+    for fn in (lmi.ni_lemma_paper, lmi.ni_lemma_dissipation, lmi.ni_lemma_lanzon_petersen, lmi.sni_lemma,
+               lmi.ni_dissipation_strict):
+        with pytest.raises(SolverError, match="non-finite"):
+            fn(A, B, C)
+    with pytest.raises(SolverError, match="non-finite"):
+        lmi.closed_loop_decay(float("nan"), PAPER_GAINS)
+    with pytest.raises(GainError):  # bad gains are caught earlier, by the gain set itself
+        Gains(kp=5.0, Gamma=160.0, delta=float("nan"))
+
+
+def test_unbounded_and_crash_become_solver_error(monkeypatch):
+    import cvxpy as cp
+
+    x = cp.Variable()
+    with pytest.raises(SolverError, match="unbounded"):
+        lmi._solve(cp.Problem(cp.Maximize(x), [x >= 0]), "toy")
+    prob = cp.Problem(cp.Minimize(x), [x >= 0])
+
+    def boom(*a, **k):
+        raise cp.error.SolverError("crashed")
+
+    monkeypatch.setattr(prob, "solve", boom)
+    with pytest.raises(SolverError, match="Clarabel failed"):
+        lmi._solve(prob, "toy")
+
+
+def test_failed_recheck_is_not_feasible(monkeypatch):
+    monkeypatch.setattr(lmi, "RTOL", -1.0)  # no answer can pass a negative tolerance
+    Ac, Bc, Cc, _ = controller_matrices(160.0, 0.6)
+    r = lmi.ni_lemma_paper(Ac, Bc, Cc)
+    assert r.status == "optimal" and not r.feasible and "re-check failed" in r.note
+
+
+def test_run_all_json():
+    results = lmi.run_all(0.5, 9.81)
+    names = [r.name for r in results]
+    assert "ni_lemma_paper[plant]" in names and "region_of_attraction[x]" in names
+    data = json.loads(json.dumps([r.to_json() for r in results]))
+    for entry in data:
+        assert {"name", "feasible", "status", "residuals", "matrices"} <= set(entry)
+
+
+def test_thrust_mass_model_by_hand_and_robust_certificate():
+    m_hat, kp, G, d = 0.5, 5.0, 160.0, 0.6
+    np.testing.assert_array_equal(lmi._true_mass_A(m_hat, kp, PAPER_GAINS, m_hat), closed_loop_A_axis(m_hat, kp, G, d))
+    for m in (0.3, 0.8):
+        A = lmi._true_mass_A(m, kp, PAPER_GAINS, m_hat)
+        hand = [1, G * d, kp * m_hat / m, G * (kp * m_hat * d - 1) / m]  # worked out by hand
+        np.testing.assert_allclose(np.poly(A), hand, rtol=1e-12)
+    r = lmi.robust_mass_decay(0.3, 1.0, PAPER_GAINS, parameter_dependent=True, m_nominal=m_hat)
+    assert r.feasible and r.values["m_min_exact"] == 0.0  # stable for every true mass since m_hat kp d > 1
+    assert 0 < r.margin <= r.values["decay_rate_poles_pointwise_min"] * (1 + 1e-9)
+
+
+def test_norm_limited_region_certifies_the_2d_loop_in_simulation():
+    """The single-axis LMI with the full limit certifies the 2-D loop whose command *norm* is saturated."""
+    from scipy.integrate import solve_ivp
+
+    m, kp, G, d = 0.5, 5.0, 160.0, 0.6
+    u0 = lmi.axis_acceleration_limit(9.81, 30.0)
+    r = lmi.region_of_attraction(m, kp, G, d, u0)
+    assert r.feasible
+    P2 = np.kron(np.eye(2), r.matrices["P"])  # state [x, x', zx, y, y', zy]
+    A0, B, K = saturation_split(m, kp, G, d)
+
+    def f(_t, x):
+        a = np.array([K @ x[:3], K @ x[3:]]).ravel()
+        n = np.linalg.norm(a)
+        a = a if n <= u0 else a * (u0 / n)
+        return np.concatenate([A0 @ x[:3] + B[:, 0] * a[0], A0 @ x[3:] + B[:, 0] * a[1]])
+
+    rng = np.random.default_rng(11)
+    L = np.linalg.cholesky(P2)
+    starts = [np.array([2.0, 0, 0, -1.5, 0, 0]) * r.margin / 2.5 * (1 - 1e-6)]  # the paper's direction, on the boundary
+    for _ in range(3):
+        v = rng.normal(size=6)
+        starts.append(np.linalg.solve(L.T, v / np.linalg.norm(v)) * (1 - 1e-6))
+    for xs in starts:
+        sol = solve_ivp(f, (0.0, 150.0), xs, method="LSODA", rtol=1e-8, atol=1e-10, dense_output=True)
+        X = sol.sol(np.linspace(0.0, 150.0, 1501))
+        V = np.einsum("it,ij,jt->t", X, P2, X)
+        assert V.max() <= 1.0 + 1e-6
+        assert V[-1] < 0.05
+    # the start at the certified radius really drives the norm limit (not a vacuous check)
+    a0 = np.array([K @ starts[0][:3], K @ starts[0][3:]]).ravel()
+    assert np.linalg.norm(a0) > 2 * u0
