@@ -36,6 +36,10 @@ def atomic_write_with(path: str | os.PathLike[str], writer: Callable[[Path], Non
     tmp = Path(tmp_name)
     try:
         writer(tmp)
+        # mkstemp creates 0600; give the result the mode a plain open() would (umask applies)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)
         os.replace(tmp, target)
     finally:
         if tmp.exists():

@@ -1,0 +1,90 @@
+"""Simulation throughput (simulated seconds per wall second) at the accuracy the tests establish.
+
+Rows: the full vehicle as one 20 s trajectory and as a batch of 100 gain sets
+(target: the batch in under 10 s on a 2-core machine), the linear and reduced
+models, and the accuracy of the full model's RK4 (1 ms) against scipy's DOP853
+(rtol 1e-11) over 4 s from the paper's initial state.  The one-off C
+compilation is paid in a warm-up and reported separately.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from design import simulate as sim
+from design.linear import PAPER_GAINS, Gains
+from design.simulate import SimOptions, SimParams, simulate, simulate_batch
+from design.vehicle import PAPER_VEHICLE
+
+__all__ = ["run"]
+
+HORIZON_S = 20.0
+BATCH = 100
+BATCH_TARGET_S = 10.0
+ACCURACY_TARGET_M = 1e-4
+
+
+def _gain_sets(n: int) -> list[Gains]:
+    rng = np.random.default_rng(0)
+    out = []
+    while len(out) < n:
+        g = Gains(kp=rng.uniform(2, 12), Gamma=rng.uniform(10, 400), delta=rng.uniform(0.3, 1.5))
+        if PAPER_VEHICLE.m * g.kp * g.delta > 1:  # Routh-stable sets, as a tuner would try
+            out.append(g)
+    return out
+
+
+def _best(fn, repeat: int) -> float:
+    best = float("inf")
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def _accuracy() -> float:
+    from scipy.integrate import solve_ivp
+
+    o = SimOptions(model="full", horizon_s=4.0)
+    tr = simulate(PAPER_VEHICLE, PAPER_GAINS, o)
+    P = SimParams.from_options(PAPER_VEHICLE, PAPER_GAINS, o).vector()
+    f = sim.rhs_function("full")
+    e = np.zeros(5)
+    sol = solve_ivp(lambda t, x: np.asarray(f(x, e, P)).ravel(), (0, 4.0), tr.state[0], method="DOP853",
+                    rtol=1e-11, atol=1e-12, t_eval=tr.t)
+    return float(np.max(np.abs(tr.xy - sol.y[[0, 2]].T)))
+
+
+def run() -> list[dict]:
+    """Rows ``{name, value, unit, target?, ok?}`` for ``benchmarks/run.py``."""
+    rows: list[dict] = []
+    t0 = time.perf_counter()
+    for model in sim.MODELS:  # warm-up: builds (and on a fresh machine compiles) each model
+        simulate(PAPER_VEHICLE, PAPER_GAINS, SimOptions(model=model, horizon_s=0.1))
+    rows.append({"name": "simulate: warm-up (build/compile/load, 3 models)", "value": time.perf_counter() - t0,
+                 "unit": "s"})
+    compiled = sum("compiled" in v for v in sim.compile_status().values())
+    rows.append({"name": "simulate: functions running as compiled C", "value": compiled, "unit": "count"})
+
+    for model in sim.MODELS:
+        o = SimOptions(model=model, horizon_s=HORIZON_S)
+        wall = _best(lambda: simulate(PAPER_VEHICLE, PAPER_GAINS, o), 3)
+        rows.append({"name": f"simulate: {model}, one {HORIZON_S:g} s run (best of 3)", "value": wall, "unit": "s"})
+        rows.append({"name": f"simulate: {model}, one run, throughput", "value": HORIZON_S / wall,
+                     "unit": "sim-s/s"})
+
+    gains = _gain_sets(BATCH)
+    o = SimOptions(model="full", horizon_s=HORIZON_S)
+    simulate_batch(PAPER_VEHICLE, gains, o.with_(horizon_s=0.1))  # builds the mapped function
+    wall = _best(lambda: simulate_batch(PAPER_VEHICLE, gains, o), 2)
+    rows.append({"name": f"simulate: full, batch {BATCH} x {HORIZON_S:g} s (best of 2)", "value": wall, "unit": "s",
+                 "target": BATCH_TARGET_S, "ok": wall <= BATCH_TARGET_S})
+    rows.append({"name": "simulate: full, batch, throughput", "value": BATCH * HORIZON_S / wall, "unit": "sim-s/s"})
+
+    err = _accuracy()
+    rows.append({"name": "simulate: full RK4 1 ms vs DOP853, max |xy| error, 4 s", "value": err, "unit": "m",
+                 "target": ACCURACY_TARGET_M, "ok": err <= ACCURACY_TARGET_M})
+    return rows

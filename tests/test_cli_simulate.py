@@ -1,0 +1,92 @@
+"""``nniquad simulate``: outputs, files, certificates and one-line errors."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+
+def test_simulate_writes_json_trajectory_and_plot(run_cli, tmp_path):
+    js, png = tmp_path / "run.json", tmp_path / "run.png"
+    code, out, err = run_cli("simulate", "--model", "reduced", "--horizon", "5", "--json", str(js), "--plot", str(png))
+    assert code == 0, err
+    assert "settling time" in out and "peak tilt" in out
+    assert "[simulate]" in err and "done" in err  # start/end progress lines
+    data = json.loads(js.read_text())
+    for key in ("settling_s", "overshoot_pct", "peak_tilt_deg", "diverged", "horizon_s", "trajectory"):
+        assert key in data
+    assert data["horizon_s"] == pytest.approx(5.0)
+    assert data["gains"]["kp"] == 5.0 and data["gains"]["Gamma"] == 160.0 and data["gains"]["delta"] == 0.6
+    assert data["peak_tilt_deg"] == pytest.approx(30.0, abs=1e-9)
+    traj = tmp_path / "run.traj.npz"
+    assert data["trajectory"] == str(traj)
+    with np.load(traj) as t:
+        assert t["state"].shape[0] == 501 and t["t"][-1] == pytest.approx(5.0)
+    assert png.stat().st_size > 10_000
+    assert not list(tmp_path.glob("*.tmp"))
+
+
+def test_simulate_full_csv_and_gains(run_cli, tmp_path):
+    csv = tmp_path / "traj.csv"
+    code, out, err = run_cli("simulate", "--model", "full", "--horizon", "1", "--kp", "8", "--Gamma", "12",
+                             "--delta", "0.3", "--noise", "0.01", "--rate", "50", "--wind", "0.1", "0",
+                             "--motor-lag", "--trajectory", str(csv))
+    assert code == 0, err
+    assert "kp=8" in out and "Gamma=12" in out
+    header = csv.read_text().splitlines()[0].split(",")
+    assert header[0] == "t" and "out_w1" in header
+
+
+def test_certificate_gains(run_cli, tmp_path):
+    cert = tmp_path / "cert.json"
+    cert.write_text(json.dumps({"gains": {"kp": 8.0, "Gamma": 12.0, "delta": 0.3}, "other": 1}))
+    js = tmp_path / "r.json"
+    code, out, err = run_cli("simulate", "--model", "linear", "--horizon", "2", "--certificate", str(cert),
+                             "--json", str(js))
+    assert code == 0, err
+    assert json.loads(js.read_text())["gains"]["Gamma"] == 12.0
+
+
+@pytest.mark.parametrize(
+    "content, message",
+    [
+        ("{not json", "not valid JSON"),
+        (json.dumps({"no": "gains"}), "no 'gains'"),
+        (json.dumps({"gains": {"kp": 5, "Gamma": 160}}), "lacks 'delta'"),
+        (json.dumps({"gains": {"kp": "fast", "Gamma": 160, "delta": 0.6}}), "kp must be a number"),
+        (json.dumps({"gains": {"kp": -5, "Gamma": 160, "delta": 0.6}}), "kp must be positive"),
+    ],
+)
+def test_malformed_certificate(run_cli, tmp_path, content, message):
+    cert = tmp_path / "bad.json"
+    cert.write_text(content)
+    code, out, err = run_cli("simulate", "--model", "linear", "--horizon", "1", "--certificate", str(cert))
+    assert code == 2
+    assert message in err and "certificate" in err
+    assert "Traceback" not in err and len(err.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--horizon", "-1"], "horizon must be positive"),
+        (["--noise", "-0.1"], "noise sigma must not be negative"),
+        (["--rate", "0"], "rate must be positive"),
+        (["--kp", "nan"], "kp must be finite"),
+        (["--Gamma", "inf"], "Gamma must be finite"),
+        (["--delta", "0"], "delta must be positive"),
+        (["--dt", "0.001", "--output-dt", "0.0025"], "whole multiple"),
+        (["--certificate", "/nonexistent/cert.json"], "cannot read certificate"),
+        (["--certificate", "x.json", "--kp", "3"], "not both"),
+        (["--trajectory", "out.txt"], ".npz or .csv"),
+        (["--vehicle", "/nonexistent/v.toml"], "cannot read vehicle file"),
+    ],
+)
+def test_bad_options_exit_2_with_one_line(run_cli, args, message):
+    code, out, err = run_cli("simulate", "--model", "linear", "--horizon", "1", *args)
+    assert code == 2
+    assert message in err
+    assert "Traceback" not in err
+    assert len([line for line in err.strip().splitlines() if not line.startswith("[simulate]")]) == 1
