@@ -25,6 +25,32 @@ Note that :mod:`design.linear` models a mass error differently (``k_p`` as an
 exact acceleration gain, only ``z`` divided by the true mass); with ``m = m̂``
 both agree.
 
+Horizontal controllers
+----------------------
+``SimOptions.controller`` picks the law that produces the horizontal
+acceleration command ``a_h`` (before the tilt limit), in every model:
+
+``"nni"`` (default)
+    The paper's velocity-free controller above, gains :class:`design.linear.Gains`.
+``"pd_velocity"``
+    A comparison PD law that uses the **true** horizontal velocity (a perfect
+    velocity sensor): ``a_h = -k_p ξ_m - k_d ξ'``; gains :class:`PDGains`.
+``"pd_filtered"``
+    The same PD law with the velocity estimated from the measured position by a
+    first-order "dirty derivative" ``s/(τ_f s + 1)``, realised with one filter
+    state ``d`` per axis: ``d' = (ξ_m - d)/τ_f``, ``v̂ = (ξ_m - d)/τ_f``,
+    ``a_h = -k_p ξ_m - k_d v̂``.  The filter starts at ``d(0) = ξ_h(0)`` (the
+    vehicle starts at rest, so ``v̂(0) = 0``).
+
+The PD laws reuse the state and parameter layouts of the NNI controller, so the
+NNI path (and its compiled-function cache key) is unchanged: the controller
+states ``zc_x, zc_y`` hold the filter state ``d`` (``pd_filtered``; unused and
+zero for ``pd_velocity``), and in the parameter vector the slots ``kpx, kpy``
+hold ``k_p``, ``Gamma`` holds ``k_d`` [1/s] and ``delta`` holds ``τ_f`` [s]
+(:meth:`SimParams.from_options` fills them from a :class:`PDGains`).  Each
+controller is its own compiled function.  With ``pd_filtered`` the RK4 step
+must satisfy ``dt/τ_f ≤ 2.5`` (filter pole), checked before every run.
+
 Options (:class:`SimOptions`): position-sensor noise (σ, sample rate, the
 measurement ``ξ + n`` sampled and held between samples), a constant wind force
 plus a seeded gust (first-order Gauss-Markov force, std ``gust_N``, time
@@ -92,8 +118,11 @@ __all__ = [
     "EXO_FIELDS",
     "STATE_NAMES",
     "OUTPUT_NAMES",
+    "CONTROLLERS",
     "SimOptions",
     "SimParams",
+    "PDGains",
+    "to_controller_gains",
     "Trajectory",
     "BatchResult",
     "simulate",
@@ -115,14 +144,16 @@ __all__ = [
 ]
 
 MODELS: tuple[str, ...] = ("linear", "reduced", "full")
+#: Horizontal controllers (see the module docstring): the paper's NNI law and two PD comparison laws.
+CONTROLLERS: tuple[str, ...] = ("nni", "pd_velocity", "pd_filtered")
 DEFAULT_XI0: tuple[float, float] = (2.0, -1.5)
 
 #: Layout of the parameter vector ``p``: (name, unit, meaning), in order.
 PARAM_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("kpx", "1/s^2", "inner-loop gain, x axis"),
     ("kpy", "1/s^2", "inner-loop gain, y axis"),
-    ("Gamma", "-", "NNI controller gain"),
-    ("delta", "-", "NNI controller parameter (C(0) = 1/delta)"),
+    ("Gamma", "-", "NNI controller gain (pd_*: derivative gain k_d [1/s])"),
+    ("delta", "-", "NNI controller parameter, C(0) = 1/delta (pd_filtered: filter time constant tau_f [s])"),
     ("m_nom", "kg", "mass the controller assumes"),
     ("g_nom", "m/s^2", "gravity the controller assumes"),
     ("Jx_nom", "kg m^2", "roll inertia the attitude loop assumes"),
@@ -178,6 +209,12 @@ def _check_model(model: str) -> str:
     if model not in MODELS:
         raise SimulationError(f"unknown model {model!r} (choose one of {', '.join(MODELS)})")
     return model
+
+
+def _check_controller(controller: str) -> str:
+    if controller not in CONTROLLERS:
+        raise SimulationError(f"unknown controller {controller!r} (choose one of {', '.join(CONTROLLERS)})")
+    return controller
 
 
 # =============================================================================== options
@@ -242,6 +279,9 @@ class SimOptions:
         Mass of the plant [kg]; ``None`` means the vehicle's (= the controller's).
     inner
         Gains of the inner loops (``full``).
+    controller
+        Horizontal controller, one of :data:`CONTROLLERS` (default ``"nni"``);
+        the PD laws take :class:`PDGains` instead of :class:`design.linear.Gains`.
     """
 
     model: str = "full"
@@ -262,9 +302,13 @@ class SimOptions:
     tau_motor_s: float | None = None
     true_mass_kg: float | None = None
     inner: InnerLoopGains = DEFAULT_INNER_LOOP_GAINS
+    controller: str = "nni"
 
     def __post_init__(self) -> None:
         _check_model(self.model)
+        if not isinstance(self.controller, str):
+            raise SimulationError(f"controller must be a string, got {self.controller!r}")
+        _check_controller(self.controller)
         set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731
         set_("horizon_s", _finite("horizon", self.horizon_s, positive=True))
         set_("dt_s", _finite("time step dt", self.dt_s, positive=True))
@@ -358,6 +402,70 @@ def to_gains(gains: Gains | Mapping[str, Any] | Sequence[float]) -> Gains:
 
 
 @dataclass(frozen=True)
+class PDGains:
+    """Gains of the PD comparison controllers ``a_h = -k_p ξ_m - k_d v`` (both axes alike).
+
+    Attributes
+    ----------
+    kp
+        Position gain [1/s²] (> 0).
+    kd
+        Derivative gain [1/s] (> 0).
+    tau_f
+        Time constant of the dirty-derivative filter [s] (``pd_filtered``; > 0
+        there, ignored by ``pd_velocity``; default 0.02).
+    """
+
+    kp: float
+    kd: float
+    tau_f: float = 0.02
+
+    def __post_init__(self) -> None:
+        for name in ("kp", "kd", "tau_f"):
+            value = getattr(self, name)
+            if isinstance(value, bool):
+                raise GainError(f"{name} must be a number, got {value!r}")
+            try:
+                v = float(value)
+            except (TypeError, ValueError):
+                raise GainError(f"{name} must be a number, got {value!r}") from None
+            if not math.isfinite(v) or v <= 0:
+                raise GainError(f"{name} must be finite and positive, got {value!r}")
+            object.__setattr__(self, name, v)
+
+    def as_dict(self) -> dict[str, float]:
+        return {"kp": self.kp, "kd": self.kd, "tau_f": self.tau_f}
+
+
+def to_controller_gains(gains: Any, controller: str = "nni") -> Gains | PDGains:
+    """Gains for a controller: :func:`to_gains` for ``"nni"``; else a :class:`PDGains`.
+
+    PD gains may be a :class:`PDGains`, a mapping with ``kp``, ``kd`` (and
+    ``tau_f``) or a ``(kp, kd[, tau_f])`` tuple.
+    """
+    if _check_controller(controller) == "nni":
+        if isinstance(gains, PDGains):
+            raise GainError("PD gains given to the 'nni' controller (set SimOptions.controller)")
+        return to_gains(gains)
+    if isinstance(gains, PDGains):
+        return gains
+    if isinstance(gains, Gains):
+        raise GainError(f"NNI gains given to the {controller!r} controller (use PDGains)")
+    if isinstance(gains, Mapping):
+        missing = [k for k in ("kp", "kd") if k not in gains]
+        if missing:
+            raise GainError(f"PD gain set lacks '{missing[0]}'")
+        return PDGains(kp=gains["kp"], kd=gains["kd"], tau_f=gains.get("tau_f", PDGains.tau_f))
+    try:
+        vals = list(gains)
+    except TypeError:
+        raise GainError(f"cannot read a PD gain set from {gains!r}") from None
+    if len(vals) not in (2, 3):
+        raise GainError(f"a PD gain tuple is (kp, kd[, tau_f]), got {len(vals)} values")
+    return PDGains(*vals)
+
+
+@dataclass(frozen=True)
 class SimParams:
     """The parameter vector ``p`` of the compiled simulation functions, one named field per entry.
 
@@ -405,12 +513,22 @@ class SimParams:
     dt: float
 
     @classmethod
-    def from_options(cls, vehicle: Vehicle, gains: Gains, options: SimOptions) -> "SimParams":
-        """Nominal controller = ``vehicle``; plant = ``vehicle`` with the options' true mass."""
+    def from_options(cls, vehicle: Vehicle, gains: Gains | PDGains, options: SimOptions) -> "SimParams":
+        """Nominal controller = ``vehicle``; plant = ``vehicle`` with the options' true mass.
+
+        With a PD controller (``options.controller``) ``gains`` is a
+        :class:`PDGains`; its ``kp, kd, tau_f`` go into the slots ``kpx = kpy``,
+        ``Gamma``, ``delta`` (module docstring).
+        """
         v = vehicle
         inner = options.inner
+        gains = to_controller_gains(gains, options.controller)
+        if isinstance(gains, PDGains):
+            gain_slots = dict(kpx=gains.kp, kpy=gains.kp, Gamma=gains.kd, delta=gains.tau_f)
+        else:
+            gain_slots = dict(kpx=gains.kp, kpy=gains.kp_y, Gamma=gains.Gamma, delta=gains.delta)
         return cls(
-            kpx=gains.kp, kpy=gains.kp_y, Gamma=gains.Gamma, delta=gains.delta,
+            **gain_slots,
             m_nom=v.m, g_nom=v.g, Jx_nom=v.Jx, Jy_nom=v.Jy, Jz_nom=v.Jz, l_nom=v.l, b_nom=v.b, d_nom=v.d,
             att_wn=inner.attitude_wn_rad_s, att_zeta=inner.attitude_zeta,
             yaw_wn=inner.yaw_wn_rad_s, yaw_zeta=inner.yaw_zeta,
@@ -480,8 +598,8 @@ def vehicle_dynamics() -> ca.Function:
     return ca.Function("quadrotor_exact_factored", [x, u, om, p], [xdot], ["x", "u", "Omega_r", "p"], ["xdot"])
 
 
-def _closed_loop(model: str, X: ca.SX, e: ca.SX, p: ca.SX) -> tuple[ca.SX, ca.SX]:
-    """Continuous closed-loop right-hand side and the output vector of one model (SX)."""
+def _closed_loop(model: str, X: ca.SX, e: ca.SX, p: ca.SX, controller: str = "nni") -> tuple[ca.SX, ca.SX]:
+    """Continuous closed-loop right-hand side and the output vector of one model and controller (SX)."""
     P = {name: p[i] for name, i in _P.items()}
     noise, gust = e[0:2], e[3:5]
     wind = ca.vertcat(P["wind_x"], P["wind_y"]) + gust
@@ -491,8 +609,16 @@ def _closed_loop(model: str, X: ca.SX, e: ca.SX, p: ca.SX) -> tuple[ca.SX, ca.SX
     else:
         pos, vel, zc, held = X[[0, 2]], X[[1, 3]], X[12:14], X[14:16]
     meas = ca.if_else(P["sample_hold"] > 0.5, held, pos + noise)
-    a_h = -kp * meas + zc / P["m_nom"]
-    zc_dot = -P["Gamma"] * P["delta"] * zc + P["Gamma"] * meas
+    if controller == "nni":
+        a_h = -kp * meas + zc / P["m_nom"]
+        zc_dot = -P["Gamma"] * P["delta"] * zc + P["Gamma"] * meas
+    elif controller == "pd_velocity":  # slots: Gamma = kd
+        a_h = -kp * meas - P["Gamma"] * vel
+        zc_dot = ca.SX.zeros(2)
+    else:  # pd_filtered, slots: Gamma = kd, delta = tau_f; zc = filter state d
+        v_hat = (meas - zc) / P["delta"]
+        a_h = -kp * meas - P["Gamma"] * v_hat
+        zc_dot = v_hat
     if model in ("linear", "reduced"):
         g = P["g_nom"]
         if model == "reduced":
@@ -536,25 +662,30 @@ def _symbols(model: str) -> tuple[ca.SX, ca.SX, ca.SX]:
     return ca.SX.sym("x", nx), ca.SX.sym("e", len(EXO_FIELDS)), ca.SX.sym("p", N_PARAMS)
 
 
+def _suffix(controller: str) -> str:
+    """Function-name suffix: none for the NNI controller (its names, code and cache keys are unchanged)."""
+    return "" if _check_controller(controller) == "nni" else f"_{controller}"
+
+
 @lru_cache(maxsize=None)
-def rhs_function(model: str) -> ca.Function:
+def rhs_function(model: str, controller: str = "nni") -> ca.Function:
     """Continuous closed loop ``f(x, e, p) -> xdot`` (held measurement and exogenous input constant).
 
     With ``sample_hold = 0`` and zero noise this is an ordinary ODE, which the
     tests integrate with :func:`scipy.integrate.solve_ivp` as an independent check.
     """
     X, e, p = _symbols(_check_model(model))
-    Xdot, _ = _closed_loop(model, X, e, p)
+    Xdot, _ = _closed_loop(model, X, e, p, controller)
     # ca.cse merges the sin/cos of the same angles computed by the separately generated pieces
-    return ca.Function(f"rhs_{model}", [X, e, p], [ca.cse(Xdot)], ["x", "e", "p"], ["xdot"])
+    return ca.Function(f"rhs_{model}{_suffix(controller)}", [X, e, p], [ca.cse(Xdot)], ["x", "e", "p"], ["xdot"])
 
 
 @lru_cache(maxsize=None)
-def output_function(model: str) -> ca.Function:
+def output_function(model: str, controller: str = "nni") -> ca.Function:
     """``out(x, e, p) -> y`` (:data:`OUTPUT_NAMES`): commanded acceleration and tilt, rotor speeds, ..."""
     X, e, p = _symbols(_check_model(model))
-    _, y = _closed_loop(model, X, e, p)
-    return ca.Function(f"out_{model}", [X, e, p], [ca.cse(y)], ["x", "e", "p"], ["y"])
+    _, y = _closed_loop(model, X, e, p, controller)
+    return ca.Function(f"out_{model}{_suffix(controller)}", [X, e, p], [ca.cse(y)], ["x", "e", "p"], ["y"])
 
 
 def _held_slice(model: str) -> slice:
@@ -562,7 +693,7 @@ def _held_slice(model: str) -> slice:
 
 
 @lru_cache(maxsize=None)
-def step_function(model: str) -> ca.Function:
+def step_function(model: str, controller: str = "nni") -> ca.Function:
     """One RK4 step ``step(x, e, p) -> x_next`` of length ``p[dt]``.
 
     At the start of the step a sample flag ``e[2] = 1`` latches the measurement
@@ -572,20 +703,20 @@ def step_function(model: str) -> ca.Function:
     hs = _held_slice(model)
     pos = X[[0, 2]]
     Xs = ca.vertcat(X[: hs.start], ca.if_else(e[2] > 0.5, pos + e[0:2], X[hs]), X[hs.stop :])
-    f = rhs_function(model)
+    f = rhs_function(model, controller)
     h = p[_P["dt"]]
     k1 = f(Xs, e, p)
     k2 = f(Xs + h / 2 * k1, e, p)
     k3 = f(Xs + h / 2 * k2, e, p)
     k4 = f(Xs + h * k3, e, p)
     Xn = Xs + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-    return ca.Function(f"step_{model}", [X, e, p], [ca.cse(Xn)], ["x", "e", "p"], ["x_next"])
+    return ca.Function(f"step_{model}{_suffix(controller)}", [X, e, p], [ca.cse(Xn)], ["x", "e", "p"], ["x_next"])
 
 
 @lru_cache(maxsize=None)
-def _chunk_function(model: str, K: int) -> ca.Function:
+def _chunk_function(model: str, K: int, controller: str = "nni") -> ca.Function:
     """``K`` steps: ``chunk(x, E[5 x K], p) -> (x_K, y_K)``, compiled when possible."""
-    step = step_function(model)
+    step = step_function(model, controller)
     # MX around the SX step keeps the K steps a loop in the generated C (step emitted once):
     # the same speed as unrolled SX, a tenth of the compile time.
     X = ca.MX.sym("x", len(STATE_NAMES[model]))
@@ -596,8 +727,9 @@ def _chunk_function(model: str, K: int) -> ca.Function:
     else:
         xs = step.mapaccum("steps", K)(X, E, ca.repmat(p, 1, K))
         xK = xs[:, -1]
-    y = output_function(model)(xK, E[:, -1], p)
-    fn = ca.Function(f"nniquad_chunk_{model}_{K}", [X, E, p], [xK, y], ["x", "E", "p"], ["x_K", "y_K"])
+    y = output_function(model, controller)(xK, E[:, -1], p)
+    fn = ca.Function(f"nniquad_chunk_{model}{_suffix(controller)}_{K}", [X, E, p], [xK, y], ["x", "E", "p"],
+                     ["x_K", "y_K"])
     return _compile(fn)
 
 
@@ -663,9 +795,9 @@ def compile_status() -> dict[str, str]:
 
 
 @lru_cache(maxsize=64)
-def _segment_function(model: str, K: int, M: int, B: int, shared_exo: bool) -> ca.Function:
+def _segment_function(model: str, K: int, M: int, B: int, shared_exo: bool, controller: str = "nni") -> ca.Function:
     """``M`` output samples of ``B`` runs: ``seg(x0[nx x B], E[5 x K M (B)], p[np x B]) -> (X, Y)``."""
-    chunk = _chunk_function(model, K)
+    chunk = _chunk_function(model, K, controller)
     acc = chunk.mapaccum("samples", M)
     nx = chunk.size1_in(0)
     x = ca.MX.sym("x", nx)
@@ -673,12 +805,13 @@ def _segment_function(model: str, K: int, M: int, B: int, shared_exo: bool) -> c
     p = ca.MX.sym("p", N_PARAMS)
     # p is the same for every sample of a run: repeat it explicitly (mapaccum maps every non-accumulated input)
     Xs, Ys = acc(x, E, ca.repmat(p, 1, M))
-    seg = ca.Function(f"seg_{model}_{K}_{M}", [x, E, p], [Xs, Ys], ["x0", "E", "p"], ["X", "Y"])
+    sfx = _suffix(controller)
+    seg = ca.Function(f"seg_{model}{sfx}_{K}_{M}", [x, E, p], [Xs, Ys], ["x0", "E", "p"], ["X", "Y"])
     if B == 1:
         return seg
     nthreads = max(1, min(B, os.cpu_count() or 1))
     reduce_in = [1] if shared_exo else []
-    return seg.map(f"batch_{model}_{K}_{M}_{B}", "thread" if nthreads > 1 else "serial", B, reduce_in, [],
+    return seg.map(f"batch_{model}{sfx}_{K}_{M}_{B}", "thread" if nthreads > 1 else "serial", B, reduce_in, [],
                    {"n_threads": nthreads} if nthreads > 1 else {})
 
 
@@ -722,14 +855,21 @@ def exogenous_inputs(options: SimOptions, n_steps: int | None = None, seed: int 
 
 
 def initial_state(model: str, params: SimParams, xi0: Sequence[float] = DEFAULT_XI0,
-                  zc0: Sequence[float] = (0.0, 0.0)) -> np.ndarray:
-    """Initial state: at ``xi0``, at rest, level, ψ = 0, z = 0; motors at the nominal hover speed."""
+                  zc0: Sequence[float] = (0.0, 0.0), controller: str = "nni") -> np.ndarray:
+    """Initial state: at ``xi0``, at rest, level, ψ = 0, z = 0; motors at the nominal hover speed.
+
+    Controller states: ``zc0`` for ``"nni"``; the filter at ``d = xi0`` (velocity
+    estimate 0) for ``"pd_filtered"``; zero (unused) for ``"pd_velocity"``.
+    """
     _check_model(model)
     names = STATE_NAMES[model]
     x0 = np.zeros(len(names))
     ix = {n: i for i, n in enumerate(names)}
     x0[ix["x"]], x0[ix["y"]] = xi0
-    x0[ix["zc_x"]], x0[ix["zc_y"]] = zc0
+    if _check_controller(controller) == "nni":
+        x0[ix["zc_x"]], x0[ix["zc_y"]] = zc0
+    elif controller == "pd_filtered":
+        x0[ix["zc_x"]], x0[ix["zc_y"]] = xi0
     x0[ix["held_x"]], x0[ix["held_y"]] = xi0
     if model == "full":
         w_hover = math.sqrt(params.m_nom * params.g_nom / (4 * params.b_nom))
@@ -738,8 +878,19 @@ def initial_state(model: str, params: SimParams, xi0: Sequence[float] = DEFAULT_
     return x0
 
 
-def _check_step(params: np.ndarray) -> None:
-    """RK4 is stable on the real axis up to |λ dt| = 2.785; the controller pole is -Γδ."""
+def _check_step(params: np.ndarray, controller: str = "nni") -> None:
+    """RK4 is stable on the real axis up to |λ dt| = 2.785; the controller pole is -Γδ (pd_filtered: -1/τ_f)."""
+    if controller == "pd_filtered":
+        fast = params[:, _P["dt"]] / params[:, _P["delta"]]
+        if np.any(fast > 2.5):
+            worst = int(np.argmax(fast))
+            raise SimulationError(
+                f"time step {params[worst, _P['dt']]:g} s too large for the derivative filter tau_f = "
+                f"{params[worst, _P['delta']]:g} s (RK4 needs dt/tau_f <= 2.5)"
+            )
+        return
+    if controller == "pd_velocity":
+        return
     fast = params[:, _P["Gamma"]] * params[:, _P["delta"]] * params[:, _P["dt"]]
     if np.any(fast > 2.5):
         worst = int(np.argmax(fast))
@@ -762,6 +913,7 @@ def run_batch(
     n_samples: int,
     progress: Callable[[float], None] | None = None,
     n_segments: int | None = None,
+    controller: str = "nni",
 ) -> tuple[np.ndarray, np.ndarray]:
     """Low-level batched run; the building block of :func:`simulate` and Monte Carlo studies.
 
@@ -782,6 +934,8 @@ def run_batch(
         Called with the completed fraction after every segment.
     n_segments
         Number of calls into CasADi (more gives finer progress); default about 20.
+    controller
+        One of :data:`CONTROLLERS` (how the gain slots of ``params`` are read).
 
     Returns
     -------
@@ -791,6 +945,7 @@ def run_batch(
         Outputs (:data:`OUTPUT_NAMES`) at the samples (the first from ``x0``).
     """
     _check_model(model)
+    _check_controller(controller)
     P = np.atleast_2d(np.asarray(params, float))
     X0 = np.atleast_2d(np.asarray(x0, float))
     B = P.shape[0]
@@ -801,7 +956,7 @@ def run_batch(
         raise SimulationError(f"x0 must have shape ({B}, {nx}), got {X0.shape}")
     if not np.all(np.isfinite(P)):
         raise SimulationError("parameter vector has a non-finite entry")
-    _check_step(P)
+    _check_step(P, controller)
     K, N = int(steps_per_sample), int(n_samples)
     if K < 1 or N < 1:
         raise SimulationError("steps_per_sample and n_samples must be at least 1")
@@ -814,8 +969,8 @@ def run_batch(
     n_seg = max(1, min(N, n_segments if n_segments is not None else 20))
     M = int(math.ceil(N / n_seg))
     n_seg = int(math.ceil(N / M))
-    seg = _segment_function(model, K, M, B, shared)
-    out_fn = output_function(model)
+    seg = _segment_function(model, K, M, B, shared, controller)
+    out_fn = output_function(model, controller)
     Xall = np.empty((B, N + 1, nx))
     Yall = np.empty((B, N + 1, ny))
     Xall[:, 0] = X0
@@ -880,7 +1035,7 @@ class Trajectory:
 
     model: str
     options: SimOptions
-    gains: Gains
+    gains: Gains | PDGains
     vehicle: Vehicle
     t: np.ndarray
     state: np.ndarray
@@ -1019,17 +1174,18 @@ def _prepare(vehicle: Vehicle | None, gains_list: Iterable[Any], options: SimOpt
     options = SimOptions() if options is None else options
     if not isinstance(options, SimOptions):
         raise SimulationError("options must be a SimOptions")
-    glist = [to_gains(g) for g in gains_list]
+    glist = [to_controller_gains(g, options.controller) for g in gains_list]
     if not glist:
         raise GainError("no gain set given")
     params = np.stack([SimParams.from_options(vehicle, g, options).vector() for g in glist])
-    x0 = np.stack([initial_state(options.model, SimParams.from_vector(p), options.xi0, options.zc0) for p in params])
+    x0 = np.stack([initial_state(options.model, SimParams.from_vector(p), options.xi0, options.zc0, options.controller)
+                   for p in params])
     return vehicle, glist, options, params, x0
 
 
 def simulate(
     vehicle: Vehicle | None = None,
-    gains: Gains | Mapping[str, Any] | Sequence[float] = PAPER_GAINS,
+    gains: Gains | PDGains | Mapping[str, Any] | Sequence[float] = PAPER_GAINS,
     options: SimOptions | None = None,
     *,
     progress: Callable[[float], None] | None = None,
@@ -1041,7 +1197,8 @@ def simulate(
     vehicle
         Vehicle (nominal controller model and plant); default the paper's.
     gains
-        The paper's gains by default.
+        The paper's gains by default; a :class:`PDGains` (or ``(kp, kd[, tau_f])``)
+        when ``options.controller`` is a PD law.
     options
         :class:`SimOptions`; default ``SimOptions()`` (``full``, 60 s).
     progress
@@ -1060,7 +1217,8 @@ def simulate(
     vehicle, glist, options, params, x0 = _prepare(vehicle, [gains], options)
     exo = exogenous_inputs(options)
     X, Y = run_batch(options.model, params, x0, exo, steps_per_sample=options.steps_per_sample,
-                     n_samples=options.n_samples, progress=progress)
+                     n_samples=options.n_samples, progress=progress,
+                     controller=options.controller)
     t = np.arange(options.n_samples + 1) * options.output_dt_s
     return Trajectory(options.model, options, glist[0], vehicle, t, X[0], Y[0],
                       STATE_NAMES[options.model], OUTPUT_NAMES[options.model])
@@ -1068,7 +1226,7 @@ def simulate(
 
 def simulate_batch(
     vehicle: Vehicle | None,
-    gains_list: Iterable[Gains | Mapping[str, Any] | Sequence[float]],
+    gains_list: Iterable[Gains | PDGains | Mapping[str, Any] | Sequence[float]],
     options: SimOptions | None = None,
     *,
     keep_trajectories: bool = False,
@@ -1087,7 +1245,8 @@ def simulate_batch(
     vehicle, glist, options, params, x0 = _prepare(vehicle, gains_list, options)
     exo = exogenous_inputs(options)
     X, Y = run_batch(options.model, params, x0, exo, steps_per_sample=options.steps_per_sample,
-                     n_samples=options.n_samples, progress=progress)
+                     n_samples=options.n_samples, progress=progress,
+                     controller=options.controller)
     t = np.arange(options.n_samples + 1) * options.output_dt_s
     trajs = [Trajectory(options.model, options, g, vehicle, t, X[b], Y[b], STATE_NAMES[options.model],
                         OUTPUT_NAMES[options.model]) for b, g in enumerate(glist)]
@@ -1106,7 +1265,7 @@ def settling_batch(
     vehicle, glist, options, params, x0 = _prepare(vehicle, gains_list, options)
     exo = exogenous_inputs(options)
     X, _ = run_batch(options.model, params, x0, exo, steps_per_sample=options.steps_per_sample,
-                     n_samples=options.n_samples)
+                     n_samples=options.n_samples, controller=options.controller)
     names = STATE_NAMES[options.model]
     xy = X[:, :, [names.index("x"), names.index("y")]]
     t = np.arange(options.n_samples + 1) * options.output_dt_s
