@@ -38,6 +38,20 @@ Frames: NED inertial frame (z down), FRD body frame, ZYX Euler angles
    ``s`` (default 1) scales all three torques: it models an attitude-gain (or
    inertia-estimate) error for Monte Carlo studies.  Hats are the controller's
    nominal values.
+
+   Written as a cascade, the roll law is ``τ_φ = s Ĵ_x k_r (p_d - p)`` with the
+   rate gain ``k_r = 2 ζ_a ω_a`` and the rate demand ``p_d = k e_φ``,
+   ``k = ω_a / (2 ζ_a)``.  For large errors the linear demand asks for far more
+   torque than the rotors have (a 60° tilt reversal at ω_a = 45 rad/s wants
+   about 20 times the available roll torque of the paper's vehicle), the
+   torques saturate and the loop overshoots or goes unstable.  The rate demand
+   is therefore shaped by the square-root law (:func:`sqrt_shaping`, the rate
+   from which a constant deceleration ``α`` stops exactly at the setpoint):
+   ``p_d = k e`` for ``|e| <= α/k²`` and ``sign(e) sqrt(2 α (|e| - α/(2k²)))``
+   beyond, continuous with a continuous slope.  Small errors see the linear PD
+   above unchanged.  ``α`` (``attitude_accel_limit_rad_s2``) defaults to
+   ``1e6 rad/s²``, which makes the shaping inactive (the pure PD); the tuner
+   sets it from the vehicle's torque headroom at the tilt limit.
 4. **Allocation with rotor saturation** (:func:`allocate`).  Rotor thrusts
    ``T_i = b ω_i²`` are limited to ``[0, T_max = b ω_max²]``.  The demand
    ``(u1, τ)`` is split into a collective ``c = u1/4``, a roll pair difference
@@ -74,6 +88,7 @@ __all__ = [
     "limit_norm",
     "tilt_setpoints",
     "attitude_torques",
+    "sqrt_shaping",
     "allocate",
     "G_Z_MIN_FRACTION",
     "TILT_COMPENSATION_MIN_COS",
@@ -103,6 +118,9 @@ class InnerLoopGains:
         ω_z of the altitude PID, triple pole at ``-ω_z`` [rad/s] (default 3).
     attitude_gain_scale
         Factor on all attitude torques (1 = nominal); models an attitude-gain error.
+    attitude_accel_limit_rad_s2
+        Deceleration ``α`` of the square-root shaping of the roll/pitch error
+        [rad/s²]; the default 1e6 leaves the linear PD unchanged.
     """
 
     attitude_wn_rad_s: float = 25.0
@@ -111,6 +129,7 @@ class InnerLoopGains:
     yaw_zeta: float = 0.8
     altitude_wn_rad_s: float = 3.0
     attitude_gain_scale: float = 1.0
+    attitude_accel_limit_rad_s2: float = 1e6
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -169,6 +188,18 @@ def tilt_setpoints(a_h: ca.SX, g_z: ca.SX, psi: ca.SX) -> tuple[ca.SX, ca.SX, ca
     return phi_d, theta_d, tilt
 
 
+def sqrt_shaping(e: ca.SX, k: ca.SX, alpha: ca.SX) -> ca.SX:
+    """Rate demand for the angle error ``e``: ``k e`` near zero, ``sqrt(2 α |e|)``-like beyond.
+
+    ``k e`` for ``|e| <= α/k²``, else ``sign(e) sqrt(2 α (|e| - α/(2 k²)))``: the
+    two pieces and their slopes agree at the switch (value ``α/k``, slope ``k``).
+    """
+    lin = alpha / k**2
+    ae = ca.fabs(e)
+    beyond = ca.sign(e) * ca.sqrt(2 * alpha * ca.fmax(ae - lin / 2, lin / 2))
+    return ca.if_else(ae <= lin, k * e, beyond)
+
+
 def attitude_torques(
     eta: ca.SX,
     rates_body: ca.SX,
@@ -180,18 +211,22 @@ def attitude_torques(
     wn_yaw: ca.SX,
     zeta_yaw: ca.SX,
     scale: ca.SX,
+    accel_limit: ca.SX,
 ) -> ca.SX:
     """Body torques ``(τ_φ, τ_θ, τ_ψ)`` [N m] of the attitude PD and the yaw hold at ψ = 0.
 
     ``rates_body`` are the gyro's body rates ``(p, q, r)``; ``J_nom`` the
-    controller's inertia estimate ``(Ĵx, Ĵy, Ĵz)``.
+    controller's inertia estimate ``(Ĵx, Ĵy, Ĵz)``.  Roll and pitch errors go
+    through :func:`sqrt_shaping` with deceleration ``accel_limit``.
     """
     e_phi = phi_d - eta[0]
     e_theta = theta_d - eta[1]
     e_psi = -eta[2]
+    k_rate = 2 * zeta_att * wn_att
+    k_angle = wn_att / (2 * zeta_att)
     return scale * ca.vertcat(
-        J_nom[0] * (wn_att**2 * e_phi - 2 * zeta_att * wn_att * rates_body[0]),
-        J_nom[1] * (wn_att**2 * e_theta - 2 * zeta_att * wn_att * rates_body[1]),
+        J_nom[0] * k_rate * (sqrt_shaping(e_phi, k_angle, accel_limit) - rates_body[0]),
+        J_nom[1] * k_rate * (sqrt_shaping(e_theta, k_angle, accel_limit) - rates_body[1]),
         J_nom[2] * (wn_yaw**2 * e_psi - 2 * zeta_yaw * wn_yaw * rates_body[2]),
     )
 

@@ -168,6 +168,7 @@ PARAM_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("yaw_zeta", "-", "yaw-hold damping ratio"),
     ("alt_wn", "rad/s", "altitude PID triple-pole frequency"),
     ("att_scale", "-", "factor on the attitude torques (gain error)"),
+    ("att_accel", "rad/s^2", "angular-acceleration limit of the attitude error shaping"),
     ("tilt_limit", "rad", "tilt limit (reduced, full)"),
     ("m", "kg", "true mass"),
     ("g", "m/s^2", "true gravity"),
@@ -494,6 +495,7 @@ class SimParams:
     yaw_zeta: float
     alt_wn: float
     att_scale: float
+    att_accel: float
     tilt_limit: float
     m: float
     g: float
@@ -533,6 +535,7 @@ class SimParams:
             att_wn=inner.attitude_wn_rad_s, att_zeta=inner.attitude_zeta,
             yaw_wn=inner.yaw_wn_rad_s, yaw_zeta=inner.yaw_zeta,
             alt_wn=inner.altitude_wn_rad_s, att_scale=inner.attitude_gain_scale,
+            att_accel=inner.attitude_accel_limit_rad_s2,
             tilt_limit=math.radians(options.tilt_limit_deg),
             m=v.m if options.true_mass_kg is None else options.true_mass_kg,
             g=v.g, Jx=v.Jx, Jy=v.Jy, Jz=v.Jz, Jr=v.Jr, l=v.l, b=v.b, d=v.d,
@@ -643,7 +646,7 @@ def _closed_loop(model: str, X: ca.SX, e: ca.SX, p: ca.SX, controller: str = "nn
     rates = ca.mtimes(W, eta_dot)  # gyro: body rates
     J_nom = ca.vertcat(P["Jx_nom"], P["Jy_nom"], P["Jz_nom"])
     tau = IL.attitude_torques(eta, rates, phi_d, theta_d, J_nom, P["att_wn"], P["att_zeta"],
-                              P["yaw_wn"], P["yaw_zeta"], P["att_scale"])
+                              P["yaw_wn"], P["yaw_zeta"], P["att_scale"], P["att_accel"])
     w_cmd, _ = IL.allocate(u1, tau, P["l_nom"], P["b_nom"], P["d_nom"], P["omega_max"])
     lag = P["motor_lag"] > 0.5
     w_act = ca.if_else(lag, ca.fmin(ca.fmax(w_state, 0), P["omega_max"]), w_cmd)
