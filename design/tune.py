@@ -49,6 +49,8 @@ useless and a single local search stalls in a false minimum.  Two stages:
    gives convergence guarantees on non-smooth functions), accepting the best
    improving poll point, halving the step on failure.  All starts are polled
    in one batch per iteration.
+3. **Polish** (with reruns): the refined optima of all seeds are pooled and
+   refined once more with fresh poll bases; the best point found wins.
 
 :func:`tune` can rerun everything from other seeds (``TuneOptions.reruns``) and
 reports the spread of the optima, so an optimum that is an artefact of one
@@ -326,11 +328,20 @@ def evaluate(vehicle: Vehicle, points: np.ndarray, options: TuneOptions, horizon
 
 
 def certified_reach(vehicle: Vehicle, gains: Gains, tilt_limit_deg: float) -> float:
-    """Largest displacement from rest the saturation region-of-attraction LMI certifies [m] (0 if none)."""
+    """Largest displacement from rest the saturation region-of-attraction LMI certifies [m].
+
+    0 when nothing is certified, including when the solver fails on a badly
+    conditioned instance (extreme gains): an answer the solver could not give
+    certifies nothing.
+    """
+    from .errors import SolverError
     from .lmi import axis_acceleration_limit, region_of_attraction
 
     u0 = axis_acceleration_limit(vehicle.g, tilt_limit_deg, "norm")
-    res = region_of_attraction(vehicle.m, gains.kp, gains.Gamma, gains.delta, u0)
+    try:
+        res = region_of_attraction(vehicle.m, gains.kp, gains.Gamma, gains.delta, u0)
+    except SolverError:
+        return 0.0
     return float(res.values.get("max_displacement_m", 0.0)) if res.feasible else 0.0
 
 
@@ -527,7 +538,8 @@ class TuneResult:
         }
 
 
-def _one_seed(search: _Search, seed: int) -> Candidate:
+def _one_seed(search: _Search, seed: int) -> tuple[Candidate, list[Candidate]]:
+    """Sweep and refine with one seed: its optimum, and its refined starts (for the polish stage)."""
     n_global, k, max_iter, _ = BUDGETS[search.options.budget]
     # the attitude coordinates double the dimension: sample twice as densely
     ranked = _global(search, n_global * (2 if len(search.lo) > 3 else 1), seed)
@@ -537,7 +549,14 @@ def _one_seed(search: _Search, seed: int) -> Candidate:
             f"no gain set in the sweep certifies a reach of {search.options.roa_radius_m:g} m "
             "(lower --roa-radius, or 0 to switch the check off)"
         )
-    return _local(search, starts, max_iter, seed)[0]
+    refined = _local(search, starts, max_iter, seed)
+    return refined[0], refined
+
+
+def _polish(search: _Search, pools: list[list[Candidate]], k: int, max_iter: int, seed: int) -> Candidate:
+    """Refine again from the best distinct optima of all seeds together (fresh poll bases)."""
+    pooled = sorted((c for pool in pools for c in pool), key=lambda c: c.cost)
+    return _local(search, _starts(search, pooled, k), max_iter, seed)[0]
 
 
 def tune(vehicle: Vehicle = PAPER_VEHICLE, options: TuneOptions | None = None,
@@ -570,9 +589,17 @@ def tune(vehicle: Vehicle = PAPER_VEHICLE, options: TuneOptions | None = None,
     search = _Search(vehicle, options, horizon, lambda msg: say(f"seed {seed}: {msg}"))
     n_reruns = BUDGETS[options.budget][3] if options.reruns is None else options.reruns
     results: list[tuple[int, Candidate]] = []
+    pools: list[list[Candidate]] = []
     for seed in [options.seed + i for i in range(n_reruns + 1)]:
-        results.append((seed, _one_seed(search, seed)))
-    seed_best, best = min(results, key=lambda sc: sc[1].cost)
+        best_seed, refined = _one_seed(search, seed)
+        results.append((seed, best_seed))
+        pools.append(refined)
+    _, best = min(results, key=lambda sc: sc[1].cost)
+    if n_reruns > 0:
+        _, k, max_iter, _ = BUDGETS[options.budget]
+        seed = options.seed + n_reruns + 1
+        polished = _polish(search, pools, k, max_iter, seed)
+        best = polished if polished.cost < best.cost else best
     alpha = attitude_accel_headroom(vehicle, options.tilt_limit_deg)
     gains, inner = decode(best.q, vehicle.m, options.gamma_max, alpha_avail=alpha)
     if best.cost >= horizon:

@@ -1,0 +1,122 @@
+"""Tuner: coordinates against the sector bound, the result against an independent integrator and the bound."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from design.errors import GainError, NniquadError
+from design.linear import Gains, smallest_gamma
+from design.metrics import settling_time
+from design.tune import (TuneOptions, attitude_accel_headroom, certified_reach, decode, encode, search_box,
+                         tune)
+from design.vehicle import PAPER_VEHICLE as V
+
+
+@pytest.fixture(scope="module")
+def quick_reduced():
+    return tune(V, TuneOptions(model="reduced", roa_radius_m=0.0, budget="quick"))
+
+
+def _reduced_settling_scipy(gains: Gains, horizon: float, tilt_deg: float = 30.0) -> float:
+    """The reduced model written out by hand and integrated with scipy (not CasADi)."""
+    m, g = V.m, V.g
+    a_max = g * math.tan(math.radians(tilt_deg))
+
+    def f(t, x):
+        xi, v, z = x[0:2], x[2:4], x[4:6]
+        a = -gains.kp * xi + z / m
+        n = np.linalg.norm(a)
+        if n > a_max:
+            a = a * (a_max / n)
+        return np.concatenate([v, a, -gains.Gamma * gains.delta * z + gains.Gamma * xi])
+
+    t = np.linspace(0.0, horizon, int(horizon / 0.001) + 1)
+    sol = solve_ivp(f, (0.0, horizon), [2.0, -1.5, 0, 0, 0, 0], method="LSODA", t_eval=t, rtol=1e-10, atol=1e-12)
+    assert sol.success
+    return settling_time(t, sol.y[0:2].T)
+
+
+def test_coordinates_make_the_sector_bound_a_box_bound():
+    rng = np.random.default_rng(3)
+    for gamma_max in (0.3, 0.8, 0.99):
+        lo, hi = search_box(TuneOptions(gamma_max=gamma_max, roa_radius_m=0))
+        for q in lo + rng.random((50, 3)) * (hi - lo):
+            g, _ = decode(q, V.m, gamma_max)
+            # u = q1 >= 0 is exactly gamma <= gamma_max, computed independently by design.linear
+            assert smallest_gamma(V.m, g.kp, None, g.delta) == pytest.approx(gamma_max * math.exp(-q[1]), rel=1e-12)
+            np.testing.assert_allclose(encode(g, V.m, gamma_max), q, rtol=1e-12, atol=1e-12)
+    g, _ = decode([math.log(7.0), 0.0, math.log(3.0)], V.m, 0.8)
+    assert g.delta == pytest.approx(1 / (0.8 * V.m * 7.0)) and g.Gamma * g.delta == pytest.approx(3.0)
+
+
+def test_attitude_headroom_by_hand():
+    # hover per rotor at 30 deg: m g / (4 cos 30); T_max = b w_max^2; alpha = 2 l min(c, T_max - c) / Jx
+    c = 0.5 * 9.81 / (4 * math.cos(math.radians(30)))
+    t_max = 2.92e-6 * 920.0**2
+    assert attitude_accel_headroom(V, 30.0) == pytest.approx(2 * 0.225 * min(c, t_max - c) / 4.85e-3, rel=1e-12)
+
+
+def test_quick_tune_is_confirmed_by_scipy_and_respects_the_bound(quick_reduced):
+    res = quick_reduced
+    assert res.gamma <= 0.8 * (1 + 1e-12)
+    s_scipy = _reduced_settling_scipy(res.gains, res.horizon_s)
+    assert s_scipy == pytest.approx(res.settling_s, abs=0.02)
+    # no controller within the tilt limit beats the time-optimal bound
+    assert res.settling_s >= res.bound.enter_band_s
+    assert res.to_json()["ratio_to_bound"] == pytest.approx(res.settling_s / res.bound.enter_band_s)
+
+
+def test_perturbed_gains_are_not_better(quick_reduced):
+    """The refined point is a local minimum: small moves in every coordinate do not beat it."""
+    from design.tune import evaluate
+
+    res = quick_reduced
+    q = encode(res.gains, V.m, 0.8)
+    lo, hi = search_box(res.options)
+    moves = [q + s * 0.01 * (hi - lo) * e for e in np.eye(3) for s in (1, -1)]
+    moves = [np.clip(p, lo, hi) for p in moves]
+    cost, _ = evaluate(V, np.array(moves), res.options, res.horizon_s)
+    assert np.min(cost) >= res.settling_s - 2e-3
+
+
+def test_reach_constraint_is_honoured():
+    res = tune(V, TuneOptions(model="reduced", roa_radius_m=1.0, budget="quick"))
+    # independent re-solve of the region-of-attraction LMI
+    assert certified_reach(V, res.gains, 30.0) >= 1.0
+    assert res.certified_reach_m >= 1.0
+
+
+def test_impossible_reach_is_a_clear_error():
+    with pytest.raises(NniquadError, match="certifies a reach"):
+        tune(V, TuneOptions(model="reduced", roa_radius_m=1e5, budget="quick"))
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"gamma_max": 1.0}, "gamma_max"),
+    ({"gamma_max": float("nan")}, "gamma_max"),
+    ({"roa_radius_m": -1.0}, "roa radius"),
+    ({"mass_range": (0.6, 0.4)}, "mass range"),
+    ({"budget": "huge"}, "budget"),
+    ({"model": "linear"}, "model"),
+    ({"horizon_s": 0.0}, "horizon"),
+])
+def test_bad_options(kwargs, message):
+    with pytest.raises((NniquadError, GainError), match=message):
+        TuneOptions(**kwargs)
+
+
+def test_cli_tune_quick(run_cli, tmp_path):
+    import json
+
+    out = tmp_path / "t.json"
+    code, stdout, err = run_cli("tune", "--budget", "quick", "--roa-radius", "0", "--json", str(out))
+    assert code == 0, err
+    data = json.loads(out.read_text())
+    assert "ratio to bound" in stdout and "sweep" in err
+    assert data["settling_s"] == pytest.approx(data["ratio_to_bound"] * data["enter_band_s"])
+    code, _, err = run_cli("tune", "--gamma-max", "1.5")
+    assert code == 2 and "gamma_max" in err and "Traceback" not in err
