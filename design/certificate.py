@@ -331,6 +331,9 @@ class Check:
     ok: bool
     detail: str
 
+    def __post_init__(self) -> None:
+        self.ok = bool(self.ok)  # numpy comparisons give numpy booleans, which JSON refuses
+
 
 @dataclass
 class Verification:

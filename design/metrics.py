@@ -415,6 +415,10 @@ class Metrics:
         """Plain dict; ``None`` and non-finite numbers become JSON ``null``."""
         out: dict[str, Any] = {}
         for key, value in asdict(self).items():
+            if isinstance(value, np.bool_):
+                value = bool(value)
+            elif isinstance(value, np.floating):
+                value = float(value)
             if isinstance(value, float) and not math.isfinite(value):
                 value = None
             out[key] = value

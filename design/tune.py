@@ -94,7 +94,7 @@ DEFAULT_ROA_RADIUS_M = math.hypot(2.0, -1.5)
 
 #: Search effort: (Sobol points, local starts, max. local iterations, extra seeds).
 BUDGETS: dict[str, tuple[int, int, int, int]] = {
-    "quick": (64, 2, 12, 0),
+    "quick": (128, 2, 12, 0),
     "normal": (512, 6, 50, 2),
     "thorough": (2048, 6, 120, 4),
 }
@@ -546,8 +546,9 @@ def _one_seed(search: _Search, seed: int) -> tuple[Candidate, list[Candidate]]:
     starts = _starts(search, ranked, k)
     if not starts:
         raise NniquadError(
-            f"no gain set in the sweep certifies a reach of {search.options.roa_radius_m:g} m "
-            "(lower --roa-radius, or 0 to switch the check off)"
+            f"no gain set among the best of the sweep certifies a reach of "
+            f"{search.options.roa_radius_m:g} m (use a larger --budget, a smaller --roa-radius, or 0 to switch "
+            "the check off)"
         )
     refined = _local(search, starts, max_iter, seed)
     return refined[0], refined
@@ -556,11 +557,13 @@ def _one_seed(search: _Search, seed: int) -> tuple[Candidate, list[Candidate]]:
 def _polish(search: _Search, pools: list[list[Candidate]], k: int, max_iter: int, seed: int) -> Candidate:
     """Refine again from the best distinct optima of all seeds together (fresh poll bases)."""
     pooled = sorted((c for pool in pools for c in pool), key=lambda c: c.cost)
-    return _local(search, _starts(search, pooled, k), max_iter, seed)[0]
+    starts = _starts(search, pooled, k)
+    return _local(search, starts, max_iter, seed)[0] if starts else pooled[0]
 
 
 def tune(vehicle: Vehicle = PAPER_VEHICLE, options: TuneOptions | None = None,
-         progress: Callable[[str], None] | None = None) -> TuneResult:
+         progress: Callable[[str], None] | None = None,
+         warm_starts: Sequence[tuple[Gains, InnerLoopGains]] = ()) -> TuneResult:
     """Fastest admissible gain set (module docstring).
 
     Parameters
@@ -571,6 +574,9 @@ def tune(vehicle: Vehicle = PAPER_VEHICLE, options: TuneOptions | None = None,
         :class:`TuneOptions`; default: reduced model, γ_max 0.8, reach ‖ξ_h(0)‖.
     progress
         Called with a one-line status message now and then.
+    warm_starts
+        Gain sets (with their inner loops) to refine from as well, e.g. the
+        optimum of a less constrained run; used only where admissible.
 
     Returns
     -------
@@ -595,12 +601,18 @@ def tune(vehicle: Vehicle = PAPER_VEHICLE, options: TuneOptions | None = None,
         results.append((seed, best_seed))
         pools.append(refined)
     _, best = min(results, key=lambda sc: sc[1].cost)
-    if n_reruns > 0:
+    alpha = attitude_accel_headroom(vehicle, options.tilt_limit_deg)
+    if warm_starts:
+        qs = [encode(g, vehicle.m, options.gamma_max, inn if options.dims > 3 else None, alpha)
+              for g, inn in warm_starts]
+        inside = [q for q in qs if np.all(q >= search.lo - 1e-12) and np.all(q <= search.hi + 1e-12)]
+        if inside:
+            pools.append(search.evaluate(np.array(inside)))
+    if n_reruns > 0 or warm_starts:
         _, k, max_iter, _ = BUDGETS[options.budget]
         seed = options.seed + n_reruns + 1
         polished = _polish(search, pools, k, max_iter, seed)
         best = polished if polished.cost < best.cost else best
-    alpha = attitude_accel_headroom(vehicle, options.tilt_limit_deg)
     gains, inner = decode(best.q, vehicle.m, options.gamma_max, alpha_avail=alpha)
     if best.cost >= horizon:
         raise NniquadError(

@@ -71,10 +71,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                    help="motor time constant in s (default: the vehicle's)")
     d.add_argument("--true-mass", type=float, default=None, metavar="KG",
                    help="plant mass in kg (the controller keeps the vehicle's nominal mass)")
-    d.add_argument("--attitude-wn", type=float, default=25.0, metavar="RAD_S",
-                   help="attitude-loop natural frequency in rad/s (full model; default 25)")
-    d.add_argument("--attitude-zeta", type=float, default=0.8, metavar="Z",
-                   help="attitude-loop damping ratio (full model; default 0.8)")
+    d.add_argument("--attitude-wn", type=float, default=None, metavar="RAD_S",
+                   help="attitude-loop natural frequency in rad/s (full model; default 25, or the certificate's)")
+    d.add_argument("--attitude-zeta", type=float, default=None, metavar="Z",
+                   help="attitude-loop damping ratio (full model; default 0.8, or the certificate's)")
     add_json_option(parser, "metrics, gains, options and the trajectory file path")
     parser.add_argument("--trajectory", metavar="FILE", default=None,
                         help="write the trajectory here (.npz or .csv); default with --json: JSON name + .traj.npz")
@@ -158,6 +158,23 @@ def _gains(args: argparse.Namespace):
     )
 
 
+def _inner(args: argparse.Namespace):
+    """Inner-loop gains: the certificate's (its ``inner_loop``) or the defaults, then the explicit options."""
+    from dataclasses import replace
+
+    from ..inner_loops import DEFAULT_INNER_LOOP_GAINS
+
+    inner = DEFAULT_INNER_LOOP_GAINS
+    if args.certificate:
+        from ..certificate import certificate_inner_loop
+
+        data = json.loads(Path(args.certificate).read_text(encoding="utf-8"))  # readable: gains were read
+        inner = certificate_inner_loop(data)
+    changes = {k: v for k, v in (("attitude_wn_rad_s", args.attitude_wn), ("attitude_zeta", args.attitude_zeta))
+               if v is not None}
+    return replace(inner, **changes)
+
+
 def _fmt(value: Any, unit: str = "", digits: int = 4) -> str:
     if value is None:
         return "-"
@@ -169,7 +186,6 @@ def _fmt(value: Any, unit: str = "", digits: int = 4) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..inner_loops import InnerLoopGains
     from ..simulate import SimOptions, simulate
 
     vehicle = vehicle_from_args(args)
@@ -190,7 +206,7 @@ def run(args: argparse.Namespace) -> int:
         motor_lag=args.motor_lag,
         tau_motor_s=args.tau_motor,
         true_mass_kg=args.true_mass,
-        inner=InnerLoopGains(attitude_wn_rad_s=args.attitude_wn, attitude_zeta=args.attitude_zeta),
+        inner=_inner(args),
     )
     for name in ("json", "trajectory", "plot"):
         value = getattr(args, name)
