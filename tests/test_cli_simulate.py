@@ -39,9 +39,18 @@ def test_simulate_full_csv_and_gains(run_cli, tmp_path):
     assert header[0] == "t" and "out_w1" in header
 
 
+def _signed(body: dict) -> str:
+    """A certificate-shaped document with a valid digest (only the form is checked by simulate)."""
+    from design.certificate import SCHEMA, SCHEMA_VERSION, canonical_digest
+
+    doc = {"schema": SCHEMA, "schema_version": SCHEMA_VERSION, **body}
+    doc["digest"] = {"algorithm": "sha256", "value": canonical_digest(doc)}
+    return json.dumps(doc)
+
+
 def test_certificate_gains(run_cli, tmp_path):
     cert = tmp_path / "cert.json"
-    cert.write_text(json.dumps({"gains": {"kp": 8.0, "Gamma": 12.0, "delta": 0.3}, "other": 1}))
+    cert.write_text(_signed({"gains": {"kp": 8.0, "Gamma": 12.0, "delta": 0.3}, "other": 1}))
     js = tmp_path / "r.json"
     code, out, err = run_cli("simulate", "--model", "linear", "--horizon", "2", "--certificate", str(cert),
                              "--json", str(js))
@@ -53,10 +62,12 @@ def test_certificate_gains(run_cli, tmp_path):
     "content, message",
     [
         ("{not json", "not valid JSON"),
-        (json.dumps({"no": "gains"}), "no 'gains'"),
-        (json.dumps({"gains": {"kp": 5, "Gamma": 160}}), "lacks 'delta'"),
-        (json.dumps({"gains": {"kp": "fast", "Gamma": 160, "delta": 0.6}}), "kp must be a number"),
-        (json.dumps({"gains": {"kp": -5, "Gamma": 160, "delta": 0.6}}), "kp must be positive"),
+        (_signed({"no": "gains"}), "no valid 'gains'"),
+        (_signed({"gains": {"kp": 5, "Gamma": 160}}), "lacks 'delta'"),
+        (_signed({"gains": {"kp": "fast", "Gamma": 160, "delta": 0.6}}), "kp must be a number"),
+        (_signed({"gains": {"kp": -5, "Gamma": 160, "delta": 0.6}}), "kp must be positive"),
+        (_signed({"gains": {"kp": 5, "Gamma": 160, "delta": 0.6}}).replace("160", "161"), "digest mismatch"),
+        (json.dumps({"gains": {"kp": 5, "Gamma": 160, "delta": 0.6}}), "schema"),
     ],
 )
 def test_malformed_certificate(run_cli, tmp_path, content, message):

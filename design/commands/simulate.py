@@ -3,14 +3,13 @@
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 import time
 from pathlib import Path
 from typing import Any
 
-from ..errors import CertificateError, GainError, NniquadError
+from ..errors import GainError, NniquadError
 from .common import add_json_option, add_vehicle_option, vehicle_from_args, write_json_if_asked
 
 __all__ = ["HELP", "DESCRIPTION", "add_arguments", "run", "gains_from_certificate", "StderrProgress"]
@@ -46,7 +45,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--Gamma", type=float, default=None, metavar="G", help="controller gain Gamma (paper: 160)")
     g.add_argument("--delta", type=float, default=None, metavar="D", help="controller parameter delta (paper: 0.6)")
     g.add_argument("--certificate", metavar="FILE", default=None,
-                   help="take the gains from a certificate JSON (its 'gains' object); not verified here")
+                   help="take the gains and inner loops from a certificate (form and digest checked; "
+                        "'nniquad verify' checks the rest)")
     add_vehicle_option(parser)
     s = parser.add_argument_group("run")
     s.add_argument("--horizon", type=float, default=60.0, metavar="T", help="simulated time in s (default 60)")
@@ -82,34 +82,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def gains_from_certificate(path: str | Path):
-    """Read the ``"gains"`` object of a certificate JSON (no verification).
+    """The gains of a certificate whose form and digest check out (``nniquad verify`` checks the rest).
 
     Raises
     ------
     CertificateError
-        Missing or unreadable file, invalid JSON, missing or malformed ``gains``.
+        Unreadable file, invalid JSON, wrong schema, digest mismatch, missing or
+        malformed ``gains``.
     """
-    from ..linear import Gains
+    from ..certificate import certificate_gains, load_certificate
 
-    p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise CertificateError(f"cannot read certificate {p}: {exc.strerror or exc}") from None
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise CertificateError(f"certificate {p} is not valid JSON: {exc}") from None
-    if not isinstance(data, dict) or not isinstance(data.get("gains"), dict):
-        raise CertificateError(f"certificate {p} has no 'gains' object")
-    gd = data["gains"]
-    missing = [k for k in ("kp", "Gamma", "delta") if k not in gd]
-    if missing:
-        raise CertificateError(f"certificate {p}: 'gains' lacks '{missing[0]}'")
-    try:
-        return Gains(kp=gd["kp"], Gamma=gd["Gamma"], delta=gd["delta"], kpy=gd.get("kpy"))
-    except GainError as exc:
-        raise CertificateError(f"certificate {p}: {exc}") from None
+    return certificate_gains(load_certificate(path))
 
 
 class StderrProgress:
@@ -166,10 +149,9 @@ def _inner(args: argparse.Namespace):
 
     inner = DEFAULT_INNER_LOOP_GAINS
     if args.certificate:
-        from ..certificate import certificate_inner_loop
+        from ..certificate import certificate_inner_loop, load_certificate
 
-        data = json.loads(Path(args.certificate).read_text(encoding="utf-8"))  # readable: gains were read
-        inner = certificate_inner_loop(data)
+        inner = certificate_inner_loop(load_certificate(args.certificate))
     changes = {k: v for k, v in (("attitude_wn_rad_s", args.attitude_wn), ("attitude_zeta", args.attitude_zeta))
                if v is not None}
     return replace(inner, **changes)
