@@ -47,15 +47,15 @@ def main(argv: list[str] | None = None) -> int:
         for row in module.run():
             rows.append({"benchmark": name, **row})
         print(f"[bench] {name} done in {time.perf_counter() - t0:.1f} s", file=sys.stderr, flush=True)
-    header = f"{'benchmark':<14} {'name':<52} {'value':>12} {'unit':<10} {'target':>10}  ok"
+    header = f"{'benchmark':<14} {'name':<56} {'value':>12} {'unit':<10} {'target':>10}  ok"
     print(header)
     print("-" * len(header))
     for r in rows:
         target = r.get("target")
         ok = r.get("ok")
         print(
-            f"{r['benchmark']:<14} {r['name']:<52} {r['value']:>12.4g} {r['unit']:<10} "
-            f"{'' if target is None else f'{target:.4g}':>10}  {'' if ok is None else ('yes' if ok else 'NO')}"
+            f"{r['benchmark']:<14} {r['name']:<56} {r['value']:>12.4g} {r['unit']:<10} "
+            f"{_target(target):>10}  {'' if ok is None else ('yes' if ok else 'NO')}"
         )
     if args.json:
         atomic_write_json(
@@ -64,6 +64,13 @@ def main(argv: list[str] | None = None) -> int:
         )
         print(f"wrote {args.json}", file=sys.stderr)
     return 0 if all(r.get("ok", True) for r in rows) else 1
+
+
+def _target(target) -> str:
+    """Numbers with 4 significant digits; text targets (e.g. '<= 1.05') as given."""
+    if target is None or target == "":
+        return ""
+    return target if isinstance(target, str) else f"{target:.4g}"
 
 
 if __name__ == "__main__":
