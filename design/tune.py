@@ -95,12 +95,19 @@ DEFAULT_ROA_RADIUS_M = math.hypot(2.0, -1.5)
 #: Search effort: (Sobol points, local starts, max. local iterations, extra seeds).
 BUDGETS: dict[str, tuple[int, int, int, int]] = {
     "quick": (128, 2, 12, 0),
-    "normal": (512, 6, 50, 2),
+    "normal": (512, 6, 50, 1),
     "thorough": (2048, 6, 120, 4),
 }
 
 #: Actual tilt may exceed the tilt limit by this much (issue 7) [deg].
 TILT_SLACK_DEG = 1.0
+
+#: ``full`` margin scenario: motor time constant factor and position noise [m] (100 Hz).
+MARGIN_TAU_FACTOR = 1.5
+MARGIN_NOISE_M = 0.002
+
+#: Largest altitude deviation a ``full`` candidate may show [m].
+ALTITUDE_CAP_M = 0.5
 
 
 @dataclass(frozen=True)
@@ -133,6 +140,13 @@ class TuneOptions:
         Tune the attitude natural frequency with the gains (``full``; default on).
     reruns
         Extra seeds for the artefact check; ``None`` takes the budget's.
+    margin
+        ``full`` only: also demand the settling time with the motor time constant
+        × :data:`MARGIN_TAU_FACTOR` and position noise :data:`MARGIN_NOISE_M`
+        sampled at 100 Hz (default off: the issue's targets are nominal); the cost
+        is the worse of the two runs.  The default design sits at the edge of the
+        nominal motor lag (``nniquad montecarlo`` shows it); this buys margin for
+        settling time.
     """
 
     model: str = "reduced"
@@ -147,6 +161,7 @@ class TuneOptions:
     motor_lag: bool = True
     tune_attitude: bool = True
     reruns: int | None = None
+    margin: bool = False
 
     def __post_init__(self) -> None:
         if self.model not in ("reduced", "full"):
@@ -263,11 +278,16 @@ def simulation_options(options: TuneOptions, horizon_s: float, inner: InnerLoopG
                       seed=options.seed, motor_lag=options.motor_lag and options.model == "full", inner=inner)
 
 
-def _scenario_options(options: TuneOptions, base) -> list:
-    """Nominal, plus the mass-range ends when asked for (the cost is the worst of them)."""
+def _scenario_options(options: TuneOptions, base, vehicle: Vehicle) -> list:
+    """Nominal, the mass-range ends when asked for, and the ``full`` margin scenario (cost: the worst)."""
     out = [base]
     if options.mass_range is not None:
         out += [base.with_(true_mass_kg=mm) for mm in options.mass_range]
+    if options.model == "full" and options.margin:
+        # a design tuned to the edge of the nominal motor lag loses altitude a few ms later
+        # (Monte Carlo finding): demand the same performance with slower motors and a noisy sensor
+        out.append(base.with_(motor_lag=True, tau_motor_s=MARGIN_TAU_FACTOR * vehicle.tau_motor,
+                              noise_sigma_m=max(base.noise_sigma_m, MARGIN_NOISE_M), noise_rate_hz=100.0))
     return out
 
 
@@ -275,7 +295,8 @@ def _cost(metrics: Metrics, xy_end: np.ndarray, xi0_norm: float, horizon: float,
     """Settling time, or a penalty above every feasible value that still ranks the failures.
 
     Not settled: ``horizon (1 + min(‖ξ(T)‖/‖ξ(0)‖, 10))``; diverged: ``12 horizon``;
-    actual tilt above ``tilt_cap``: ``horizon (1 + excess in deg)`` added.
+    actual tilt above ``tilt_cap``: ``horizon (1 + excess in deg)`` added; altitude
+    deviation above :data:`ALTITUDE_CAP_M`: ``horizon (1 + excess in m)`` added.
     """
     if metrics.diverged or not np.all(np.isfinite(xy_end)):
         return 12.0 * horizon
@@ -283,6 +304,8 @@ def _cost(metrics: Metrics, xy_end: np.ndarray, xi0_norm: float, horizon: float,
         cost = horizon * (1.0 + min(float(np.hypot(*xy_end)) / xi0_norm, 10.0))
     else:
         cost = float(metrics.settling_s)
+    if metrics.altitude_dev_m is not None and metrics.altitude_dev_m > ALTITUDE_CAP_M:
+        cost += horizon * (1.0 + metrics.altitude_dev_m - ALTITUDE_CAP_M)
     if tilt_cap is not None and metrics.peak_tilt_deg is not None and metrics.peak_tilt_deg > tilt_cap:
         cost += horizon * (1.0 + metrics.peak_tilt_deg - tilt_cap)
     return cost
@@ -311,7 +334,7 @@ def evaluate(vehicle: Vehicle, points: np.ndarray, options: TuneOptions, horizon
     xi0_norm = math.hypot(*base.xi0)
     worst = np.full(len(pts), -np.inf)
     nominal: list[Metrics] = []
-    for k, scen in enumerate(_scenario_options(options, base)):
+    for k, scen in enumerate(_scenario_options(options, base, vehicle)):
         params = np.stack([SimParams.from_options(vehicle, g, scen.with_(inner=inn)).vector() for g, inn in decoded])
         x0 = np.stack([initial_state(scen.model, SimParams.from_vector(p), scen.xi0, scen.zc0) for p in params])
         X, Y = run_batch(scen.model, params, x0, exogenous_inputs(scen), steps_per_sample=scen.steps_per_sample,
@@ -373,7 +396,8 @@ class _Search:
     def evaluate(self, pts: np.ndarray) -> list[Candidate]:
         pts = np.clip(np.atleast_2d(pts), self.lo, self.hi)
         cost, mets = evaluate(self.vehicle, pts, self.options, self.horizon_s)
-        self.n_sim += len(pts) * (1 + (2 if self.options.mass_range else 0))
+        self.n_sim += len(pts) * len(_scenario_options(self.options, simulation_options(self.options, 1.0),
+                                                        self.vehicle))
         return [Candidate(q.copy(), float(c), m) for q, c, m in zip(pts, cost, mets)]
 
     def admissible(self, cand: Candidate) -> bool:

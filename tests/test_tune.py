@@ -132,3 +132,20 @@ def test_mass_range_tunes_the_worst_case():
     assert all(s is not None for s in settle)
     # the reported figure is the worst of the three scenarios, not the nominal one
     assert res.settling_s == pytest.approx(max(settle), abs=1e-9)
+
+
+def test_margin_scenario_and_altitude_penalty():
+    from design.metrics import Metrics
+    from design.tune import ALTITUDE_CAP_M, _cost, _scenario_options, simulation_options
+
+    opts = TuneOptions(model="full", roa_radius_m=0.0, margin=True, mass_range=(0.4, 0.6))
+    scen = _scenario_options(opts, simulation_options(opts, 5.0), V)
+    assert [s.true_mass_kg for s in scen[:3]] == [None, 0.4, 0.6]
+    assert scen[-1].tau_motor_s == pytest.approx(1.5 * V.tau_motor) and scen[-1].noise_sigma_m > 0
+    assert len(_scenario_options(TuneOptions(model="reduced", roa_radius_m=0.0, margin=True),
+                                 simulation_options(opts, 5.0), V)) == 1
+    ok = Metrics(1.2, 1.0, 30.0, 30.0, 0.1, 800.0, ALTITUDE_CAP_M / 2, 0.1, False, 5.0)
+    lost = Metrics(1.2, 1.0, 30.0, 30.0, 0.1, 800.0, ALTITUDE_CAP_M + 1.0, 0.1, False, 5.0)
+    xy = np.zeros(2)
+    assert _cost(ok, xy, 2.5, 5.0, 31.0) == 1.2
+    assert _cost(lost, xy, 2.5, 5.0, 31.0) == pytest.approx(1.2 + 5.0 * 2.0)

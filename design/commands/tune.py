@@ -53,6 +53,9 @@ def add_tuning_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, default=0, metavar="N", help="seed of the sweep and the search (default 0)")
     parser.add_argument("--reruns", type=int, default=None, metavar="K",
                         help="extra seeds for the grid-artefact check (default: the budget's)")
+    parser.add_argument("--margin", action="store_true",
+                        help="full model: also demand the settling time with 1.5x the motor time constant and "
+                             "2 mm position noise (a more robust, slower design)")
     add_vehicle_option(parser)
 
 
@@ -62,7 +65,7 @@ def tune_options_from_args(args: argparse.Namespace):
     return TuneOptions(model=args.model, gamma_max=args.gamma_max, roa_radius_m=args.roa_radius,
                        mass_range=None if args.mass_range is None else tuple(args.mass_range),
                        noise_sigma_m=args.noise, tilt_limit_deg=args.tilt_limit, budget=args.budget,
-                       seed=args.seed, reruns=args.reruns)
+                       seed=args.seed, reruns=args.reruns, margin=args.margin)
 
 
 class Progress:
