@@ -40,7 +40,6 @@ from scipy.optimize import brentq
 from design import linear as L
 from design import simulate as S
 from design.bound import max_horizontal_acceleration
-from design.inner_loops import DEFAULT_INNER_LOOP_GAINS
 from design.tune import TuneOptions, attitude_accel_headroom, certified_reach, tune
 from design.vehicle import PAPER_VEHICLE
 
@@ -73,17 +72,24 @@ def fmt(x, spec=".2f", none="—"):
 # %% [markdown]
 # ## The design under test
 #
-# The gain set below is the result of `design.tune.tune` with
-# `TuneOptions(model="full", roa_radius_m=0)` at the default (`"normal"`)
-# budget, seed 0 (the gains `tests/test_certificate.py` certifies).  That
-# tune takes about a minute, too long for this notebook, so its result is
-# written here; everything the notebook says about it is recomputed: the sector
-# bound, the certified reach and the nominal settling time.
+# The gain set below is the certificate `notebooks/data/full_model_certificate.json`,
+# written by `nniquad certify --model full --roa-radius 0` (the tuner at the
+# default `"normal"` budget, seed 0).  That tune takes about a minute, too long
+# for this notebook, so the certificate is read (its digest checked); everything
+# the notebook says about it is recomputed: the sector bound, the certified
+# reach and the nominal settling time.
 
 # %%
-GAINS = L.Gains(13.148341568334407, 25.27258951977003, 0.19046572101699574)
-INNER = replace(DEFAULT_INNER_LOOP_GAINS, attitude_wn_rad_s=101.56021438245625, attitude_zeta=1.1320049751084362,
-                attitude_accel_limit_rad_s2=31.13986455385077)
+from pathlib import Path
+
+from design.certificate import certificate_gains, certificate_inner_loop, load_certificate
+
+# written by `nniquad certify --model full --roa-radius 0 --out notebooks/data/full_model_certificate.json`;
+# load_certificate checks its schema and SHA-256 digest
+CERT = load_certificate(Path("data") / "full_model_certificate.json" if Path("data").is_dir()
+                        else Path("notebooks") / "data" / "full_model_certificate.json")
+GAINS = certificate_gains(CERT)
+INNER = certificate_inner_loop(CERT)
 BASE = S.SimOptions(model="full", horizon_s=HORIZON_S, motor_lag=True, inner=INNER)
 TILT = BASE.tilt_limit_deg
 

@@ -46,7 +46,6 @@ from IPython.display import Image, Markdown, display
 from design import linear as L
 from design import simulate as S
 from design.bound import time_optimal_bound
-from design.inner_loops import DEFAULT_INNER_LOOP_GAINS
 from design.metrics import rms_after
 from design.tune import TILT_SLACK_DEG, TuneOptions, certified_reach, decode
 from design.vehicle import PAPER_VEHICLE
@@ -81,17 +80,25 @@ def show(fig, dpi=80):
 # %% [markdown]
 # ## The certified NNI design and the common inner loops
 #
-# The NNI gains and the attitude loop are the result of
-# `design.tune.tune(TuneOptions(model="full", roa_radius_m=0))` at the normal
-# budget, seed 0 (too slow to rerun here; notebook 3 shows why the quick
-# budget's result is not usable).  Its sector bound and certified reach are
+# The NNI gains and the attitude loop come from the certificate
+# `notebooks/data/full_model_certificate.json`, written by `nniquad certify
+# --model full --roa-radius 0` (the tuner at the normal budget, seed 0; too
+# slow to rerun here; notebook 3 shows why the quick budget's result is not
+# usable).  Its sector bound and certified reach are
 # recomputed.  The PD controllers get the same inner loops (and the same
 # alternatives to them, below).
 
 # %%
-NNI_REF = L.Gains(13.148341568334407, 25.27258951977003, 0.19046572101699574)
-INNER = replace(DEFAULT_INNER_LOOP_GAINS, attitude_wn_rad_s=101.56021438245625, attitude_zeta=1.1320049751084362,
-                attitude_accel_limit_rad_s2=31.13986455385077)
+from pathlib import Path
+
+from design.certificate import certificate_gains, certificate_inner_loop, load_certificate
+
+# written by `nniquad certify --model full --roa-radius 0 --out notebooks/data/full_model_certificate.json`;
+# load_certificate checks its schema and SHA-256 digest
+CERT = load_certificate(Path("data") / "full_model_certificate.json" if Path("data").is_dir()
+                        else Path("notebooks") / "data" / "full_model_certificate.json")
+NNI_REF = certificate_gains(CERT)
+INNER = certificate_inner_loop(CERT)
 BASE = S.SimOptions(model="full", horizon_s=HORIZON_S, motor_lag=True, inner=INNER)
 TILT_CAP = BASE.tilt_limit_deg + TILT_SLACK_DEG
 print(f"NNI: kp = {NNI_REF.kp:.4g}, Γ = {NNI_REF.Gamma:.4g}, δ = {NNI_REF.delta:.4g}; smallest γ = "
