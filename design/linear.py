@@ -54,6 +54,7 @@ import sympy as sp
 from .errors import GainError
 
 __all__ = [
+    "positive_gain",
     "Gains",
     "PAPER_GAINS",
     "SYMBOLS",
@@ -98,7 +99,7 @@ _ARGS = (SYMBOLS["m"], SYMBOLS["kp"], SYMBOLS["Gamma"], SYMBOLS["delta"])
 # ----------------------------------------------------------------------------- gains
 
 
-def _check_positive(name: str, value: float) -> float:
+def positive_gain(name: str, value: float) -> float:
     """``value`` as a finite positive float, else :class:`GainError` naming ``name``."""
     if isinstance(value, bool):
         raise GainError(f"{name} must be a number, got {value!r}")
@@ -140,11 +141,11 @@ class Gains:
     kpy: float | None = None
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "kp", _check_positive("kp", self.kp))
-        object.__setattr__(self, "Gamma", _check_positive("Gamma", self.Gamma))
-        object.__setattr__(self, "delta", _check_positive("delta", self.delta))
+        object.__setattr__(self, "kp", positive_gain("kp", self.kp))
+        object.__setattr__(self, "Gamma", positive_gain("Gamma", self.Gamma))
+        object.__setattr__(self, "delta", positive_gain("delta", self.delta))
         if self.kpy is not None:
-            object.__setattr__(self, "kpy", _check_positive("kpy", self.kpy))
+            object.__setattr__(self, "kpy", positive_gain("kpy", self.kpy))
 
     @property
     def kpx(self) -> float:
@@ -316,13 +317,13 @@ def _f(array) -> np.ndarray:
 
 def plant_matrices(m: float, kp: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Numeric ``(A, B, C, D)`` of :func:`plant_matrices_sym`."""
-    m, kp = _check_positive("m", m), _check_positive("kp", kp)
+    m, kp = positive_gain("m", m), positive_gain("kp", kp)
     return tuple(_f(M) for M in _lambdified()["plant"](m, kp, 1.0, 1.0))  # type: ignore[return-value]
 
 
 def controller_matrices(Gamma: float, delta: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Numeric ``(Ac, Bc, Cc, Dc)`` of :func:`controller_matrices_sym`."""
-    G, d = _check_positive("Gamma", Gamma), _check_positive("delta", delta)
+    G, d = positive_gain("Gamma", Gamma), positive_gain("delta", delta)
     return tuple(_f(M) for M in _lambdified()["controller"](1.0, 1.0, G, d))  # type: ignore[return-value]
 
 
@@ -342,7 +343,7 @@ def controller_ss(Gamma: float, delta: float):
 
 def closed_loop_A_axis(m: float, kp: float, Gamma: float, delta: float) -> np.ndarray:
     """Closed-loop A matrix of one axis, state ``[xi, xi_dot, z]`` (3x3)."""
-    args = (_check_positive("m", m), _check_positive("kp", kp), _check_positive("Gamma", Gamma), _check_positive("delta", delta))
+    args = (positive_gain("m", m), positive_gain("kp", kp), positive_gain("Gamma", Gamma), positive_gain("delta", delta))
     return _f(_lambdified()["A_cl"](*args))
 
 
@@ -387,25 +388,25 @@ def saturation_split(m: float, kp: float, Gamma: float, delta: float) -> tuple[n
 def stable(m: float, kp: float, Gamma: float, delta: float, kpy: float | None = None) -> bool:
     """Exact Routh-Hurwitz verdict for both axes (no eigenvalues computed)."""
     f = _lambdified()["routh_lhs"]
-    _check_positive("Gamma", Gamma)
+    positive_gain("Gamma", Gamma)
     kps = [kp] if kpy is None else [kp, kpy]
-    return all(float(f(_check_positive("m", m), _check_positive("kp", k), Gamma, _check_positive("delta", delta))) > 0 for k in kps)
+    return all(float(f(positive_gain("m", m), positive_gain("kp", k), Gamma, positive_gain("delta", delta))) > 0 for k in kps)
 
 
 def stability_margin_product(m: float, kp: float, delta: float) -> float:
     """``m kp δ`` (dimensionless); the loop is stable iff it exceeds 1."""
-    return _check_positive("m", m) * _check_positive("kp", kp) * _check_positive("delta", delta)
+    return positive_gain("m", m) * positive_gain("kp", kp) * positive_gain("delta", delta)
 
 
 def characteristic_coefficients(m: float, kp: float, Gamma: float, delta: float) -> np.ndarray:
     """Numeric coefficients ``[1, a2, a1, a0]`` of :func:`characteristic_polynomial`."""
-    args = (_check_positive("m", m), _check_positive("kp", kp), _check_positive("Gamma", Gamma), _check_positive("delta", delta))
+    args = (positive_gain("m", m), positive_gain("kp", kp), positive_gain("Gamma", Gamma), positive_gain("delta", delta))
     return _f(_lambdified()["coeffs"](*args))
 
 
 def dc_loop_gain(m: float, kp: float, delta: float) -> float:
     """DC loop gain ``G(0) C(0)`` of one axis (= 1/(m kp δ))."""
-    return float(_lambdified()["dc_gain"](_check_positive("m", m), _check_positive("kp", kp), 1.0, _check_positive("delta", delta)))
+    return float(_lambdified()["dc_gain"](positive_gain("m", m), positive_gain("kp", kp), 1.0, positive_gain("delta", delta)))
 
 
 def sector_delta_min(m: float, kp: float, gamma: float) -> float:
@@ -413,8 +414,8 @@ def sector_delta_min(m: float, kp: float, gamma: float) -> float:
 
     The paper's condition ``delta^2 >= 1/(gamma^2 m^2 min kp^2)``; pass ``kp = min(kpx, kpy)``.
     """
-    g = _check_positive("gamma", gamma)
-    return float(_lambdified()["delta_min"](_check_positive("m", m), _check_positive("kp", kp), g))
+    g = positive_gain("gamma", gamma)
+    return float(_lambdified()["delta_min"](positive_gain("m", m), positive_gain("kp", kp), g))
 
 
 def smallest_gamma(m: float, kpx: float, kpy: float | None, delta: float) -> float:

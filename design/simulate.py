@@ -106,7 +106,7 @@ from . import inner_loops as IL
 from .errors import GainError, SimulationError
 from .inner_loops import DEFAULT_INNER_LOOP_GAINS, InnerLoopGains
 from .io import atomic_write_with
-from .linear import PAPER_GAINS, Gains
+from .linear import PAPER_GAINS, Gains, positive_gain
 from .metrics import Metrics, compute_metrics, settling_time_batch
 from .numeric import PARAM_NAMES, mixer_function, rotation_function
 from .symbolic import STATE_ORDER
@@ -423,16 +423,7 @@ class PDGains:
 
     def __post_init__(self) -> None:
         for name in ("kp", "kd", "tau_f"):
-            value = getattr(self, name)
-            if isinstance(value, bool):
-                raise GainError(f"{name} must be a number, got {value!r}")
-            try:
-                v = float(value)
-            except (TypeError, ValueError):
-                raise GainError(f"{name} must be a number, got {value!r}") from None
-            if not math.isfinite(v) or v <= 0:
-                raise GainError(f"{name} must be finite and positive, got {value!r}")
-            object.__setattr__(self, name, v)
+            object.__setattr__(self, name, positive_gain(name, getattr(self, name)))
 
     def as_dict(self) -> dict[str, float]:
         return {"kp": self.kp, "kd": self.kd, "tau_f": self.tau_f}
