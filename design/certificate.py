@@ -408,11 +408,18 @@ def verify_certificate(cert: Mapping[str, Any] | str | Path, *, simulate: bool =
     or malformed field) raises :class:`CertificateError`; a stated number that
     the recomputation does not reproduce is a failed :class:`Check`.
     """
-    say = progress or (lambda msg: None)
     if not isinstance(cert, Mapping):
         cert = load_certificate(cert)
     cert = dict(cert)
     _check_form(cert)
+    try:
+        return _verify(cert, simulate, progress or (lambda msg: None))
+    except (TypeError, ValueError, KeyError, IndexError, np.linalg.LinAlgError) as exc:
+        # a signed document with a wrongly typed field: one line, not a traceback
+        raise CertificateError(f"certificate has a malformed field ({type(exc).__name__}: {exc})") from None
+
+
+def _verify(cert: dict[str, Any], simulate: bool, say: Callable[[str], None]) -> Verification:
     tol = dict(TOLERANCES)
     checks = [Check("digest", True, f"sha256 {cert['digest']['value'][:16]}... matches the content")]
     vehicle, gains, inner = certificate_vehicle(cert), certificate_gains(cert), certificate_inner_loop(cert)

@@ -139,3 +139,13 @@ def test_certify_given_gains_writes_a_verifiable_certificate(tmp_path, run_cli):
     assert c["sector"]["gamma"] == pytest.approx(1 / (0.5 * 5 * 0.6))
     assert c["performance"]["full"]["diverged"] in (True, False)
     assert verify_certificate(c).ok
+
+
+def test_signed_but_malformed_field_is_one_line(cert, tmp_path, run_cli):
+    c = copy.deepcopy(cert)
+    c["stability_margin"]["decay_rate_1_s"] = "fast"
+    c["lmi"]["closed_loop"]["P"] = [[1, 2], [3]]
+    path = tmp_path / "m.json"
+    path.write_text(json.dumps(_resign(c)))
+    code, _, err = run_cli("verify", str(path))
+    assert code == 2 and "malformed" in err and "Traceback" not in err
