@@ -52,6 +52,7 @@ import numpy as np
 import sympy as sp
 
 from .errors import GainError
+from .validate import finite_number
 
 __all__ = [
     "positive_gain",
@@ -101,17 +102,7 @@ _ARGS = (SYMBOLS["m"], SYMBOLS["kp"], SYMBOLS["Gamma"], SYMBOLS["delta"])
 
 def positive_gain(name: str, value: float) -> float:
     """``value`` as a finite positive float, else :class:`GainError` naming ``name``."""
-    if isinstance(value, bool):
-        raise GainError(f"{name} must be a number, got {value!r}")
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise GainError(f"{name} must be a number, got {value!r}") from None
-    if not math.isfinite(v):
-        raise GainError(f"{name} must be finite, got {value!r}")
-    if v <= 0.0:
-        raise GainError(f"{name} must be positive, got {value!r}")
-    return v
+    return finite_number(name, value, error=GainError, positive=True)
 
 
 @dataclass(frozen=True)

@@ -31,6 +31,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Callable
 
+from .display import markdown_table
 from .io import atomic_write_json, atomic_write_text
 from .vehicle import UNITS, Vehicle
 
@@ -105,9 +106,7 @@ def _model_rows(runs: dict[str, Any]) -> dict[str, dict[str, Any]]:
 
 
 def _table(header: list[str], rows: list[list[str]]) -> list[str]:
-    out = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    out += ["| " + " | ".join(r) + " |" for r in rows]
-    return out
+    return markdown_table(header, rows).splitlines()
 
 
 def _model_table(rows: dict[str, dict[str, Any]]) -> list[str]:

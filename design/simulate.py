@@ -107,6 +107,7 @@ from .errors import GainError, SimulationError
 from .inner_loops import DEFAULT_INNER_LOOP_GAINS, InnerLoopGains
 from .io import atomic_write_with
 from .linear import PAPER_GAINS, Gains, positive_gain
+from .validate import finite_number
 from .metrics import Metrics, compute_metrics, settling_time_batch
 from .numeric import PARAM_NAMES, mixer_function, rotation_function
 from .symbolic import STATE_ORDER
@@ -222,19 +223,7 @@ def _check_controller(controller: str) -> str:
 
 
 def _finite(name: str, value: Any, *, positive: bool = False, nonneg: bool = False) -> float:
-    if isinstance(value, bool):
-        raise SimulationError(f"{name} must be a number, got {value!r}")
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise SimulationError(f"{name} must be a number, got {value!r}") from None
-    if not math.isfinite(v):
-        raise SimulationError(f"{name} must be finite, got {value!r}")
-    if positive and v <= 0:
-        raise SimulationError(f"{name} must be positive, got {value!r}")
-    if nonneg and v < 0:
-        raise SimulationError(f"{name} must not be negative, got {value!r}")
-    return v
+    return finite_number(name, value, error=SimulationError, positive=positive, nonneg=nonneg)
 
 
 @dataclass(frozen=True)

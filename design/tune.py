@@ -71,6 +71,7 @@ from .errors import GainError, NniquadError
 from .inner_loops import DEFAULT_INNER_LOOP_GAINS, InnerLoopGains
 from .linear import Gains, smallest_gamma
 from .metrics import Metrics
+from .validate import finite_number
 from .vehicle import PAPER_VEHICLE, Vehicle
 
 __all__ = [
@@ -205,13 +206,7 @@ class TuneOptions:
 
 
 def _finite(name: str, value: Any) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise NniquadError(f"{name} must be a number, got {value!r}") from None
-    if not math.isfinite(v):
-        raise NniquadError(f"{name} must be finite, got {value!r}")
-    return v
+    return finite_number(name, value)
 
 
 # ----------------------------------------------------------------------------- coordinates

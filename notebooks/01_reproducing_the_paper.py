@@ -36,7 +36,6 @@
 # is computed here.
 
 # %%
-import io
 import math
 import tempfile
 import time
@@ -44,12 +43,13 @@ from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
-from IPython.display import Image, Markdown, display
+from IPython.display import Image, display
 from scipy.optimize import brentq
 
 from design import linear as L
 from design import lmi
 from design import simulate as S
+from design.display import show_figure as show, show_table as md_table
 from design.inner_loops import DEFAULT_INNER_LOOP_GAINS
 from design.metrics import settling_time_batch
 from design.plots import paper_figure
@@ -61,11 +61,6 @@ G = L.PAPER_GAINS
 OUT = Path(tempfile.mkdtemp(prefix="nniquad-nb01-"))
 
 
-def md_table(header, rows):
-    """A Markdown table from a header and rows of already formatted cells."""
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
-    display(Markdown("\n".join(lines)))
 
 
 print(f"vehicle: m = {V.m} kg, g = {V.g} m/s², thrust-to-weight {V.thrust_to_weight():.2f}")
@@ -241,10 +236,7 @@ ax[1].set_ylabel("largest ‖ξ_h‖ per 5 s [m], full model")
 ax[1].set_title("full vehicle, paper's gains")
 ax[1].legend(title="ω_a [rad/s]", fontsize=7, ncol=2)
 fig.tight_layout()
-buf = io.BytesIO()
-fig.savefig(buf, format="png", dpi=80)
-plt.close(fig)
-display(Image(data=buf.getvalue()))
+show(fig)
 
 # %% [markdown]
 # The linearised loop and the full vehicle agree on where the paper's gains

@@ -30,17 +30,16 @@
 # Every number printed or plotted is computed below from `design`.
 
 # %%
-import io
 import math
 import time
 
 import matplotlib.pyplot as plt
 import numpy as np
-from IPython.display import Image, Markdown, display
 from matplotlib.colors import LogNorm, Normalize
 
 from design import linear as L
 from design import simulate as S
+from design.display import show_figure as show, show_table as md_table
 from design.bound import time_optimal_bound
 from design.tune import TuneOptions, certified_reach, search_box, tune
 from design.vehicle import PAPER_VEHICLE
@@ -54,19 +53,8 @@ U_SECTOR = 1.0 / GAMMA_PAPER  # sector bound in the form m kp δ >= 1/γ_max
 XI0_NORM = math.hypot(*S.DEFAULT_XI0)
 
 
-def md_table(header, rows):
-    """A Markdown table from a header and rows of already formatted cells."""
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
-    display(Markdown("\n".join(lines)))
 
 
-def show(fig, dpi=80):
-    """Display a figure as a PNG (works under any matplotlib backend, Agg included) and close it."""
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=dpi)
-    plt.close(fig)
-    display(Image(data=buf.getvalue()))
 
 
 def metric_array(metrics, name, scale=1.0):

@@ -27,18 +27,17 @@
 # horizon long enough to see slow failures such as a lost altitude.
 
 # %%
-import io
 import math
 import time
 from dataclasses import replace
 
 import matplotlib.pyplot as plt
 import numpy as np
-from IPython.display import Image, Markdown, display
 from scipy.optimize import brentq
 
 from design import linear as L
 from design import simulate as S
+from design.display import show_figure as show, show_table as md_table
 from design.bound import max_horizontal_acceleration
 from design.tune import TuneOptions, attitude_accel_headroom, certified_reach, tune
 from design.vehicle import PAPER_VEHICLE
@@ -50,19 +49,8 @@ XI0_NORM = math.hypot(*S.DEFAULT_XI0)
 HORIZON_S = 20.0
 
 
-def md_table(header, rows):
-    """A Markdown table from a header and rows of already formatted cells."""
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
-    display(Markdown("\n".join(lines)))
 
 
-def show(fig, dpi=80):
-    """Display a figure as a PNG (works under any matplotlib backend, Agg included) and close it."""
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=dpi)
-    plt.close(fig)
-    display(Image(data=buf.getvalue()))
 
 
 def fmt(x, spec=".2f", none="—"):

@@ -34,17 +34,16 @@
 # tilt jitter, i.e. how much the vehicle keeps rocking once it has arrived.
 
 # %%
-import io
 import math
 import time
 from dataclasses import replace
 
 import matplotlib.pyplot as plt
 import numpy as np
-from IPython.display import Image, Markdown, display
 
 from design import linear as L
 from design import simulate as S
+from design.display import show_figure as show, show_table as md_table
 from design.bound import time_optimal_bound
 from design.metrics import rms_after
 from design.tune import TILT_SLACK_DEG, TuneOptions, certified_reach, decode
@@ -62,19 +61,8 @@ CTRL_LABEL = {"nni": "NNI (velocity-free, certified)", "pd_velocity": "PD, true 
 CTRL_COLOR = {"nni": "tab:blue", "pd_velocity": "tab:green", "pd_filtered": "tab:orange"}
 
 
-def md_table(header, rows):
-    """A Markdown table from a header and rows of already formatted cells."""
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
-    display(Markdown("\n".join(lines)))
 
 
-def show(fig, dpi=80):
-    """Display a figure as a PNG (works under any matplotlib backend, Agg included) and close it."""
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=dpi)
-    plt.close(fig)
-    display(Image(data=buf.getvalue()))
 
 
 # %% [markdown]

@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 from pathlib import Path
 from typing import Any
 
 from ..errors import GainError
 from ..io import atomic_write_json
+from ..validate import finite_number
 from ..vehicle import Vehicle, load_vehicle
 
 __all__ = ["add_vehicle_option", "vehicle_from_args", "add_json_option", "write_json_if_asked", "finite_positive"]
@@ -46,15 +46,7 @@ def write_json_if_asked(args: argparse.Namespace, data: Any) -> None:
 
 def finite_positive(name: str, value: float) -> float:
     """Return ``value`` as float, or raise :class:`GainError` naming ``name``."""
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise GainError(f"{name} must be a number, got {value!r}") from None
-    if not math.isfinite(v):
-        raise GainError(f"{name} must be finite, got {value!r}")
-    if v <= 0:
-        raise GainError(f"{name} must be positive, got {value!r}")
-    return v
+    return finite_number(name, value, error=GainError, positive=True)
 
 
 def dumps(data: Any) -> str:
