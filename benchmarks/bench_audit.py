@@ -24,7 +24,7 @@ ROOT = Path(__file__).resolve().parent.parent
 _SCRIPT = """
 import json, time
 t0 = time.perf_counter()
-from proofs.claims import run_audit
+from nniquad.proofs.claims import run_audit
 rs = run_audit()
 print(json.dumps({"wall": time.perf_counter() - t0,
                   "claims": [[r.id, r.verdict, r.seconds] for r in rs]}))

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import time
 
-from design.bound import time_optimal_bound
+from nniquad.analysis.bound import time_optimal_bound
 
 __all__ = ["run"]
 

@@ -31,9 +31,9 @@ def _time(fn, repeat: int = 3) -> float:
 
 
 def run() -> list[dict]:
-    from design import lmi
-    from design.linear import PAPER_GAINS, controller_matrices, plant_matrices
-    from design.vehicle import PAPER_VEHICLE
+    from nniquad.analysis import lmi
+    from nniquad.analysis.linear import PAPER_GAINS, controller_matrices, plant_matrices
+    from nniquad.model.vehicle import PAPER_VEHICLE
 
     m, g = PAPER_VEHICLE.m, PAPER_VEHICLE.g
     A, B, C, D = plant_matrices(m, PAPER_GAINS.kp)
@@ -54,7 +54,7 @@ def run() -> list[dict]:
     }
     rows = [{"name": f"lmi {name} build+solve", "value": _time(fn), "unit": "s"} for name, fn in cases.items()]
     t0 = time.perf_counter()
-    proc = subprocess.run([sys.executable, "-m", "design.cli", "lmi"], cwd=ROOT, capture_output=True, text=True)
+    proc = subprocess.run([sys.executable, "-m", "nniquad", "lmi"], cwd=ROOT, capture_output=True, text=True)
     wall = time.perf_counter() - t0
     rows.append({"name": "nniquad lmi (cold subprocess, wall)", "value": wall, "unit": "s",
                  "target": CLI_TARGET_S, "ok": proc.returncode == 0 and wall < CLI_TARGET_S})

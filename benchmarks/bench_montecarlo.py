@@ -20,11 +20,11 @@ import tempfile
 import time
 from pathlib import Path
 
-from design import montecarlo as mc
-from design.certificate import build_certificate, load_certificate, write_certificate
-from design.inner_loops import InnerLoopGains
-from design.linear import Gains
-from design.vehicle import PAPER_VEHICLE
+from nniquad.study import montecarlo as mc
+from nniquad.certificates.certificate import build_certificate, load_certificate, write_certificate
+from nniquad.control.inner_loops import InnerLoopGains
+from nniquad.analysis.linear import Gains
+from nniquad.model.vehicle import PAPER_VEHICLE
 
 __all__ = ["run"]
 

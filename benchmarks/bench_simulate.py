@@ -13,10 +13,10 @@ import time
 
 import numpy as np
 
-from design import simulate as sim
-from design.linear import PAPER_GAINS, Gains
-from design.simulate import SimOptions, SimParams, simulate, simulate_batch
-from design.vehicle import PAPER_VEHICLE
+from nniquad.sim import simulate as sim
+from nniquad.analysis.linear import PAPER_GAINS, Gains
+from nniquad.sim.simulate import SimOptions, SimParams, simulate, simulate_batch
+from nniquad.model.vehicle import PAPER_VEHICLE
 
 __all__ = ["run"]
 

@@ -22,8 +22,8 @@ TIME_TARGET_S = 120.0
 
 
 def run() -> list[dict]:
-    from design.tune import DEFAULT_ROA_RADIUS_M, TILT_SLACK_DEG, TuneOptions, tune
-    from design.vehicle import PAPER_VEHICLE
+    from nniquad.tuning.tune import DEFAULT_ROA_RADIUS_M, TILT_SLACK_DEG, TuneOptions, tune
+    from nniquad.model.vehicle import PAPER_VEHICLE
 
     rows: list[dict] = []
     results = {}

@@ -20,7 +20,7 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 
-from design.io import atomic_write_json  # noqa: E402
+from nniquad.io import atomic_write_json  # noqa: E402
 
 
 def _modules(only: set[str] | None):

@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from .errors import NniquadError
+from nniquad.errors import NniquadError
 
 __all__ = ["finite_number"]
 

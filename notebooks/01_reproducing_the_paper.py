@@ -17,18 +17,18 @@
 # Ghallab & Petersen regulate the horizontal position of a quadrotor with a
 # proportional inner loop and an integral resonant (NNI) controller in positive
 # feedback, with the gains of their Table "Simulation Parameters"
-# (`design.linear.PAPER_GAINS`).  Their Section "Simulation Results" announces
+# (`nniquad.analysis.linear.PAPER_GAINS`).  Their Section "Simulation Results" announces
 # a figure (`fig:position_tracking`) whose `\includegraphics` is empty, and
 # describes it as "smooth transient response with no oscillations or
 # overshoot".
 #
 # This notebook runs the paper's gains on the three models of
-# `design.simulate`:
+# `nniquad.sim.simulate`:
 #
 # * `linear` -- the reduced horizontal loop the theorem covers (no limits);
 # * `reduced` -- the same with the tilt limit (attitude instantaneous);
 # * `full` -- the 12-state vehicle with the attitude, altitude and yaw loops of
-#   `design.inner_loops` and rotor saturation.
+#   `nniquad.control.inner_loops` and rotor saturation.
 #
 # It draws the missing figure, lists the closed-loop poles and their damping,
 # explains why the full vehicle does not settle, and prints the audit's
@@ -46,14 +46,14 @@ import numpy as np
 from IPython.display import Image, display
 from scipy.optimize import brentq
 
-from design import linear as L
-from design import lmi
-from design import simulate as S
-from design.display import show_figure as show, show_table as md_table
-from design.inner_loops import DEFAULT_INNER_LOOP_GAINS
-from design.metrics import settling_time_batch
-from design.plots import paper_figure
-from design.vehicle import PAPER_VEHICLE
+from nniquad.analysis import linear as L
+from nniquad.analysis import lmi
+from nniquad.sim import simulate as S
+from nniquad.reporting.display import show_figure as show, show_table as md_table
+from nniquad.control.inner_loops import DEFAULT_INNER_LOOP_GAINS
+from nniquad.analysis.metrics import settling_time_batch
+from nniquad.reporting.plots import paper_figure
+from nniquad.model.vehicle import PAPER_VEHICLE
 
 T_START = time.perf_counter()
 V = PAPER_VEHICLE
@@ -71,7 +71,7 @@ print(f"paper gains: kp = {G.kp:g} 1/s², Γ = {G.Gamma:g}, δ = {G.delta:g}")
 #
 # The paper picks γ = 0.8 and checks δ ≥ δ_min = 1/(γ m k_p).  For this loop
 # the sector condition reduces to a DC-loop-gain condition: the smallest γ
-# that works for a gain set is G(0)C(0) = 1/(m k_p δ) (`design.linear`).
+# that works for a gain set is G(0)C(0) = 1/(m k_p δ) (`nniquad.analysis.linear`).
 
 # %%
 GAMMA_PAPER = 0.8
@@ -115,9 +115,9 @@ print(f"envelope estimate of the 2 % settling time ln(50)/σ = {t_envelope:.0f} 
 # %% [markdown]
 # ## The missing figure
 #
-# `design.simulate.paper_figure_runs` runs the three models from
+# `nniquad.sim.simulate.paper_figure_runs` runs the three models from
 # the paper's initial position at rest over `PAPER_FIGURE_HORIZON_S` (long
-# enough to see the linear loop settle); `design.plots.paper_figure` draws
+# enough to see the linear loop settle); `nniquad.reporting.plots.paper_figure` draws
 # x(t), y(t), the distance on a log scale with the 2 % band, and a zoom on the
 # first seconds with the tilt.
 
@@ -159,7 +159,7 @@ print(f"full: max distance {full_first60:.2f} m in the first 60 s, {full_last60:
 # ## Why the full vehicle diverges: the attitude loop's lag
 #
 # The attitude loop turns a commanded acceleration into tilt through
-# ω_a²/(s² + 2ζ_a ω_a s + ω_a²) (`design.inner_loops`; its defaults are
+# ω_a²/(s² + 2ζ_a ω_a s + ω_a²) (`nniquad.control.inner_loops`; its defaults are
 # printed below), roughly an effective delay 2ζ_a/ω_a.  The dominant pair's decay rate σ
 # (printed above) is tiny, and the phase the lag adds at the dominant
 # frequency is enough to push the pair into the right half-plane.  Below, the reduced linear
@@ -250,7 +250,7 @@ show(fig)
 # ## Certified region of attraction of the paper's gains
 #
 # For completeness: the saturated reduced loop (tilt limit, norm limit) has a
-# certified ellipsoidal region of attraction (`design.lmi.region_of_attraction`,
+# certified ellipsoidal region of attraction (`nniquad.analysis.lmi.region_of_attraction`,
 # generalised sector condition).  It covers the paper's start, but it says
 # nothing about the attitude dynamics that break the full vehicle.
 
@@ -266,7 +266,7 @@ print(f"u0 = {u0:.3f} m/s²; certified reach from rest {reach_paper:.2f} m (feas
 # ## The audit's verdicts on the simulation section
 
 # %%
-from proofs.claims import registry, run_audit  # noqa: E402
+from nniquad.proofs.claims import registry, run_audit  # noqa: E402
 
 sim_ids = [cid for cid, spec in registry().items() if spec.section == "simulation"]
 audit = run_audit(only=sim_ids)

@@ -37,12 +37,12 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.colors import LogNorm, Normalize
 
-from design import linear as L
-from design import simulate as S
-from design.display import show_figure as show, show_table as md_table
-from design.bound import time_optimal_bound
-from design.tune import TuneOptions, certified_reach, search_box, tune
-from design.vehicle import PAPER_VEHICLE
+from nniquad.analysis import linear as L
+from nniquad.sim import simulate as S
+from nniquad.reporting.display import show_figure as show, show_table as md_table
+from nniquad.analysis.bound import time_optimal_bound
+from nniquad.tuning.tune import TuneOptions, certified_reach, search_box, tune
+from nniquad.model.vehicle import PAPER_VEHICLE
 
 T_START = time.perf_counter()
 V = PAPER_VEHICLE
@@ -68,7 +68,7 @@ print(f"time-optimal lower bound on settling from ‖ξ_h(0)‖ = {XI0_NORM:g} m
 # %% [markdown]
 # ## The certified optimum
 #
-# `design.tune.tune` minimises the settling time of the `reduced` model over
+# `nniquad.tuning.tune.tune` minimises the settling time of the `reduced` model over
 # (k_p, Γ, δ) subject to the sector bound with γ_max = 0.8.  Here it runs with
 # the `"quick"` budget and without the region-of-attraction requirement
 # (`roa_radius_m=0`); its run time is measured.
@@ -213,7 +213,7 @@ print(f"the first command a = kp ‖ξ_h(0)‖ reaches the tilt limit for kp ≥
 # σ³ + r σ² + σ + r ε.  The sector bound is ε ≥ 1 − γ_max.  So the best
 # damping, and the best decay rate in units of √k_p, that any gain set
 # admitted by γ_max can have is a two-parameter search, done here on a grid
-# with `design.linear.characteristic_coefficients` (at k_p = 1).
+# with `nniquad.analysis.linear.characteristic_coefficients` (at k_p = 1).
 
 # %%
 GAMMA_CURVE = np.linspace(0.3, 0.995, 140)
@@ -324,7 +324,7 @@ show(fig)
 # %% [markdown]
 # ## Certified region of attraction against speed
 #
-# `design.tune.certified_reach` solves the saturation LMI of `design.lmi` and
+# `nniquad.tuning.tune.certified_reach` solves the saturation LMI of `nniquad.analysis.lmi` and
 # returns the largest start distance (from rest) it proves converges.  With the
 # tilt limit as the only nonlinearity the reduced loop is invariant under
 # k_p → λ k_p with the shape (r, m k_p δ) fixed: time scales by 1/√λ and

@@ -35,12 +35,12 @@ import matplotlib.pyplot as plt
 import numpy as np
 from scipy.optimize import brentq
 
-from design import linear as L
-from design import simulate as S
-from design.display import show_figure as show, show_table as md_table
-from design.bound import max_horizontal_acceleration
-from design.tune import TuneOptions, attitude_accel_headroom, certified_reach, tune
-from design.vehicle import PAPER_VEHICLE
+from nniquad.analysis import linear as L
+from nniquad.sim import simulate as S
+from nniquad.reporting.display import show_figure as show, show_table as md_table
+from nniquad.analysis.bound import max_horizontal_acceleration
+from nniquad.tuning.tune import TuneOptions, attitude_accel_headroom, certified_reach, tune
+from nniquad.model.vehicle import PAPER_VEHICLE
 
 T_START = time.perf_counter()
 V = PAPER_VEHICLE
@@ -70,7 +70,7 @@ def fmt(x, spec=".2f", none="—"):
 # %%
 from pathlib import Path
 
-from design.certificate import certificate_gains, certificate_inner_loop, load_certificate
+from nniquad.certificates.certificate import certificate_gains, certificate_inner_loop, load_certificate
 
 # written by `nniquad certify --model full --roa-radius 0 --out notebooks/data/full_model_certificate.json`;
 # load_certificate checks its schema and SHA-256 digest
@@ -101,7 +101,7 @@ print(f"nominal full model with motor lag (τ = {1000 * tau0:g} ms): settles in 
 # simulated for the full horizon, not only the tuner's few seconds.
 #
 # One condition explains what follows in several sections.  Near hover, one
-# attitude axis with the PD law of `design.inner_loops` and a first-order motor
+# attitude axis with the PD law of `nniquad.control.inner_loops` and a first-order motor
 # lag τ on the torque obeys τ s³ + s² + 2ζ_a ω_a s + ω_a² = 0, whose Routh
 # condition is **ω_a τ < 2 ζ_a**.  Above it, hover itself is unstable: the
 # attitude oscillates (a limit cycle bounded only by rotor saturation; its
@@ -162,7 +162,7 @@ print("verdict: " + ("the quick set is sound over the long horizon too; the refe
 # * hover at the tilt limit: 4 b ω_max² cos T_lim = m g;
 # * keep the roll/pitch angular acceleration α that the attitude loop was
 #   tuned to use when reversing the tilt at the limit
-#   (`design.tune.attitude_accel_headroom`: the pair difference a rotor can
+#   (`nniquad.tuning.tune.attitude_accel_headroom`: the pair difference a rotor can
 #   still add is T_max − m g/(4 cos T_lim)).
 
 # %%
@@ -248,7 +248,7 @@ print(f"without motor lag the same gains settle in {nl.settling_s:.2f} s, with t
 # feedback that makes the controller NNI *lowers* the static stiffness from
 # m k_p to m k_p (1 − γ), with γ = 1/(m k_p δ) the smallest admissible sector
 # constant.  And the vehicle can only push back with its tilt-limited
-# acceleration: F_max = m a_max (`design.bound.max_horizontal_acceleration`).
+# acceleration: F_max = m a_max (`nniquad.analysis.bound.max_horizontal_acceleration`).
 
 # %%
 a_max = max_horizontal_acceleration(V, TILT)

@@ -41,13 +41,13 @@ from dataclasses import replace
 import matplotlib.pyplot as plt
 import numpy as np
 
-from design import linear as L
-from design import simulate as S
-from design.display import show_figure as show, show_table as md_table
-from design.bound import time_optimal_bound
-from design.metrics import rms_after
-from design.tune import TILT_SLACK_DEG, TuneOptions, certified_reach, decode
-from design.vehicle import PAPER_VEHICLE
+from nniquad.analysis import linear as L
+from nniquad.sim import simulate as S
+from nniquad.reporting.display import show_figure as show, show_table as md_table
+from nniquad.analysis.bound import time_optimal_bound
+from nniquad.analysis.metrics import rms_after
+from nniquad.tuning.tune import TILT_SLACK_DEG, TuneOptions, certified_reach, decode
+from nniquad.model.vehicle import PAPER_VEHICLE
 
 T_START = time.perf_counter()
 V = PAPER_VEHICLE
@@ -79,7 +79,7 @@ CTRL_COLOR = {"nni": "tab:blue", "pd_velocity": "tab:green", "pd_filtered": "tab
 # %%
 from pathlib import Path
 
-from design.certificate import certificate_gains, certificate_inner_loop, load_certificate
+from nniquad.certificates.certificate import certificate_gains, certificate_inner_loop, load_certificate
 
 # written by `nniquad certify --model full --roa-radius 0 --out notebooks/data/full_model_certificate.json`;
 # load_certificate checks its schema and SHA-256 digest
@@ -99,20 +99,20 @@ print(f"inner loops: ω_a = {INNER.attitude_wn_rad_s:.4g} rad/s, ζ_a = {INNER.a
 # ## How the designs are scored
 #
 # For every controller a grid of gain sets is simulated in one batch
-# (`design.simulate.simulate_batch`; all runs of a comparison share one noise
+# (`nniquad.sim.simulate.simulate_batch`; all runs of a comparison share one noise
 # realisation).  A run is *admissible* when it settles within the first half
 # of the horizon, its actual tilt stays within the limit plus the tuner's
 # slack, and it holds altitude within 0.5 m (a chattering attitude loop can
 # settle horizontally while the vehicle sinks, see notebook 3).  The tilt
 # jitter is the RMS tilt over the second half of the run
-# (`design.metrics.rms_after`), when every admissible run has arrived, so it
+# (`nniquad.analysis.metrics.rms_after`), when every admissible run has arrived, so it
 # measures the response to noise and not the tail of the manoeuvre;
 # `Metrics.tilt_jitter_rms_deg` (RMS tilt from the settling time on) is shown
 # as well for the chosen designs.
 #
 # Grids: PD over k_p and the damping ratio of its nominal loop,
 # k_d = 2ζ√k_p (the filtered PD also over τ_f); NNI in the tuner's coordinates
-# (`design.tune.decode`: k_p, m k_p δ on or above the sector bound, and the
+# (`nniquad.tuning.tune.decode`: k_p, m k_p δ on or above the sector bound, and the
 # controller pole Γδ, here in units of √k_p as in notebook 2), so every NNI
 # candidate is certified.  Every grid is run for three attitude-loop
 # bandwidths shared by all controllers, the tuned one and two slower ones:

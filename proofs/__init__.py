@@ -2,7 +2,7 @@
 
 Entry points (used by ``nniquad prove`` and ``nniquad report``)::
 
-    from proofs import run_audit, audit_to_json, audit_to_markdown
+    from nniquad.proofs import run_audit, audit_to_json, audit_to_markdown
     results = run_audit()            # list[ClaimResult], every claim with the paper's versions
     data = audit_to_json(results)    # {"claims": [...], "summary": {...}}
     text = audit_to_markdown(results)

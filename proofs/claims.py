@@ -181,7 +181,7 @@ class ClaimSpec:
 _REGISTRY: dict[str, ClaimSpec] = {}
 
 #: Section modules, imported (and thereby registered) by :func:`registry`.
-_MODULES = tuple(f"proofs.{name}" for name in SECTIONS)
+_MODULES = tuple(f"nniquad.proofs.{name}" for name in SECTIONS)
 
 
 def claim(id: str, paper_ref: Sequence[str] | str, section: str, statement: str, method: str):

@@ -6,9 +6,9 @@ Frames: the horizontal rows come from the paper's ``f(x, u)``, which is NED
 
 The reduced linear loop (one axis: ``m xi'' + m kp xi = F``, ``z' = -Gamma delta z
 + Gamma xi``, ``F = z``, positive feedback) and its characteristic polynomial,
-Routh array and sector bound come from :mod:`design.linear`; the LMIs from
-:mod:`design.lmi`; the definition-level frequency checks are symbolic
-(:mod:`proofs.ni_preliminaries`) with :mod:`design.frequency` as a numeric
+Routh array and sector bound come from :mod:`nniquad.analysis.linear`; the LMIs from
+:mod:`nniquad.analysis.lmi`; the definition-level frequency checks are symbolic
+(:mod:`proofs.ni_preliminaries`) with :mod:`nniquad.analysis.frequency` as a numeric
 cross-check.
 """
 
@@ -19,8 +19,8 @@ from typing import Sequence
 import numpy as np
 import sympy as sp
 
-from design import linear as L
-from design import symbolic as S
+from nniquad.analysis import linear as L
+from nniquad.model import symbolic as S
 
 from .claims import FAILS, HOLDS, HOLDS_WITH_CORRECTION, Finding, claim
 from .ni_preliminaries import (
@@ -244,19 +244,19 @@ def nni_storage(storage: sp.Expr | None = None, dynamics: sp.Matrix | None = Non
        "C(s) = (sI + Gamma Delta)^{-1} Gamma with Gamma = diag(Gamma, Gamma), Delta = diag(delta, delta) is strictly "
        "negative imaginary for every Gamma, delta > 0.", "symbolic+numeric")
 def sni_controller(C: sp.Expr | None = None) -> Finding:
-    """Definition def:SNI symbolically (per diagonal entry), and design.frequency at the paper's numbers."""
+    """Definition def:SNI symbolically (per diagonal entry), and nniquad.analysis.frequency at the paper's numbers."""
     C = paper_controller_tf() if C is None else C
     res = sni_frequency_conditions(C, PAPER_VALUES)
     ev = {"per axis (the matrix is diagonal, so SNI per entry <=> SNI of the matrix)": res}
     try:
         import control as ct
 
-        from design import frequency as F
+        from nniquad.analysis import frequency as F
 
         num, den = sp.fraction(sp.cancel(C.subs(PAPER_VALUES)))
         tf = ct.tf([float(c) for c in sp.Poly(num, s_var).all_coeffs()], [float(c) for c in sp.Poly(den, s_var).all_coeffs()])
         fr = F.ni_check(tf)
-        ev["design.frequency.ni_check at Gamma = 160, delta = 0.6 (numeric grid)"] = {
+        ev["nniquad.analysis.frequency.ni_check at Gamma = 160, delta = 0.6 (numeric grid)"] = {
             "is_sni": fr.is_sni, "grid_min_eig": fr.grid_min_eig, "notes": fr.notes}
     except ImportError:  # pragma: no cover - the frequency module is optional for the audit
         pass
@@ -279,7 +279,7 @@ def controller_realization(realization: tuple | None = None) -> Finding:
     dc = (real.subs(s_var, 0) - D2.inv()).applyfunc(sp.simplify)
     a1, b1, c1, _ = L.controller_matrices_sym()
     ev = {"C_real(s) - C(s)": str(res), "C_real(0) - Delta^{-1}": str(dc),
-          "design.linear per-axis realisation": f"A = {a1}, B = {b1}, C = {c1}",
+          "nniquad.analysis.linear per-axis realisation": f"A = {a1}, B = {b1}, C = {c1}",
           "notation": "the text calls the same transfer matrix C_v(s) ('C_v(0) = Delta^{-1}', Fig. control_diagram); "
                       "C_v and C are one object"}
     if _zero(res) and _zero(dc):
@@ -366,7 +366,7 @@ def sector_bound(threshold=paper_delta_sq_threshold) -> Finding:
     exact_sq = sp.simplify(exact[0] ** 2)
     given = threshold(m, kmin, gam)
     res = sp.simplify(given - exact_sq)
-    # stability of the reduced loop: Routh region m kp delta > 1 (design.linear)
+    # stability of the reduced loop: Routh region m kp delta > 1 (nniquad.analysis.linear)
     routh = L.routh_stability_region()
     # sector with fixed gamma < 1 implies Routh: delta >= 1/(gamma m kmin) => m kp delta >= 1/gamma > 1
     r = sp.Symbol("r", positive=True)  # gamma = 1/(1 + r)
@@ -383,7 +383,7 @@ def sector_bound(threshold=paper_delta_sq_threshold) -> Finding:
         "printed threshold - exact": str(res),
         "necessary too": "yes: F along the smallest-kp axis attains the supremum, so eq. sufficient_condition is "
                          "necessary and sufficient for eq. sector_bound_specific ('it is sufficient that' understates it)",
-        "Routh region of the reduced loop (design.linear)": str(routh["reduced"]),
+        "Routh region of the reduced loop (nniquad.analysis.linear)": str(routh["reduced"]),
         "sector with gamma in (0, 1) => stability": f"m kmin delta - 1 = {margin} > 0 for r > 0, e >= 0: {sufficient}",
         "not necessary for a fixed gamma (numeric)": {
             "m": mv, "kp": kv, "Gamma": 160.0, "delta": dv, "m kp delta": 1.1,
@@ -495,11 +495,11 @@ def remark_robustness(true_masses: Sequence[float] = (0.25, 0.3, 0.4, 0.5, 0.75,
         rows.append({"true mass kg": mt, "plant NNI (V = 1/2 m |xi'|^2 + 1/2 m xi^T Kp xi)": True,
                      "m kp delta": mt * kp_min * gains.delta, "stable": pd.stable,
                      "max Re(pole)": pd.max_real_part})
-    ev = {"model": "paper's compact form with the true mass: m xi'' + m Kp xi = F_h (design.linear; the controller does "
+    ev = {"model": "paper's compact form with the true mass: m xi'' + m Kp xi = F_h (nniquad.analysis.linear; the controller does "
                    "not contain m)",
           "constraint with the nominal mass": {"nominal m": nominal_mass, "gamma": gamma, "holds": designed},
           "true masses": rows,
-          "note": "design.simulate models the implemented inner loop (command scaled by the nominal mass); there the "
+          "note": "nniquad.sim.simulate models the implemented inner loop (command scaled by the nominal mass); there the "
                   "stability condition m_nominal kp delta > 1 does not involve the true mass"}
     bad = [r for r in rows if not r["stable"]]
     if designed and not bad:

@@ -3,13 +3,13 @@
 The lemma and definitions are checked on the two systems the paper applies them
 to: the reshaped plant of one horizontal axis, ``m xi'' + m kp xi = F``,
 ``y = xi`` (``A = [[0, 1], [-kp, 0]]``, ``B = [0, 1/m]^T``, ``C = [1, 0]``, from
-:func:`design.linear.plant_matrices_sym`), and the integral resonant controller
+:func:`nniquad.analysis.linear.plant_matrices_sym`), and the integral resonant controller
 ``z' = -Gamma delta z + Gamma xi``, ``u_c = z``
-(:func:`design.linear.controller_matrices_sym`).  The two axes are decoupled
+(:func:`nniquad.analysis.linear.controller_matrices_sym`).  The two axes are decoupled
 and identical up to ``kp``, so one axis suffices.
 
 Symbolic checks hold for every positive ``m, kp, Gamma, delta``; the LMI checks
-(:mod:`design.lmi`, cvxpy + Clarabel with a numpy re-check) are numeric at the
+(:mod:`nniquad.analysis.lmi`, cvxpy + Clarabel with a numpy re-check) are numeric at the
 paper's numbers and say so.
 """
 
@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from design import linear as L
+from nniquad.analysis import linear as L
 
 from .claims import FAILS, HOLDS, HOLDS_WITH_CORRECTION, Finding, claim
 
@@ -175,7 +175,7 @@ def lemma_symbolic(A: sp.Matrix, B: sp.Matrix, C: sp.Matrix, form: str = "paper"
     """Solve an NI-lemma LMI symbolically for all positive parameters (small n).
 
     ``form='paper'``: ``P > 0``, ``PA + A^TP <= 0``, ``PB = C^T`` (Lemma ``lem:time_domain_NI``).
-    ``form='literature'``: ``PB = A^TC^T`` instead (the NI lemma for ``CB = 0``, see :mod:`design.lmi`).
+    ``form='literature'``: ``PB = A^TC^T`` instead (the NI lemma for ``CB = 0``, see :mod:`nniquad.analysis.lmi`).
 
     The equality is solved for the entries of a symmetric P; a zero diagonal entry of ``PA + A^TP``
     forces its row to vanish (a negative semidefinite matrix with a zero diagonal entry has a zero row);
@@ -227,13 +227,13 @@ def _dissipation_matrix_sym(P: sp.Matrix, A: sp.Matrix, B: sp.Matrix, C: sp.Matr
 
 
 def _lmi_numeric(kind: str, A, B, C, values) -> dict[str, Any]:
-    """Solve the LMI numerically with design.lmi at the given numbers (cvxpy + Clarabel, numpy re-check)."""
-    from design import lmi
+    """Solve the LMI numerically with nniquad.analysis.lmi at the given numbers (cvxpy + Clarabel, numpy re-check)."""
+    from nniquad.analysis import lmi
 
     An, Bn, Cn = (np.array(M.subs(values), dtype=float) for M in (A, B, C))
     fn = lmi.ni_lemma_paper if kind == "paper" else lmi.ni_lemma_dissipation
     r = fn(An, Bn, Cn)
-    out = {"function": f"design.lmi.{fn.__name__}", "status": r.status, "feasible": r.feasible,
+    out = {"function": f"nniquad.analysis.lmi.{fn.__name__}", "status": r.status, "feasible": r.feasible,
            "residuals": r.residuals, "tolerance": r.tolerance}
     if "P" in r.matrices:
         out["P"] = np.asarray(r.matrices["P"]).round(9).tolist()
@@ -340,7 +340,7 @@ def ni_lemma_controller(controller: tuple | None = None, values: dict | None = N
            "(z, xi) with dV/dt - zdot xi > 0": (v / np.max(np.abs(v))).round(6).tolist(),
            "dV/dt - zdot xi there": float(0.5 * (v / np.max(np.abs(v))) @ Dn @ (v / np.max(np.abs(v))))}
     # C B != 0 here, so the literature form is the full dissipation matrix; for one state its determinant is
-    # -Gamma^2 (P - delta)^2 (see design.lmi), so P = delta is the only candidate
+    # -Gamma^2 (P - delta)^2 (see nniquad.analysis.lmi), so P = delta is the only candidate
     num2 = _lmi_numeric("dissipation", A, B, C, values)
     Pd = sp.Matrix([[dlt]]) if A.shape == (1, 1) else sp.Matrix(num2.get("P", [[0]]))
     Dd = _dissipation_matrix_sym(Pd, A, B, C)
@@ -359,7 +359,7 @@ def ni_lemma_controller(controller: tuple | None = None, values: dict | None = N
        "The reshaped plant G(s) = 1/(m (s^2 + kp)) of one axis is NI by Definition def:NI (no poles at 0 or in "
        "Re s > 0; j(G - G^*) >= 0; imaginary-axis poles simple with residue K0 >= 0).", "symbolic")
 def ni_frequency_plant(G: sp.Expr | None = None) -> Finding:
-    """Definition-level NI check, symbolic in m, kp > 0 (with design.frequency as a numeric cross-check if present)."""
+    """Definition-level NI check, symbolic in m, kp > 0 (with nniquad.analysis.frequency as a numeric cross-check if present)."""
     if G is None:
         A, B, C = _plant(None)
         G = transfer_function(A, B, C)
@@ -369,13 +369,13 @@ def ni_frequency_plant(G: sp.Expr | None = None) -> Finding:
     try:  # numeric, definition-level cross-check at the paper's numbers (python-control frequency grid)
         import control as ct
 
-        from design import frequency as F
+        from nniquad.analysis import frequency as F
 
         num, den = sp.fraction(sp.cancel(G.subs(PAPER_VALUES)))
         tf = ct.tf([float(c) for c in sp.Poly(num, s_var).all_coeffs()],
                    [float(c) for c in sp.Poly(den, s_var).all_coeffs()])
         fr = F.ni_check(tf)
-        ev["design.frequency.ni_check at m = 0.5, kp = 5 (numeric)"] = {
+        ev["nniquad.analysis.frequency.ni_check at m = 0.5, kp = 5 (numeric)"] = {
             "is_ni": fr.is_ni, "residues (w0, K0)": [(w0, np.real(K).ravel().tolist()) for w0, K in fr.residues],
             "grid_min_eig_relative": fr.grid_min_eig_relative, "notes": fr.notes}
     except ImportError:  # pragma: no cover - optional cross-check

@@ -2,7 +2,7 @@
 
 The paper's printed expressions are typed here from the LaTeX source, each next
 to its label (``paper_*`` functions): they are the claims under test.  The
-correct versions come from :mod:`design.symbolic` (derived from the Lagrangian,
+correct versions come from :mod:`nniquad.model.symbolic` (derived from the Lagrangian,
 NED/FRD frame, thrust along ``-z_B``) and, where a second route is cheap, from an
 independent construction in this module (``sympy.physics.vector`` for the
 rotation and the body rates, Euler's equations typed here for rows 7-12).
@@ -12,7 +12,7 @@ Frames.  The paper mixes two frames: eq. ``translational_dynamics``
 ``full_dynamics`` are NED (``z'' = g - (u1/m) c_phi c_theta``).  The z-up frame is
 the NED frame rotated by pi about north: ``(x, y, z)_up = (x, -y, -z)_NED`` and
 ``(phi, theta, psi)_up = (phi, -theta, -psi)_NED`` (see
-:func:`design.symbolic.ned_to_zup`).
+:func:`nniquad.model.symbolic.ned_to_zup`).
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ from functools import lru_cache
 import numpy as np
 import sympy as sp
 
-from design import symbolic as S
+from nniquad.model import symbolic as S
 
 from .claims import FAILS, HOLDS, HOLDS_WITH_CORRECTION, Finding, claim
 
@@ -98,7 +98,7 @@ def paper_translational_rows() -> sp.Matrix:
 def paper_rotational_rows() -> sp.Matrix:
     """Rows 8, 10, 12 of eq. ``full_dynamics`` (phi'', theta'', psi'') with a1..a5, b1..b3 as printed.
 
-    ``omega(u)`` is :attr:`design.symbolic.Symbols.Omega_r`.
+    ``omega(u)`` is :attr:`nniquad.model.symbolic.Symbols.Omega_r`.
     """
     x8, x10, x12 = s.eta_dot
     Jx, Jy, Jz, Jr, l = s.Jx, s.Jy, s.Jz, s.Jr, s.l
@@ -184,7 +184,7 @@ def rotation_matrix(R: sp.Matrix | None = None) -> Finding:
     ev = {
         "R^T R - I": str(orth),
         "det(R) - 1": str(det),
-        "R - Rz(psi) Ry(theta) Rx(phi) (design.symbolic.rotation_zyx)": str(zyx),
+        "R - Rz(psi) Ry(theta) Rx(phi) (nniquad.model.symbolic.rotation_zyx)": str(zyx),
         "R - N.dcm(B) (sympy.physics.vector, orient_body_fixed 'ZYX')": str(vec),
     }
     ok_rot = _is_zero(orth) and det == 0
@@ -202,13 +202,13 @@ def rotation_matrix(R: sp.Matrix | None = None) -> Finding:
        "The printed W(eta) maps Euler-angle rates to body angular velocity, omega = W(eta) eta_dot, "
        "for the ZYX angles of eq. rotation_matrix.", "symbolic")
 def angular_velocity_map(W: sp.Matrix | None = None) -> Finding:
-    """Compare W with ``skew(omega) = R^T R_dot`` (design.symbolic) and with sympy.physics.vector body rates."""
+    """Compare W with ``skew(omega) = R^T R_dot`` (nniquad.model.symbolic) and with sympy.physics.vector body rates."""
     W = paper_angular_velocity_matrix() if W is None else sp.Matrix(W)
     derived = _residual(W, S.euler_rate_matrix())
     _, W_vec = _vector_frames()
     vec = _residual(W, W_vec)
     ev = {
-        "W - W_derived, skew(W eta_dot) = R^T dR/dt (design.symbolic.euler_rate_matrix)": str(derived),
+        "W - W_derived, skew(W eta_dot) = R^T dR/dt (nniquad.model.symbolic.euler_rate_matrix)": str(derived),
         "W - d(omega)/d(eta_dot), omega = B.ang_vel_in(N) in B (sympy.physics.vector)": str(vec),
         "small-angle remark": f"W(0) - I = {sp.Matrix(W).subs({e: 0 for e in s.eta}) - sp.eye(3)}",
     }
@@ -286,7 +286,7 @@ def lagrangian_decoupling(lagrangian: sp.Expr | None = None) -> Finding:
                   "M(eta) = W^T J W; the rotational equation then reads M(eta) eta'' + C(eta, eta') eta' = W^T tau "
                   "(M(0) = J, so it is J eta'' + C eta' = tau only at eta = 0)",
         "decoupled": not c2,
-        "EL_eta velocity terms - C_Christoffel eta' (design.symbolic.coriolis_matrix)": str(res_C),
+        "EL_eta velocity terms - C_Christoffel eta' (nniquad.model.symbolic.coriolis_matrix)": str(res_C),
         "M - W^T J W": str(res_M),
         "(M' - 2C) + (M' - 2C)^T (skew-symmetry)": str(skew_res),
         "C identically zero": _is_zero(h2),
@@ -337,7 +337,7 @@ def thrust_vector(thrust: sp.Matrix | None = None) -> Finding:
     correction = {
         "F_xi (z-up, body FLU)": str(corr),
         "|F_xi|^2 - u1^2": str(norm_res),
-        "F_xi - design.symbolic.thrust_force('z-up')": str(design_res),
+        "F_xi - nniquad.model.symbolic.thrust_force('z-up')": str(design_res),
         "NED/FRD form (frame of f(x, u))": "F_xi = -u1 R e3",
         "checked": ok,
     }
@@ -394,7 +394,7 @@ def translational_dynamics(thrust: sp.Matrix | None = None, rows: sp.Matrix | No
 
 @lru_cache(maxsize=1)
 def _exact_rotational_rows() -> sp.Matrix:
-    """phi'', theta'', psi'' of the exact model (design.symbolic, T_rot = 1/2 w^T J w) in the paper's inputs."""
+    """phi'', theta'', psi'' of the exact model (nniquad.model.symbolic, T_rot = 1/2 w^T J w) in the paper's inputs."""
     f = S.full_dynamics("exact")
     rows = sp.Matrix([f[7], f[9], f[11]])
     return rows.xreplace({s.tau[0]: s.l * u2, s.tau[1]: s.l * u3, s.tau[2]: u4})
@@ -427,7 +427,7 @@ def rotational_rows(rows: sp.Matrix | None = None) -> Finding:
     zero_rates = {e: 0 for e in s.eta_dot}
     lin = (exact.xreplace(zero_rates).jacobian(sp.Matrix(s.eta)).xreplace(zero_att)).applyfunc(sp.simplify)
     # numeric size of the gap at a 0.1 rad attitude with hover-level inputs (paper vehicle, l and Jr from Luukkonen)
-    from design.vehicle import PAPER_VEHICLE as V
+    from nniquad.model.vehicle import PAPER_VEHICLE as V
 
     pv = {s.m: V.m, s.g: V.g, s.Jx: V.Jx, s.Jy: V.Jy, s.Jz: V.Jz, s.Jr: V.Jr, s.l: V.l}
     num = {}
@@ -440,7 +440,7 @@ def rotational_rows(rows: sp.Matrix | None = None) -> Finding:
             "exact": a.round(9).tolist(), "rows": b.round(9).tolist(),
             "max|gap| / max|exact|": float(np.max(np.abs(a - b)) / np.max(np.abs(a)))}
     ev = {
-        "exact model (design.symbolic, T_rot = 1/2 w^T J w) minus rows, at eta = 0": str(gap0),
+        "exact model (nniquad.model.symbolic, T_rot = 1/2 w^T J w) minus rows, at eta = 0": str(gap0),
         "d(exact)/d(eta) at eta = 0, eta' = 0 (first-order attitude terms the rows drop)": str(lin),
         "rows - J^{-1}(tau - w x (Jr Omega e3) - w x J w) with w = eta' (Euler, small angle)": str(sa_res),
         "gyroscopic convention": "tau_gyro = -w x (Jr Omega e3) = (-Jr q Omega, +Jr p Omega, 0): gives -a2 theta' Omega "

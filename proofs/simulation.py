@@ -1,12 +1,12 @@
 """Audit of Sec. ``sec:simulation`` (the delta_min arithmetic, the described response, the full vehicle).
 
 The paper's simulation claims are tested on the model the theory covers -- the
-reduced linear loop of :mod:`design.linear`, propagated exactly with the matrix
+reduced linear loop of :mod:`nniquad.analysis.linear`, propagated exactly with the matrix
 exponential and cross-checked with python-control -- and, for
-``full-model-stability``, on the 12-state vehicle of :mod:`design.simulate`
+``full-model-stability``, on the 12-state vehicle of :mod:`nniquad.sim.simulate`
 (realistic attitude loop, 30 deg tilt limit, rotor saturation).
 Conventions follow DESIGN.md: start at xi_h(0) = (2, -1.5) m at rest, z(0) = 0;
-overshoot and settling from :mod:`design.metrics`.
+overshoot and settling from :mod:`nniquad.analysis.metrics`.
 """
 
 from __future__ import annotations
@@ -17,8 +17,8 @@ from typing import Sequence
 import numpy as np
 import sympy as sp
 
-from design import linear as L
-from design import metrics as MT
+from nniquad.analysis import linear as L
+from nniquad.analysis import metrics as MT
 
 from .claims import FAILS, HOLDS, HOLDS_WITH_CORRECTION, Finding, claim
 
@@ -56,7 +56,7 @@ def linear_response(m: float, gains: L.Gains, x0: np.ndarray, t: np.ndarray) -> 
        "the chosen delta = 0.6 satisfies the constraint.", "symbolic+numeric")
 def delta_min(m: float | str = "1/2", kp: float | str = "5", gamma: float | str = "4/5",
               stated_sq: float | str = "1/4", stated: float | str = "1/2", chosen: float | str = "3/5") -> Finding:
-    """Exact rational arithmetic, cross-checked with design.linear.sector_delta_min."""
+    """Exact rational arithmetic, cross-checked with nniquad.analysis.linear.sector_delta_min."""
     mq, kq, gq = (sp.Rational(str(Fraction(str(v)))) for v in (m, kp, gamma))
     sq = 1 / (gq**2 * mq**2 * kq**2)
     dmin = sp.sqrt(sq)
@@ -66,7 +66,7 @@ def delta_min(m: float | str = "1/2", kp: float | str = "5", gamma: float | str 
     st = sp.Rational(str(Fraction(str(stated))))
     ch = sp.Rational(str(Fraction(str(chosen))))
     ev = {"factors": factors, "delta_min^2": str(sq), "delta_min": str(dmin),
-          "design.linear.sector_delta_min (numeric)": lib,
+          "nniquad.analysis.linear.sector_delta_min (numeric)": lib,
           "chosen delta satisfies delta >= delta_min": bool(ch >= dmin),
           "smallest gamma for the chosen delta, 1/(m kp delta)": str(1 / (mq * kq * ch)),
           "m kp delta (Routh: stable iff > 1)": str(mq * kq * ch)}
@@ -87,8 +87,8 @@ def _shape(t: np.ndarray, xy: np.ndarray) -> dict:
     big = np.abs(dp) > 1e-12 * abs(p[0])
     ds = np.sign(dp[big])
     extrema = int(np.sum(ds[1:] != ds[:-1]))
-    return {"overshoot_pct (design.metrics)": MT.overshoot_pct(t, xy),
-            "settling_s (design.metrics, 2 % band)": MT.settling_time(t, xy),
+    return {"overshoot_pct (nniquad.analysis.metrics)": MT.overshoot_pct(t, xy),
+            "settling_s (nniquad.analysis.metrics, 2 % band)": MT.settling_time(t, xy),
             "zero crossings along the initial direction": crossings,
             "local extrema (oscillations)": extrema}
 
@@ -126,33 +126,33 @@ def simulation_claim(gains: L.Gains = L.PAPER_GAINS, m: float = 0.5, state0: Seq
           "max |expm - python-control initial_response| [m]": dev,
           "X(s)/x(0) for x(0) = (1, 0, 0), any gains (symbolic)": str(X_s),
           "X(0) = integral of x(t) dt": str(X0)}
-    holds = shape["overshoot_pct (design.metrics)"] <= 0.1 and shape["zero crossings along the initial direction"] == 0 \
+    holds = shape["overshoot_pct (nniquad.analysis.metrics)"] <= 0.1 and shape["zero crossings along the initial direction"] == 0 \
         and shape["local extrema (oscillations)"] == 0
     if holds:
         return Finding(HOLDS, "no overshoot, no zero crossing, no oscillation", ev)
     period = 2 * np.pi / float(np.max(np.abs(pdmp.poles.imag))) if np.any(pdmp.poles.imag != 0) else None
-    cex = {"overshoot_pct": shape["overshoot_pct (design.metrics)"],
+    cex = {"overshoot_pct": shape["overshoot_pct (nniquad.analysis.metrics)"],
            "zero crossings": shape["zero crossings along the initial direction"],
            "oscillation period [s]": period, "dominant damping ratio": pdmp.min_damping,
-           "settling_s": shape["settling_s (design.metrics, 2 % band)"]}
+           "settling_s": shape["settling_s (nniquad.analysis.metrics, 2 % band)"]}
     correction = {
         "no gain set can make it hold": f"for x(0) = (x0, 0, 0) the Laplace transform X(s) = x0 {X_s} vanishes at "
                                         "s = 0, so for every stabilising (kp, Gamma, delta) the integral of x(t) over "
                                         "[0, inf) is 0: x(t) must change sign, i.e. overshoot > 0, whatever the gains",
         "corrected sentence": (f"the positions converge to zero as a lightly damped oscillation (damping ratio "
                                f"{pdmp.min_damping:.3f}, period {period:.2f} s), overshooting by "
-                               f"{shape['overshoot_pct (design.metrics)']:.1f} % and settling into the 2 % band after "
-                               f"{shape['settling_s (design.metrics, 2 % band)']:.0f} s") if period else
+                               f"{shape['overshoot_pct (nniquad.analysis.metrics)']:.1f} % and settling into the 2 % band after "
+                               f"{shape['settling_s (nniquad.analysis.metrics, 2 % band)']:.0f} s") if period else
                               "the response overshoots",
     }
-    return Finding(FAILS, f"overshoot {shape['overshoot_pct (design.metrics)']:.0f} %, "
+    return Finding(FAILS, f"overshoot {shape['overshoot_pct (nniquad.analysis.metrics)']:.0f} %, "
                           f"{shape['zero crossings along the initial direction']} zero crossings, dominant damping "
                           f"{pdmp.min_damping:.3f}; integral of x is 0 for any gains, so overshoot is unavoidable",
                    ev, cex, correction)
 
 
 def _full_run(gains: L.Gains, horizon_s: float, model: str = "full") -> dict:
-    from design.simulate import SimOptions, simulate
+    from nniquad.sim.simulate import SimOptions, simulate
 
     tr = simulate(gains=gains, options=SimOptions(model=model, horizon_s=horizon_s))
     d = np.linalg.norm(tr.xy, axis=1)
@@ -171,17 +171,17 @@ def _full_run(gains: L.Gains, horizon_s: float, model: str = "full") -> dict:
        "rotor saturation) from xi_h(0) = (2, -1.5) m to the origin.", "simulation+LMI")
 def full_model_stability(gains: L.Gains = L.PAPER_GAINS, horizon_s: float = 300.0,
                          correction_gains: L.Gains = CORRECTED_FULL_MODEL_GAINS) -> Finding:
-    """Simulate the full vehicle (design.simulate), the tilt-limited reduced loop, and the saturated-loop ROA LMI."""
-    from design import lmi
-    from design.vehicle import PAPER_VEHICLE as V
+    """Simulate the full vehicle (nniquad.sim.simulate), the tilt-limited reduced loop, and the saturated-loop ROA LMI."""
+    from nniquad.analysis import lmi
+    from nniquad.model.vehicle import PAPER_VEHICLE as V
 
     full = _full_run(gains, horizon_s, "full")
     reduced = _full_run(gains, horizon_s, "reduced")
     u0 = lmi.axis_acceleration_limit(V.g, 30.0)
     roa = lmi.region_of_attraction(V.m, gains.kp, gains.Gamma, gains.delta, u0)
-    ev = {"gains": gains.as_dict(), "full model (design.simulate)": full,
+    ev = {"gains": gains.as_dict(), "full model (nniquad.sim.simulate)": full,
           "reduced model with the tilt limit, attitude instantaneous": reduced,
-          "region of attraction LMI, one axis, saturated acceleration (design.lmi)": {
+          "region of attraction LMI, one axis, saturated acceleration (nniquad.analysis.lmi)": {
               "feasible": roa.feasible, "u0 [m/s^2]": u0,
               "certified displacement from rest [m]": roa.values.get("max_displacement_m"),
               "note": "covers the reduced saturated loop only (no attitude dynamics)"}}

@@ -12,7 +12,7 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 @pytest.fixture
 def run_cli(capsys):
     """Run ``nniquad`` in-process; return (exit status, stdout, stderr)."""
-    from design.cli import main
+    from nniquad.cli.main import main
 
     def _run(*argv: str):
         try:

@@ -8,15 +8,15 @@ import math
 import numpy as np
 import pytest
 
-from design.bound import (
+from nniquad.analysis.bound import (
     bang_bang_enter_band,
     bang_bang_rest_to_rest,
     max_horizontal_acceleration,
     thrust_tilt_limit_deg,
     time_optimal_bound,
 )
-from design.errors import SimulationError
-from design.vehicle import PAPER_VEHICLE
+from nniquad.errors import SimulationError
+from nniquad.model.vehicle import PAPER_VEHICLE
 
 # IPOPT's transcription holds the acceleration piecewise constant, so its optimum
 # is above the continuous one by O(h²) (the switch is not a node); 1e-3 relative

@@ -8,12 +8,12 @@ import json
 import numpy as np
 import pytest
 
-from design.certificate import (SCHEMA_VERSION, build_certificate, canonical_digest, load_certificate,
+from nniquad.certificates.certificate import (SCHEMA_VERSION, build_certificate, canonical_digest, load_certificate,
                                 verify_certificate, write_certificate)
-from design.errors import CertificateError
-from design.inner_loops import InnerLoopGains
-from design.linear import Gains
-from design.vehicle import PAPER_VEHICLE as V
+from nniquad.errors import CertificateError
+from nniquad.control.inner_loops import InnerLoopGains
+from nniquad.analysis.linear import Gains
+from nniquad.model.vehicle import PAPER_VEHICLE as V
 
 # a gain set found by `nniquad tune --model full --roa-radius 0` (it only has to be certifiable here)
 GAINS = Gains(13.148341568334407, 25.27258951977003, 0.19046572101699574)

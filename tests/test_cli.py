@@ -7,7 +7,7 @@ import sys
 
 import pytest
 
-from design.cli import _available_commands
+from nniquad.cli.main import _available_commands
 
 
 @pytest.mark.parametrize("command", sorted(_available_commands()))
@@ -25,5 +25,5 @@ def test_top_level_help_lists_commands(run_cli):
 
 
 def test_console_script_installed():
-    out = subprocess.run([sys.executable, "-m", "design.cli", "--version"], capture_output=True, text=True)
+    out = subprocess.run([sys.executable, "-m", "nniquad", "--version"], capture_output=True, text=True)
     assert out.returncode == 0 and "nniquad" in out.stdout

@@ -41,7 +41,7 @@ def test_simulate_full_csv_and_gains(run_cli, tmp_path):
 
 def _signed(body: dict) -> str:
     """A certificate-shaped document with a valid digest (only the form is checked by simulate)."""
-    from design.certificate import SCHEMA, SCHEMA_VERSION, canonical_digest
+    from nniquad.certificates.certificate import SCHEMA, SCHEMA_VERSION, canonical_digest
 
     doc = {"schema": SCHEMA, "schema_version": SCHEMA_VERSION, **body}
     doc["digest"] = {"algorithm": "sha256", "value": canonical_digest(doc)}

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from design.frequency import ni_check, ni_interconnection_check, residues_on_imaginary_axis
-from design.linear import controller_ss, plant_ss
+from nniquad.analysis.frequency import ni_check, ni_interconnection_check, residues_on_imaginary_axis
+from nniquad.analysis.linear import controller_ss, plant_ss
 
 
 @pytest.mark.parametrize("m, kp", [(0.5, 5.0), (2.0, 0.3)])

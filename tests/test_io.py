@@ -7,7 +7,7 @@ import os
 
 import pytest
 
-from design.io import atomic_write_json, atomic_write_text, atomic_write_with
+from nniquad.io import atomic_write_json, atomic_write_text, atomic_write_with
 
 
 def test_atomic_write_replaces_and_uses_umask_mode(tmp_path):

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from design.errors import GainError
-from design import linear as L
+from nniquad.errors import GainError
+from nniquad.analysis import linear as L
 
 m_, kp_, G_, d_ = (L.SYMBOLS[k] for k in ("m", "kp", "Gamma", "delta"))
 s = sp.Symbol("s")

@@ -7,10 +7,10 @@ import json
 import numpy as np
 import pytest
 
-from design import lmi
-from design.errors import GainError, SolverError
-from design.frequency import ni_interconnection_check
-from design.linear import (
+from nniquad.analysis import lmi
+from nniquad.errors import GainError, SolverError
+from nniquad.analysis.frequency import ni_interconnection_check
+from nniquad.analysis.linear import (
     Gains,
     PAPER_GAINS,
     closed_loop_A_axis,

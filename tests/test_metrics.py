@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from design.errors import NniquadError, SimulationError
-from design.metrics import (
+from nniquad.errors import NniquadError, SimulationError
+from nniquad.analysis.metrics import (
     Metrics,
     compute_metrics,
     diverged,

@@ -1,6 +1,6 @@
 """Monte Carlo robustness studies: statistics, reproducibility, executors (local pool, Dask) and the CLI.
 
-Reference values are independent of :mod:`design.montecarlo`: closed forms of
+Reference values are independent of :mod:`nniquad.study.montecarlo`: closed forms of
 the Wilson interval and of the order-statistic median interval, numpy's own
 ``SeedSequence.spawn`` streams, the certificate's stored ``full`` run, and the
 thrust limit ``4 b ω_max² < m g``.
@@ -17,10 +17,10 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from design import montecarlo as mc
-from design.inner_loops import InnerLoopGains
-from design.linear import Gains
-from design.vehicle import PAPER_VEHICLE
+from nniquad.study import montecarlo as mc
+from nniquad.control.inner_loops import InnerLoopGains
+from nniquad.analysis.linear import Gains
+from nniquad.model.vehicle import PAPER_VEHICLE
 
 # tuned gains: the full model settles in 1.53 s from (2, -1.5) m; certified reach 3.66 m
 GAINS = Gains(13.148341568334407, 25.27258951977003, 0.19046572101699574)
@@ -39,7 +39,7 @@ MIXED = ["--tau-motor-range", "0.005", "0.03", "--noise-range", "0", "0.002"]
 @pytest.fixture(scope="session")
 def cert_path(tmp_path_factory):
     """A real certificate of the tuned gains (about 4 s: LMIs and two reference runs)."""
-    from design.certificate import build_certificate, write_certificate
+    from nniquad.certificates.certificate import build_certificate, write_certificate
 
     path = tmp_path_factory.mktemp("mc") / "cert.json"
     cert = build_certificate(PAPER_VEHICLE, GAINS, inner=INNER, model="full")
@@ -156,7 +156,7 @@ def test_known_bad_scenarios_fail(setup4):
 
 def test_nominal_scenario_reproduces_the_certificate(cert_path):
     """No perturbation, continuous measurement: the certificate's own ``full`` run (via simulate())."""
-    from design.certificate import load_certificate
+    from nniquad.certificates.certificate import load_certificate
 
     cert = load_certificate(cert_path)
     setup = mc.study_setup(cert, horizon_s=6.0)
@@ -202,7 +202,7 @@ def test_dask_cluster_equals_local_pool(run_cli, cert_path, tmp_path):
     outcomes = {r["success"] for r in pool["results"]}
     assert outcomes == {True, False}  # the comparison covers both kinds of outcome
     # a third executor: this process, one batch
-    from design.certificate import load_certificate
+    from nniquad.certificates.certificate import load_certificate
 
     ranges = mc.ScenarioRanges(tau_motor_s=(0.005, 0.03), noise_sigma_m=(0.0, 0.002))
     setup = mc.study_setup(load_certificate(cert_path), ranges, horizon_s=4.0)

@@ -6,7 +6,7 @@ import json
 
 import pytest
 
-from proofs import claims as CL
+from nniquad.proofs import claims as CL
 
 REQUIRED = [
     "rotation-matrix", "angular-velocity-map", "lagrangian-decoupling", "thrust-vector", "translational-dynamics",

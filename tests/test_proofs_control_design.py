@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import sympy as sp
 
-from design import linear as L
-from proofs import control_design as C
-from proofs.claims import FAILS, HOLDS, HOLDS_WITH_CORRECTION, jsonable
+from nniquad.analysis import linear as L
+from nniquad.proofs import control_design as C
+from nniquad.proofs.claims import FAILS, HOLDS, HOLDS_WITH_CORRECTION, jsonable
 
 m, kpx, kpy, Fx, Fy = C.m, C.kpx, C.kpy, C.Fx, C.Fy
 x1, x2, x3, x4 = C.x1, C.x2, C.x3, C.x4

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import sympy as sp
 
-from design import linear as L
-from proofs import ni_preliminaries as N
-from proofs.claims import FAILS, HOLDS, HOLDS_WITH_CORRECTION
+from nniquad.analysis import linear as L
+from nniquad.proofs import ni_preliminaries as N
+from nniquad.proofs.claims import FAILS, HOLDS, HOLDS_WITH_CORRECTION
 
 m, kp, Gam, dlt = L.SYMBOLS["m"], L.SYMBOLS["kp"], L.SYMBOLS["Gamma"], L.SYMBOLS["delta"]
 s = N.s_var
@@ -42,7 +42,7 @@ def test_ni_frequency_plant_and_non_ni_variants():
 def test_residue_against_python_control():
     import control as ct
 
-    from design import frequency as F
+    from nniquad.analysis import frequency as F
 
     res, simple = F.residues_on_imaginary_axis(L.plant_ss(0.5, 5.0))
     assert simple

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import sympy as sp
 
-from design import symbolic as S
-from proofs import quadrotor_model as Q
-from proofs.claims import FAILS, HOLDS, HOLDS_WITH_CORRECTION
+from nniquad.model import symbolic as S
+from nniquad.proofs import quadrotor_model as Q
+from nniquad.proofs.claims import FAILS, HOLDS, HOLDS_WITH_CORRECTION
 
 s = S.symbols()
 

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from design import linear as L
-from design import metrics as MT
-from proofs import simulation as SIM
-from proofs.claims import FAILS, HOLDS, HOLDS_WITH_CORRECTION
+from nniquad.analysis import linear as L
+from nniquad.analysis import metrics as MT
+from nniquad.proofs import simulation as SIM
+from nniquad.proofs.claims import FAILS, HOLDS, HOLDS_WITH_CORRECTION
 
 
 def test_delta_min_and_wrong_inputs():
@@ -28,9 +28,9 @@ def test_simulation_claim_fails_with_numbers_from_a_second_integrator():
     xy = sol.y[[0, 3]].T
     ov = MT.overshoot_pct(t, xy)
     shape = r.evidence["response (expm, dt = 0.01 s, 400 s)"]
-    assert abs(ov - shape["overshoot_pct (design.metrics)"]) < 0.05  # percent points
+    assert abs(ov - shape["overshoot_pct (nniquad.analysis.metrics)"]) < 0.05  # percent points
     st = MT.settling_time(t, xy)
-    assert abs(st - shape["settling_s (design.metrics, 2 % band)"]) < 0.05  # s
+    assert abs(st - shape["settling_s (nniquad.analysis.metrics, 2 % band)"]) < 0.05  # s
 
 
 def test_simulation_claim_can_hold_from_a_slow_eigenvector():
@@ -52,5 +52,5 @@ def test_full_model_variant_gains_hold():
 def test_full_model_paper_gains():
     r = SIM.full_model_stability(horizon_s=180.0)
     assert r.verdict == HOLDS_WITH_CORRECTION
-    win = r.evidence["full model (design.simulate)"]["max distance per 60 s window [m]"]
+    win = r.evidence["full model (nniquad.sim.simulate)"]["max distance per 60 s window [m]"]
     assert win[-1] > win[0] > 2.5  # growing oscillation

@@ -6,13 +6,13 @@ import json
 
 import pytest
 
-from design.certificate import load_certificate, verify_certificate
-from design.report import fmt
+from nniquad.certificates.certificate import load_certificate, verify_certificate
+from nniquad.reporting.report import fmt
 
 
 @pytest.fixture(scope="module")
 def report_dir(tmp_path_factory):
-    from design.cli import main
+    from nniquad.cli.main import main
 
     out = tmp_path_factory.mktemp("report")
     # a stale file from an "earlier run" that listed it: the new run must remove it

@@ -12,14 +12,14 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.linalg import expm
 
-from design import simulate as sim
-from design.errors import GainError, SimulationError
-from design.inner_loops import InnerLoopGains, allocate
-from design.linear import PAPER_GAINS, Gains, closed_loop_A
-from design.metrics import settling_time
-from design.numeric import dynamics_function, mixer_function, param_vector
-from design.simulate import SimOptions, SimParams, simulate, simulate_batch
-from design.vehicle import PAPER_VEHICLE
+from nniquad.sim import simulate as sim
+from nniquad.errors import GainError, SimulationError
+from nniquad.control.inner_loops import InnerLoopGains, allocate
+from nniquad.analysis.linear import PAPER_GAINS, Gains, closed_loop_A
+from nniquad.analysis.metrics import settling_time
+from nniquad.model.numeric import dynamics_function, mixer_function, param_vector
+from nniquad.sim.simulate import SimOptions, SimParams, simulate, simulate_batch
+from nniquad.model.vehicle import PAPER_VEHICLE
 
 V = PAPER_VEHICLE
 #: A well-damped gain set (slowest pole -0.85 1/s) for short test horizons.
@@ -41,7 +41,7 @@ def _expm_xy(A6: np.ndarray, x0: np.ndarray, t: np.ndarray) -> np.ndarray:
 
 @pytest.mark.parametrize("gains", [PAPER_GAINS, FAST], ids=["paper", "fast"])
 def test_linear_matches_matrix_exponential(gains):
-    """RK4 at 1 ms against expm of the closed-loop A of design.linear: within 1e-6 m over 30 s."""
+    """RK4 at 1 ms against expm of the closed-loop A of nniquad.analysis.linear: within 1e-6 m over 30 s."""
     tr = simulate(V, gains, SimOptions(model="linear", horizon_s=30.0))
     A6 = closed_loop_A(V.m, gains.kp, gains.Gamma, gains.delta)
     ref = _expm_xy(A6, np.array([2.0, 0, 0, -1.5, 0, 0]), tr.t)
@@ -385,7 +385,7 @@ def test_params_vector_roundtrip_and_layout():
 
 
 def test_paper_figure_and_trajectory_plot(tmp_path):
-    from design.plots import paper_figure, trajectory_plot
+    from nniquad.reporting.plots import paper_figure, trajectory_plot
 
     runs = sim.paper_figure_runs(V, PAPER_GAINS, horizon_s=12.0)
     assert list(runs) == list(sim.MODELS)

@@ -1,4 +1,4 @@
-"""The PD comparison controllers of design.simulate ("pd_velocity", "pd_filtered").
+"""The PD comparison controllers of nniquad.sim.simulate ("pd_velocity", "pd_filtered").
 
 Checked against independent computations: the matrix exponential of the
 closed-form linear loops (ξ'' = -kp ξ - kd ξ' with the true velocity; the
@@ -12,11 +12,11 @@ import numpy as np
 import pytest
 from scipy.linalg import expm
 
-from design import simulate as sim
-from design.errors import GainError, SimulationError
-from design.linear import PAPER_GAINS
-from design.simulate import PDGains, SimOptions
-from design.vehicle import PAPER_VEHICLE
+from nniquad.sim import simulate as sim
+from nniquad.errors import GainError, SimulationError
+from nniquad.analysis.linear import PAPER_GAINS
+from nniquad.sim.simulate import PDGains, SimOptions
+from nniquad.model.vehicle import PAPER_VEHICLE
 
 XI0 = np.array(sim.DEFAULT_XI0)
 

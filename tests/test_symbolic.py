@@ -7,9 +7,9 @@ import pytest
 import sympy as sp
 from scipy.integrate import solve_ivp
 
-from design import numeric as N
-from design import symbolic as S
-from design.vehicle import PAPER_VEHICLE
+from nniquad.model import numeric as N
+from nniquad.model import symbolic as S
+from nniquad.model.vehicle import PAPER_VEHICLE
 
 s = S.symbols()
 RNG = np.random.default_rng(20261123)

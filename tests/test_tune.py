@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from design.errors import GainError, NniquadError
-from design.linear import Gains, smallest_gamma
-from design.metrics import settling_time
-from design.tune import (TuneOptions, attitude_accel_headroom, certified_reach, decode, encode, search_box,
+from nniquad.errors import GainError, NniquadError
+from nniquad.analysis.linear import Gains, smallest_gamma
+from nniquad.analysis.metrics import settling_time
+from nniquad.tuning.tune import (TuneOptions, attitude_accel_headroom, certified_reach, decode, encode, search_box,
                          tune)
-from design.vehicle import PAPER_VEHICLE as V
+from nniquad.model.vehicle import PAPER_VEHICLE as V
 
 
 @pytest.fixture(scope="module")
@@ -46,7 +46,7 @@ def test_coordinates_make_the_sector_bound_a_box_bound():
         lo, hi = search_box(TuneOptions(gamma_max=gamma_max, roa_radius_m=0))
         for q in lo + rng.random((50, 3)) * (hi - lo):
             g, _ = decode(q, V.m, gamma_max)
-            # u = q1 >= 0 is exactly gamma <= gamma_max, computed independently by design.linear
+            # u = q1 >= 0 is exactly gamma <= gamma_max, computed independently by nniquad.analysis.linear
             assert smallest_gamma(V.m, g.kp, None, g.delta) == pytest.approx(gamma_max * math.exp(-q[1]), rel=1e-12)
             np.testing.assert_allclose(encode(g, V.m, gamma_max), q, rtol=1e-12, atol=1e-12)
     g, _ = decode([math.log(7.0), 0.0, math.log(3.0)], V.m, 0.8)
@@ -72,7 +72,7 @@ def test_quick_tune_is_confirmed_by_scipy_and_respects_the_bound(quick_reduced):
 
 def test_perturbed_gains_are_not_better(quick_reduced):
     """The refined point is a local minimum: small moves in every coordinate do not beat it."""
-    from design.tune import evaluate
+    from nniquad.tuning.tune import evaluate
 
     res = quick_reduced
     q = encode(res.gains, V.m, 0.8)
@@ -123,8 +123,8 @@ def test_cli_tune_quick(run_cli, tmp_path):
 
 
 def test_mass_range_tunes_the_worst_case():
-    from design.simulate import simulate
-    from design.tune import simulation_options
+    from nniquad.sim.simulate import simulate
+    from nniquad.tuning.tune import simulation_options
 
     res = tune(V, TuneOptions(model="reduced", roa_radius_m=0.0, budget="quick", mass_range=(0.4, 0.7)))
     base = simulation_options(res.options, res.horizon_s)
@@ -135,8 +135,8 @@ def test_mass_range_tunes_the_worst_case():
 
 
 def test_margin_scenario_and_altitude_penalty():
-    from design.metrics import Metrics
-    from design.tune import ALTITUDE_CAP_M, _cost, _scenario_options, simulation_options
+    from nniquad.analysis.metrics import Metrics
+    from nniquad.tuning.tune import ALTITUDE_CAP_M, _cost, _scenario_options, simulation_options
 
     opts = TuneOptions(model="full", roa_radius_m=0.0, margin=True, mass_range=(0.4, 0.6))
     scen = _scenario_options(opts, simulation_options(opts, 5.0), V)

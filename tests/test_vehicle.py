@@ -7,8 +7,8 @@ import math
 
 import pytest
 
-from design.errors import VehicleError
-from design.vehicle import PAPER_VEHICLE, UNITS, load_vehicle, vehicle_to_toml
+from nniquad.errors import VehicleError
+from nniquad.model.vehicle import PAPER_VEHICLE, UNITS, load_vehicle, vehicle_to_toml
 
 
 def test_paper_vehicle_matches_paper_table():

@@ -1,0 +1,95 @@
+"""``nniquad certify``: tune (or take given gains), solve every LMI, write a signed certificate."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from nniquad.errors import NniquadError
+from .tune import Progress, add_tuning_options, print_tune_result, tune_options_from_args
+
+__all__ = ["HELP", "DESCRIPTION", "add_arguments", "run"]
+
+HELP = "tune, then write a certified gain set (JSON)"
+DESCRIPTION = """Tune (as 'nniquad tune'), then certify the result and write it to --out.
+
+With --kp, --Gamma and --delta the given gains are certified instead of tuned
+(the inner loops are then the defaults unless --attitude-wn etc. are given).
+
+The certificate holds the vehicle, the gains, the sector bound (smallest gamma
+and gamma_max), the stability margin and poles, the LMI matrices (plant and
+controller NI certificates, closed-loop Lyapunov P with its decay rate, the
+parameter-dependent P0 + P1/m over the mass interval, the region-of-attraction
+ellipsoid under tilt saturation with its multipliers), whether the start state
+lies in the certified region, the performance on the reduced and full models
+with their simulation settings, the time-optimal bound, software versions and
+a SHA-256 digest.  Gains outside the sector bound, or with an infeasible LMI,
+are refused: no file is written.  Check a certificate with 'nniquad verify'."""
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    add_tuning_options(parser)
+    g = parser.add_argument_group("certify given gains instead of tuning")
+    g.add_argument("--kp", type=float, default=None, metavar="K", help="inner-loop gain kp [1/s^2]")
+    g.add_argument("--Gamma", type=float, default=None, metavar="G", help="controller gain Gamma")
+    g.add_argument("--delta", type=float, default=None, metavar="D", help="controller parameter delta")
+    g.add_argument("--attitude-wn", type=float, default=None, metavar="RAD_S", help="attitude natural frequency")
+    g.add_argument("--attitude-zeta", type=float, default=None, metavar="Z", help="attitude damping ratio")
+    g.add_argument("--attitude-accel", type=float, default=None, metavar="RAD_S2",
+                   help="deceleration of the attitude error shaping in rad/s^2")
+    parser.add_argument("--out", required=True, metavar="FILE", help="certificate file to write (JSON)")
+
+
+def run(args: argparse.Namespace) -> int:
+    from dataclasses import replace
+
+    from nniquad.certificates.certificate import build_certificate, verify_certificate, write_certificate
+    from nniquad.control.inner_loops import DEFAULT_INNER_LOOP_GAINS
+    from nniquad.analysis.linear import Gains
+    from nniquad.tuning.tune import tune
+    from .common import finite_positive, vehicle_from_args
+
+    out = Path(args.out)
+    if out.is_dir():
+        raise NniquadError(f"--out {out} is a folder, expected a file name")
+    vehicle = vehicle_from_args(args)
+    options = tune_options_from_args(args)
+    given = [args.kp, args.Gamma, args.delta]
+    if any(v is not None for v in given):
+        if any(v is None for v in given):
+            raise NniquadError("give all of --kp, --Gamma and --delta to certify given gains")
+        gains = Gains(*(finite_positive(n, v) for n, v in zip(("kp", "Gamma", "delta"), given)))
+        changes = {k: v for k, v in (("attitude_wn_rad_s", args.attitude_wn), ("attitude_zeta", args.attitude_zeta),
+                                     ("attitude_accel_limit_rad_s2", args.attitude_accel)) if v is not None}
+        inner = replace(DEFAULT_INNER_LOOP_GAINS, **changes)
+        tuning = {"source": "given gains"}
+    else:
+        res = tune(vehicle, options, progress=Progress("tune"))
+        print_tune_result(res)
+        gains, inner = res.gains, res.inner
+        tuning = {"source": "nniquad tune", **res.to_json()}
+    progress = Progress("certify", every_s=0.0)
+    cert = build_certificate(vehicle, gains, inner=inner, gamma_max=options.gamma_max,
+                             tilt_limit_deg=options.tilt_limit_deg, mass_range=options.mass_range,
+                             model=options.model, tuning=tuning, progress=progress)
+    progress("verifying before writing")
+    check = verify_certificate(cert)
+    if not check.ok:
+        bad = check.first_failure
+        raise NniquadError(f"certificate failed its own verification ({bad.name}: {bad.detail}); nothing written")
+    path = write_certificate(cert, out)
+    perf = cert["performance"]
+    print(f"certificate: {path}")
+    print(f"  gains kp = {gains.kp:.6g} 1/s^2, Gamma = {gains.Gamma:.6g}, delta = {gains.delta:.6g}; "
+          f"gamma = {cert['sector']['gamma']:.4g} <= {cert['sector']['gamma_max']:g}")
+    for model in ("reduced", "full"):
+        s = perf[model]["settling_s"]
+        r = cert["ratio_to_bound"][model]
+        print(f"  {model:<7} settling {'-' if s is None else f'{s:.4g} s'}"
+              f" ({'-' if r is None else f'{r:.3g}'} x bound {cert['bound']['enter_band_s']:.4g} s), "
+              f"peak tilt {perf[model]['peak_tilt_deg']:.4g} deg")
+    print(f"  certified reach {cert['region_of_attraction']['max_displacement_m']:.4g} m; "
+          f"start state certified: {'yes' if cert['start_certified'] else 'no'}")
+    print(f"  digest sha256 {cert['digest']['value']}", file=sys.stdout)
+    return 0

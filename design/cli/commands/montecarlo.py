@@ -1,0 +1,286 @@
+"""``nniquad montecarlo``: robustness statistics of a certificate over perturbed vehicles."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import shlex
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from nniquad.errors import NniquadError
+from nniquad.io import atomic_write_json
+
+__all__ = ["HELP", "DESCRIPTION", "add_arguments", "run", "partial_path", "Progress"]
+
+HELP = "Monte Carlo robustness study of a certificate"
+DESCRIPTION = """Draw N perturbed scenarios of a certificate's gain set and simulate each on
+the full vehicle model (default 20 s).  Each scenario perturbs:
+
+  mass                 nominal x U[0.8, 1.2]           (--mass-range)
+  inertia              each axis x U[0.8, 1.2]         (--inertia-range)
+  attitude-loop gain   x U[0.7, 1.3]                   (--attitude-gain-range)
+  motor time constant  U[5, 40] ms, motor lag on       (--tau-motor-range, in s)
+  position noise       sigma U[0, 2] cm at 100 Hz      (--noise-range, in m)
+  wind force           U[0, 0.3] N, random direction   (--wind-range, in N)
+  initial displacement uniform over the disk of the certificate's certified
+                       region (capped at 5 m), at rest (--max-displacement)
+
+A scenario succeeds when it settles (2 % of the certificate's |xi0| around the
+wind equilibrium, last exit) and never diverges (non-finite state, distance
+beyond 100 x its start, altitude deviation beyond 2 m).
+
+Prints the success rate with its Wilson 95 % interval, settling-time and
+peak-tilt quantiles (p50, p95, p99) with distribution-free 95 % intervals
+(failures count as never settled), and the worst cases with their indices.
+Scenario i of seed S is the same whatever N, the batch size or the number of
+workers: rerun it alone with --seed S --rerun i.
+
+Execution: a local process pool on all cores (--workers N), or an existing
+Dask cluster (--scheduler tcp://host:port; start one with 'dask scheduler'
+and 'dask worker tcp://host:8786 --nworkers N --nthreads 1', nniquad
+installed on every worker; an unreachable scheduler fails within 5 s).
+Same seed, same results on either.  Progress goes to stderr.  Ctrl-C keeps
+the finished batches in FILE.partial.json (montecarlo-seedS.partial.json
+without --json), marked "partial": true, and exits with status 130."""
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--certificate", metavar="FILE", required=True,
+                        help="certificate JSON (checked: schema, version, SHA-256 digest)")
+    parser.add_argument("--samples", type=int, default=1000, metavar="N", help="number of scenarios (default 1000)")
+    parser.add_argument("--seed", type=int, default=0, metavar="S", help="seed of the study (default 0)")
+    parser.add_argument("--horizon", type=float, default=20.0, metavar="T", help="simulated time in s (default 20)")
+    parser.add_argument("--rerun", metavar="INDEX[,INDEX...]", default=None,
+                        help="rerun only these scenario indices of --seed (in this process) and show them in detail")
+    x = parser.add_argument_group("execution")
+    x.add_argument("--scheduler", metavar="ADDRESS", default=None,
+                   help="Dask scheduler address, e.g. tcp://10.0.0.5:8786 (default: local process pool)")
+    x.add_argument("--workers", type=int, default=None, metavar="N",
+                   help=f"local worker processes (default: all cores, {os.cpu_count()} here; 1 runs in-process)")
+    x.add_argument("--batch-size", type=int, default=None, metavar="N",
+                   help="scenarios per batch, the unit of work (default: about 4 batches per worker, at most 50)")
+    r = parser.add_argument_group("perturbation ranges (uniform)")
+    r.add_argument("--mass-range", type=float, nargs=2, default=None, metavar=("LO", "HI"),
+                   help="true mass / nominal (default 0.8 1.2)")
+    r.add_argument("--inertia-range", type=float, nargs=2, default=None, metavar=("LO", "HI"),
+                   help="true inertia / nominal, per axis (default 0.8 1.2)")
+    r.add_argument("--attitude-gain-range", type=float, nargs=2, default=None, metavar=("LO", "HI"),
+                   help="factor on the attitude-loop torques (default 0.7 1.3)")
+    r.add_argument("--tau-motor-range", type=float, nargs=2, default=None, metavar=("LO", "HI"),
+                   help="motor time constant in s (default 0.005 0.04)")
+    r.add_argument("--noise-range", type=float, nargs=2, default=None, metavar=("LO", "HI"),
+                   help="position-noise sigma in m, sampled at 100 Hz (default 0 0.02)")
+    r.add_argument("--wind-range", type=float, nargs=2, default=None, metavar=("LO", "HI"),
+                   help="constant wind force magnitude in N, random direction (default 0 0.3)")
+    r.add_argument("--max-displacement", type=float, default=None, metavar="M",
+                   help="cap on the initial displacement radius in m (default 5)")
+    r.add_argument("--altitude-limit", type=float, default=None, metavar="M",
+                   help="altitude deviation counted as divergence, in m (default 2)")
+    parser.add_argument("--worst", type=int, default=10, metavar="K", help="worst cases to list (default 10)")
+    parser.add_argument("--json", metavar="FILE", default=None,
+                        help="write the summary and every scenario's result as JSON to FILE")
+
+
+_RANGE_OPTIONS = (
+    ("mass_range", "mass_factor", "--mass-range"),
+    ("inertia_range", "inertia_factor", "--inertia-range"),
+    ("attitude_gain_range", "attitude_gain_factor", "--attitude-gain-range"),
+    ("tau_motor_range", "tau_motor_s", "--tau-motor-range"),
+    ("noise_range", "noise_sigma_m", "--noise-range"),
+    ("wind_range", "wind_N", "--wind-range"),
+    ("max_displacement", "max_displacement_m", "--max-displacement"),
+    ("altitude_limit", "altitude_limit_m", "--altitude-limit"),
+)
+
+
+def _ranges(args: argparse.Namespace):
+    from nniquad.study.montecarlo import ScenarioRanges
+
+    changes = {field: (tuple(v) if isinstance(v, list) else v)
+               for attr, field, _ in _RANGE_OPTIONS if (v := getattr(args, attr)) is not None}
+    return ScenarioRanges(**changes)
+
+
+def _rerun_hint(args: argparse.Namespace) -> str:
+    parts = ["nniquad", "montecarlo", "--certificate", str(args.certificate), "--seed", str(args.seed)]
+    if args.horizon != 20.0:
+        parts += ["--horizon", f"{args.horizon:g}"]
+    for attr, _, flag in _RANGE_OPTIONS:
+        v = getattr(args, attr)
+        if v is not None:
+            parts += [flag, *(f"{x:g}" for x in (v if isinstance(v, list) else [v]))]
+    return " ".join(shlex.quote(p) for p in parts) + " --rerun INDEX"
+
+
+def partial_path(json_path: str | None, seed: int) -> Path:
+    """Where an interrupted study is saved: ``FILE.partial.json`` next to ``--json FILE``."""
+    if json_path:
+        p = Path(json_path)
+        stem = p.name[:-5] if p.name.lower().endswith(".json") else p.name
+        return p.with_name(stem + ".partial.json")
+    return Path(f"montecarlo-seed{seed}.partial.json")
+
+
+class Progress:
+    """Progress on stderr: a bar on a terminal, else a line every 10 % (at most one per 2 s)."""
+
+    def __init__(self, total: int, label: str, stream=None) -> None:
+        self.total = total
+        self.stream = sys.stderr if stream is None else stream
+        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
+        self.t0 = time.perf_counter()
+        self.last_t = self.t0
+        self.last_frac = 0.0
+        self.drawn = False
+        print(f"[montecarlo] {label} ...", file=self.stream, flush=True)
+
+    def __call__(self, done: int, total: int) -> None:
+        now = time.perf_counter()
+        frac = done / max(total, 1)
+        elapsed = now - self.t0
+        eta = elapsed * (1 - frac) / max(frac, 1e-9)
+        text = f"{done}/{total} scenarios ({100 * frac:.0f} %), {elapsed:.1f} s, eta {eta:.0f} s"
+        if self.tty:
+            n = int(30 * frac)
+            self.stream.write(f"\r[montecarlo] [{'#' * n}{'.' * (30 - n)}] {text}   ")
+            self.stream.flush()
+            self.drawn = True
+        elif done == total or (frac - self.last_frac >= 0.1 and now - self.last_t >= 2.0) or now - self.last_t >= 30:
+            print(f"[montecarlo] {text}", file=self.stream, flush=True)
+            self.last_t, self.last_frac = now, frac
+
+    def done(self, note: str = "done") -> None:
+        if self.drawn:
+            self.stream.write("\n")
+        print(f"[montecarlo] {note} in {time.perf_counter() - self.t0:.1f} s", file=self.stream, flush=True)
+
+
+def _worker_threads(client: Any) -> dict[str, int]:
+    try:
+        return {str(k): int(v) for k, v in client.nthreads().items()}
+    except Exception:  # noqa: BLE001 -- informational only
+        return {}
+
+
+def _positive(name: str, value: Any) -> None:
+    from nniquad.study.montecarlo import MonteCarloError
+
+    if value is not None and value <= 0:
+        raise MonteCarloError(f"{name} must be a positive integer, got {value}")
+
+
+def _study_json(args, setup, ranges) -> dict[str, Any]:
+    return {"certificate": str(args.certificate), "seed": args.seed, "samples": args.samples,
+            "setup": setup.to_json(), "ranges": ranges.to_json()}
+
+
+def _rerun(args: argparse.Namespace, setup, ranges) -> int:
+    from nniquad.study.montecarlo import MonteCarloError, draw_scenario, run_scenarios
+
+    try:
+        indices = [int(v) for v in str(args.rerun).split(",") if v.strip()]
+    except ValueError:
+        raise MonteCarloError(f"--rerun takes scenario indices such as 7 or 3,17, got {args.rerun!r}") from None
+    if not indices or any(i < 0 for i in indices):
+        raise MonteCarloError(f"--rerun takes non-negative scenario indices, got {args.rerun!r}")
+    scenarios = [draw_scenario(i, args.seed, ranges, setup) for i in indices]
+    results = run_scenarios(scenarios)
+    for r in results:
+        print(f"scenario {r.index} of seed {r.study_seed}: {'success' if r.success else 'FAILURE: ' + str(r.failure)}")
+        rows = [("settling time", r.settling_s, "s"), ("peak tilt", r.peak_tilt_deg, "deg"),
+                ("wind equilibrium offset", r.offset_m, "m"), ("final error from equilibrium", r.final_error_m, "m"),
+                ("max altitude deviation", r.max_altitude_dev_m, "m")]
+        for name, v, unit in rows:
+            print(f"  {name:<30} {'-' if v is None else f'{v:.4g} {unit}'}")
+        for k, v in r.scenario.items():
+            shown = ", ".join(f"{x:.4g}" for x in v) if isinstance(v, list) else f"{v:.4g}"
+            print(f"  {k:<30} {shown}")
+    if args.json:
+        atomic_write_json(args.json, {"study": _study_json(args, setup, ranges),
+                                      "rerun": [r.to_json() for r in results]})
+        print(f"wrote {args.json}", file=sys.stderr)
+    return 0
+
+
+def run(args: argparse.Namespace) -> int:
+    from nniquad.certificates.certificate import load_certificate
+    from nniquad.study.montecarlo import (MonteCarloError, close_client, cluster_threads, connect_scheduler, draw_scenarios,
+                              run_study, study_setup, summarize)
+
+    if args.rerun is None:
+        _positive("--samples", args.samples)
+    _positive("--workers", args.workers)
+    _positive("--batch-size", args.batch_size)
+    if args.scheduler and args.workers is not None and args.rerun is None:
+        raise MonteCarloError("--workers sets the local pool; with --scheduler the cluster's workers run the study")
+    if args.worst < 0:
+        raise MonteCarloError(f"--worst must not be negative, got {args.worst}")
+    if args.seed < 0:
+        raise MonteCarloError(f"--seed must be a non-negative integer, got {args.seed}")
+    if not (math.isfinite(args.horizon) and args.horizon > 0):
+        raise MonteCarloError(f"--horizon must be a positive number of seconds, got {args.horizon:g}")
+    if args.json is not None and Path(args.json).is_dir():
+        raise NniquadError(f"--json {args.json} is a folder, expected a file name")
+    ranges = _ranges(args)
+    cert = load_certificate(args.certificate)
+    setup = study_setup(cert, ranges, horizon_s=args.horizon)
+    if args.rerun is not None:
+        return _rerun(args, setup, ranges)
+
+    client = None
+    if args.scheduler:
+        client = connect_scheduler(args.scheduler)
+    try:
+        scenarios = draw_scenarios(args.samples, args.seed, ranges, setup)
+        if client is not None:
+            threads = cluster_threads(client)
+            where = f"Dask scheduler {args.scheduler} ({threads} worker thread(s))"
+            if threads == 0:
+                where += "; no worker has joined yet, waiting"
+            elif any(n > 1 for n in _worker_threads(client).values()):
+                print("[montecarlo] note: the simulator holds the GIL, so a Dask worker runs one scenario at a "
+                      "time whatever its threads; start workers with --nworkers N --nthreads 1", file=sys.stderr)
+        else:
+            where = f"{args.workers or os.cpu_count() or 1} local worker(s)"
+        progress = Progress(args.samples, f"{args.samples} scenarios of {setup.horizon_s:g} s on {where}")
+        study = run_study(scenarios, workers=args.workers, client=client, batch_size=args.batch_size,
+                          progress=progress)
+    finally:
+        if client is not None:
+            close_client(client)
+    progress.done("interrupted" if study.partial else "done")
+    hint = _rerun_hint(args)
+    data: dict[str, Any] = {
+        "partial": study.partial,
+        "completed": len(study.results),
+        "requested": study.n_requested,
+        "study": _study_json(args, setup, ranges),
+        "run": {"executor": study.executor, "workers": study.workers, "batch_size": study.batch_size,
+                "elapsed_s": study.elapsed_s, "scenarios_per_s": study.scenarios_per_s},
+        "rerun": hint,
+    }
+    summary = summarize(study.results, n_worst=args.worst, partial=study.partial) if study.results else None
+    if summary is not None:
+        print(f"certificate: {args.certificate}  {setup.label}")
+        g = setup.base
+        print(f"gains: kp={g.kpx:g} kpy={g.kpy:g} Gamma={g.Gamma:g} delta={g.delta:g}   horizon {setup.horizon_s:g} s, "
+              f"displacement up to {setup.region_m:.3g} m, settling band {setup.band_m:.3g} m")
+        print(summary.table(rerun_hint=hint))
+        print(f"{study.executor}, {study.workers} worker(s), batches of {study.batch_size}: "
+              f"{study.scenarios_per_s:.2f} scenarios/s")
+    data["summary"] = None if summary is None else summary.to_json()
+    data["results"] = [r.to_json() for r in study.results]
+    if study.partial:
+        target = partial_path(args.json, args.seed)
+        atomic_write_json(target, data)
+        print(f"nniquad montecarlo: interrupted after {len(study.results)} of {study.n_requested} scenarios; "
+              f"finished batches saved in {target} (marked \"partial\": true)", file=sys.stderr)
+        return 130
+    if args.json:
+        atomic_write_json(args.json, data)
+        print(f"wrote {args.json}", file=sys.stderr)
+    return 0

@@ -1,0 +1,250 @@
+"""``nniquad simulate``: one closed-loop run on the linear, reduced or full model."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from nniquad.errors import GainError, NniquadError
+from .common import add_json_option, add_vehicle_option, vehicle_from_args, write_json_if_asked
+
+__all__ = ["HELP", "DESCRIPTION", "add_arguments", "run", "gains_from_certificate", "StderrProgress"]
+
+HELP = "simulate the closed loop on the linear, reduced or full model"
+DESCRIPTION = """Simulate the paper's closed loop from xi_h(0) = (2, -1.5) m at rest.
+
+Models:
+  linear   the reduced horizontal loop of the paper, both axes, no limits
+  reduced  the same with the horizontal command limited by the tilt limit
+           (|a_h| <= g tan(limit)), attitude assumed instant
+  full     the 12-state vehicle (exact Euler-Lagrange model, rotor gyroscopic
+           terms, rotor-speed saturation) with altitude hold, yaw hold, an
+           attitude loop (gyro rates) tracking the tilt the horizontal loop
+           commands, and the tilt limit.  No horizontal velocity is used.
+
+The horizontal command is the paper's: -kp xi + z/m, z the output of the NNI
+controller z' = -Gamma delta z + Gamma xi, in positive feedback.  Defaults are
+the paper's gains (kp = 5, Gamma = 160, delta = 0.6) and initial state.
+
+Prints settling time (2 % band, last exit), overshoot, peak tilt and whether
+the run diverged.  --json writes them with the trajectory file (.npz next to
+the JSON, or --trajectory FILE with .npz or .csv).  Runs that take more than a
+few seconds show progress on stderr."""
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--model", choices=("linear", "reduced", "full"), default="full",
+                        help="model to simulate (default full)")
+    g = parser.add_argument_group("gains (default: the paper's)")
+    g.add_argument("--kp", type=float, default=None, metavar="K", help="inner-loop gain kp [1/s^2] (paper: 5)")
+    g.add_argument("--kpy", type=float, default=None, metavar="K", help="y-axis inner-loop gain (default kp)")
+    g.add_argument("--Gamma", type=float, default=None, metavar="G", help="controller gain Gamma (paper: 160)")
+    g.add_argument("--delta", type=float, default=None, metavar="D", help="controller parameter delta (paper: 0.6)")
+    g.add_argument("--certificate", metavar="FILE", default=None,
+                   help="take the gains and inner loops from a certificate (form and digest checked; "
+                        "'nniquad verify' checks the rest)")
+    add_vehicle_option(parser)
+    s = parser.add_argument_group("run")
+    s.add_argument("--horizon", type=float, default=60.0, metavar="T", help="simulated time in s (default 60)")
+    s.add_argument("--dt", type=float, default=1e-3, metavar="S", help="RK4 step in s (default 0.001)")
+    s.add_argument("--output-dt", type=float, default=0.01, metavar="S",
+                   help="output sample period in s, a multiple of --dt (default 0.01)")
+    s.add_argument("--xi0", type=float, nargs=2, default=[2.0, -1.5], metavar=("X", "Y"),
+                   help="initial horizontal position in m, at rest (default 2 -1.5)")
+    s.add_argument("--tilt-limit", type=float, default=30.0, metavar="DEG", help="tilt limit in deg (default 30)")
+    d = parser.add_argument_group("disturbances and uncertainty")
+    d.add_argument("--noise", type=float, default=0.0, metavar="SIGMA",
+                   help="position-noise standard deviation in m (default 0); the measurement is sampled and held")
+    d.add_argument("--rate", type=float, default=100.0, metavar="HZ", help="position-sensor sample rate (default 100)")
+    d.add_argument("--seed", type=int, default=0, metavar="N", help="seed of the noise and gust (default 0)")
+    d.add_argument("--wind", type=float, nargs=2, default=[0.0, 0.0], metavar=("FX", "FY"),
+                   help="constant wind force north/east in N (default 0 0)")
+    d.add_argument("--gust", type=float, default=0.0, metavar="SIGMA_N",
+                   help="gust force standard deviation per axis in N (first-order Gauss-Markov; default 0)")
+    d.add_argument("--gust-tau", type=float, default=1.0, metavar="S", help="gust correlation time in s (default 1)")
+    d.add_argument("--motor-lag", action="store_true", help="first-order rotor-speed lag (full model)")
+    d.add_argument("--tau-motor", type=float, default=None, metavar="S",
+                   help="motor time constant in s (default: the vehicle's)")
+    d.add_argument("--true-mass", type=float, default=None, metavar="KG",
+                   help="plant mass in kg (the controller keeps the vehicle's nominal mass)")
+    d.add_argument("--attitude-wn", type=float, default=None, metavar="RAD_S",
+                   help="attitude-loop natural frequency in rad/s (full model; default 25, or the certificate's)")
+    d.add_argument("--attitude-zeta", type=float, default=None, metavar="Z",
+                   help="attitude-loop damping ratio (full model; default 0.8, or the certificate's)")
+    add_json_option(parser, "metrics, gains, options and the trajectory file path")
+    parser.add_argument("--trajectory", metavar="FILE", default=None,
+                        help="write the trajectory here (.npz or .csv); default with --json: JSON name + .traj.npz")
+    parser.add_argument("--plot", metavar="FILE.png", default=None, help="plot the run to a PNG file")
+
+
+def gains_from_certificate(path: str | Path):
+    """The gains of a certificate whose form and digest check out (``nniquad verify`` checks the rest).
+
+    Raises
+    ------
+    CertificateError
+        Unreadable file, invalid JSON, wrong schema, digest mismatch, missing or
+        malformed ``gains``.
+    """
+    from nniquad.certificates.certificate import certificate_gains, load_certificate
+
+    return certificate_gains(load_certificate(path))
+
+
+class StderrProgress:
+    """Progress on stderr: a start and an end line; a bar in between when stderr is a terminal.
+
+    The bar appears only once the run has taken more than ``delay_s``.
+    """
+
+    def __init__(self, label: str, delay_s: float = 2.0, stream=None) -> None:
+        self.label = label
+        self.delay_s = delay_s
+        self.stream = sys.stderr if stream is None else stream
+        self.t0 = time.perf_counter()
+        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
+        self.drawn = False
+        print(f"[simulate] {label} ...", file=self.stream, flush=True)
+
+    def __call__(self, fraction: float) -> None:
+        elapsed = time.perf_counter() - self.t0
+        if self.tty and elapsed > self.delay_s:
+            n = int(30 * fraction)
+            eta = elapsed * (1 - fraction) / max(fraction, 1e-9)
+            self.stream.write(f"\r[simulate] [{'#' * n}{'.' * (30 - n)}] {100 * fraction:5.1f} %  eta {eta:5.1f} s")
+            self.stream.flush()
+            self.drawn = True
+
+    def done(self) -> None:
+        if self.drawn:
+            self.stream.write("\n")
+        print(f"[simulate] done in {time.perf_counter() - self.t0:.1f} s", file=self.stream, flush=True)
+
+
+def _gains(args: argparse.Namespace):
+    from nniquad.analysis.linear import PAPER_GAINS, Gains
+
+    explicit = {k: getattr(args, k) for k in ("kp", "kpy", "Gamma", "delta") if getattr(args, k) is not None}
+    if args.certificate:
+        if explicit:
+            raise GainError(f"give either --certificate or --{next(iter(explicit))}, not both")
+        return gains_from_certificate(args.certificate)
+    return Gains(
+        kp=explicit.get("kp", PAPER_GAINS.kp),
+        Gamma=explicit.get("Gamma", PAPER_GAINS.Gamma),
+        delta=explicit.get("delta", PAPER_GAINS.delta),
+        kpy=explicit.get("kpy"),
+    )
+
+
+def _inner(args: argparse.Namespace):
+    """Inner-loop gains: the certificate's (its ``inner_loop``) or the defaults, then the explicit options."""
+    from dataclasses import replace
+
+    from nniquad.control.inner_loops import DEFAULT_INNER_LOOP_GAINS
+
+    inner = DEFAULT_INNER_LOOP_GAINS
+    if args.certificate:
+        from nniquad.certificates.certificate import certificate_inner_loop, load_certificate
+
+        inner = certificate_inner_loop(load_certificate(args.certificate))
+    changes = {k: v for k, v in (("attitude_wn_rad_s", args.attitude_wn), ("attitude_zeta", args.attitude_zeta))
+               if v is not None}
+    return replace(inner, **changes)
+
+
+def _fmt(value: Any, unit: str = "", digits: int = 4) -> str:
+    if value is None:
+        return "-"
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if isinstance(value, float) and not math.isfinite(value):
+        return "-"
+    return f"{value:.{digits}g}{(' ' + unit) if unit else ''}"
+
+
+def run(args: argparse.Namespace) -> int:
+    from nniquad.sim.simulate import SimOptions, simulate
+
+    vehicle = vehicle_from_args(args)
+    gains = _gains(args)
+    options = SimOptions(
+        model=args.model,
+        horizon_s=args.horizon,
+        dt_s=args.dt,
+        output_dt_s=args.output_dt,
+        tilt_limit_deg=args.tilt_limit,
+        xi0=tuple(args.xi0),
+        noise_sigma_m=args.noise,
+        noise_rate_hz=args.rate,
+        seed=args.seed,
+        wind_N=tuple(args.wind),
+        gust_N=args.gust,
+        gust_tau_s=args.gust_tau,
+        motor_lag=args.motor_lag,
+        tau_motor_s=args.tau_motor,
+        true_mass_kg=args.true_mass,
+        inner=_inner(args),
+    )
+    for name in ("json", "trajectory", "plot"):
+        value = getattr(args, name)
+        if value is not None and Path(value).is_dir():
+            raise NniquadError(f"--{name} {value} is a folder, expected a file name")
+    traj_path = args.trajectory
+    if traj_path is None and args.json:
+        j = Path(args.json)
+        traj_path = str(j.with_name(j.stem + ".traj.npz"))
+    if traj_path is not None and Path(traj_path).suffix.lower() not in (".npz", ".csv"):
+        raise NniquadError(f"--trajectory must end in .npz or .csv, got {traj_path}")
+
+    progress = StderrProgress(f"{args.model} model, {options.horizon_s:g} s simulated")
+    traj = simulate(vehicle, gains, options, progress=progress)
+    progress.done()
+    m = traj.metrics()
+
+    print(f"vehicle: {vehicle.name}")
+    print(f"model: {args.model}   gains: kp={gains.kp:g} kpy={gains.kp_y:g} Gamma={gains.Gamma:g} delta={gains.delta:g}")
+    rows = [
+        ("settling time (2 % band)", _fmt(m.settling_s, "s"), "not settled" if m.settling_s is None else ""),
+        ("overshoot along xi0", _fmt(m.overshoot_pct, "%"), ""),
+        ("peak tilt", _fmt(m.peak_tilt_deg, "deg"), ""),
+        ("peak commanded tilt", _fmt(m.peak_cmd_tilt_deg, "deg"), ""),
+        ("time on the tilt limit", _fmt(None if m.tilt_limit_fraction is None else 100 * m.tilt_limit_fraction, "%"),
+         ""),
+        ("peak rotor speed", _fmt(m.peak_rotor_speed_rad_s, "rad/s"), ""),
+        ("peak altitude deviation", _fmt(m.altitude_dev_m, "m"), ""),
+        ("tilt RMS after settling", _fmt(m.tilt_jitter_rms_deg, "deg"), ""),
+        ("diverged", _fmt(m.diverged), ""),
+        ("horizon", _fmt(m.horizon_s, "s"), ""),
+    ]
+    for name, value, note in rows:
+        print(f"{name:<26} {value:>16}  {note}")
+
+    written = None
+    if traj_path is not None:
+        written = traj.save(traj_path)
+        print(f"wrote {written}", file=sys.stderr)
+    if args.plot:
+        from nniquad.reporting.plots import trajectory_plot
+
+        trajectory_plot(traj, args.plot)
+        print(f"wrote {args.plot}", file=sys.stderr)
+    data = {
+        "model": args.model,
+        "settling_s": m.settling_s,
+        "overshoot_pct": m.overshoot_pct,
+        "peak_tilt_deg": m.peak_tilt_deg,
+        "diverged": m.diverged,
+        "horizon_s": m.horizon_s,
+        "trajectory": None if written is None else str(written),
+        "metrics": m.to_json(),
+        "gains": gains.as_dict(),
+        "vehicle": vehicle.as_dict(),
+        "options": options.to_json(),
+    }
+    write_json_if_asked(args, data)
+    return 0

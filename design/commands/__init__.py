@@ -1,1 +1,0 @@
-"""Sub-commands of the ``nniquad`` CLI, one module each (see :mod:`design.cli`)."""

@@ -1,0 +1,273 @@
+"""The loops the paper assumes but does not specify, as CasADi ``SX`` expressions.
+
+The paper closes only the horizontal loop: an acceleration command
+``a_h = -K_p ξ + z/m`` (its inner proportional loop plus the NNI controller
+output, positive feedback).  A real vehicle needs four more pieces to turn that
+command into rotor speeds.  Each is written here once, as a pure function of
+CasADi symbols, and documented with its gains (:class:`InnerLoopGains`).
+
+Frames: NED inertial frame (z down), FRD body frame, ZYX Euler angles
+``η = (φ, θ, ψ)``, thrust ``u1`` along ``-z_B`` -- the frame of
+:mod:`nniquad.model.symbolic`.
+
+1. **Altitude hold** (PID on the NED altitude ``z``, reference 0).  Vertical
+   acceleration command ``a_z = -(3 ω_z²) z - (3 ω_z) ż - ω_z³ ∫z``, i.e. a
+   triple closed-loop pole at ``-ω_z`` for the nominal mass (default
+   ``ω_z = 3 rad/s``: gains 27 s⁻², 9 s⁻¹, 27 s⁻³).  It uses the *vertical*
+   velocity ``ż`` (a barometer / vertical-speed sensor); no *horizontal*
+   velocity is used anywhere.  The integral removes the altitude offset a mass
+   error would cause.
+2. **Thrust vector and tilt limit.**  The desired specific force is
+   ``f = (a_x, a_y, a_z - g)`` (NED).  Let ``g_z = max(g - a_z, 0.2 g)`` (the
+   thrust must keep pointing up).  The horizontal command is norm-limited to
+   ``‖a_h‖ ≤ g_z tan(T_lim)`` (the vector is scaled down, its direction kept),
+   which keeps the *commanded* tilt ``atan(‖a_h‖/g_z)`` at or below ``T_lim``
+   exactly.  In the yaw-aligned frame ``b = Rz(-ψ) a_h`` the setpoints are
+   ``θ_d = atan2(-b_x, g_z)``, ``φ_d = atan(b_y cos θ_d / g_z)`` (derived in
+   :func:`tilt_setpoints`) and the collective thrust is
+   ``u1 = m̂ g_z / max(cos φ cos θ, 0.5)`` (tilt compensation, capped at 60°).
+3. **Attitude loop** (PD on the Euler angles, damping from the gyro).  With body
+   rates ``(p, q, r) = W(η) η̇`` measured by the gyro, the torques are
+   ``τ_φ = s Ĵ_x (ω_a² (φ_d - φ) - 2 ζ_a ω_a p)``,
+   ``τ_θ = s Ĵ_y (ω_a² (θ_d - θ) - 2 ζ_a ω_a q)`` and the yaw hold at ψ = 0,
+   ``τ_ψ = s Ĵ_z (-ω_ψ² ψ - 2 ζ_ψ ω_ψ r)``.  Near hover each axis is the
+   second-order lag ``ω_a² / (s² + 2 ζ_a ω_a s + ω_a²)`` from commanded to
+   actual angle, hence from commanded to actual horizontal acceleration.
+   Defaults: ``ω_a = 25 rad/s``, ``ζ_a = 0.8`` (rise time about 0.1 s, an
+   effective delay ``2 ζ_a / ω_a = 64 ms``), ``ω_ψ = 8 rad/s``, ``ζ_ψ = 0.8``.
+   ``s`` (default 1) scales all three torques: it models an attitude-gain (or
+   inertia-estimate) error for Monte Carlo studies.  Hats are the controller's
+   nominal values.
+
+   Written as a cascade, the roll law is ``τ_φ = s Ĵ_x k_r (p_d - p)`` with the
+   rate gain ``k_r = 2 ζ_a ω_a`` and the rate demand ``p_d = k e_φ``,
+   ``k = ω_a / (2 ζ_a)``.  For large errors the linear demand asks for far more
+   torque than the rotors have (a 60° tilt reversal at ω_a = 45 rad/s wants
+   about 20 times the available roll torque of the paper's vehicle), the
+   torques saturate and the loop overshoots or goes unstable.  The rate demand
+   is therefore shaped by the square-root law (:func:`sqrt_shaping`, the rate
+   from which a constant deceleration ``α`` stops exactly at the setpoint):
+   ``p_d = k e`` for ``|e| <= α/k²`` and ``sign(e) sqrt(2 α (|e| - α/(2k²)))``
+   beyond, continuous with a continuous slope.  Small errors see the linear PD
+   above unchanged.  ``α`` (``attitude_accel_limit_rad_s2``) defaults to
+   ``1e6 rad/s²``, which makes the shaping inactive (the pure PD); the tuner
+   sets it from the vehicle's torque headroom at the tilt limit.
+4. **Allocation with rotor saturation** (:func:`allocate`).  Rotor thrusts
+   ``T_i = b ω_i²`` are limited to ``[0, T_max = b ω_max²]``.  The demand
+   ``(u1, τ)`` is split into a collective ``c = u1/4``, a roll pair difference
+   ``r = τ_φ/(2l)``, a pitch pair difference ``q = τ_θ/(2l)`` and a yaw share
+   ``y = τ_ψ b/(4d)``, so that ``T1 = c+q-y``, ``T2 = c-r+y``, ``T3 = c-q-y``,
+   ``T4 = c+r+y`` (the inverse of :func:`nniquad.model.symbolic.mixer_matrix` for the
+   '+' layout).  Priority: roll/pitch first, then collective, yaw last:
+
+   a. roll and pitch are scaled together (direction kept) so that
+      ``M = max(|r|, |q|) ≤ T_max/2`` -- the most any pair can differ;
+   b. the collective is shifted into ``[M, T_max - M]`` so that both pairs fit
+      with zero yaw;
+   c. the yaw share is clipped to the interval that keeps all four thrusts in
+      ``[0, T_max]`` given ``c, r, q`` (it always contains 0).
+
+   The result satisfies the limits exactly, so the commanded rotor speeds are
+   ``ω_i = sqrt(T_i / b)``.  Below saturation it is the exact inverse of the
+   mixer (tested against :func:`nniquad.model.numeric.mixer_function`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, fields
+
+import casadi as ca
+
+from nniquad.errors import SimulationError
+
+__all__ = [
+    "InnerLoopGains",
+    "DEFAULT_INNER_LOOP_GAINS",
+    "altitude_command",
+    "limit_norm",
+    "tilt_setpoints",
+    "attitude_torques",
+    "sqrt_shaping",
+    "allocate",
+    "G_Z_MIN_FRACTION",
+    "TILT_COMPENSATION_MIN_COS",
+]
+
+#: Lower clamp of ``g - a_z`` as a fraction of g (thrust never commanded below 20 % of hover).
+G_Z_MIN_FRACTION = 0.2
+#: The tilt compensation ``1/(cos φ cos θ)`` is capped at 2 (60°).
+TILT_COMPENSATION_MIN_COS = 0.5
+
+
+@dataclass(frozen=True)
+class InnerLoopGains:
+    """Gains of the loops the paper leaves unspecified (see the module docstring).
+
+    Attributes
+    ----------
+    attitude_wn_rad_s
+        Natural frequency ω_a of roll and pitch [rad/s] (default 25).
+    attitude_zeta
+        Damping ratio ζ_a of roll and pitch (default 0.8).
+    yaw_wn_rad_s
+        Natural frequency ω_ψ of the yaw hold [rad/s] (default 8).
+    yaw_zeta
+        Damping ratio ζ_ψ of the yaw hold (default 0.8).
+    altitude_wn_rad_s
+        ω_z of the altitude PID, triple pole at ``-ω_z`` [rad/s] (default 3).
+    attitude_gain_scale
+        Factor on all attitude torques (1 = nominal); models an attitude-gain error.
+    attitude_accel_limit_rad_s2
+        Deceleration ``α`` of the square-root shaping of the roll/pitch error
+        [rad/s²]; the default 1e6 leaves the linear PD unchanged.
+    """
+
+    attitude_wn_rad_s: float = 25.0
+    attitude_zeta: float = 0.8
+    yaw_wn_rad_s: float = 8.0
+    yaw_zeta: float = 0.8
+    altitude_wn_rad_s: float = 3.0
+    attitude_gain_scale: float = 1.0
+    attitude_accel_limit_rad_s2: float = 1e6
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            value = getattr(self, f.name)
+            try:
+                v = float(value)
+            except (TypeError, ValueError):
+                raise SimulationError(f"inner-loop gain {f.name} must be a number, got {value!r}") from None
+            if not math.isfinite(v) or v <= 0.0:
+                raise SimulationError(f"inner-loop gain {f.name} must be finite and positive, got {value!r}")
+            object.__setattr__(self, f.name, v)
+
+    def as_dict(self) -> dict[str, float]:
+        return asdict(self)
+
+
+DEFAULT_INNER_LOOP_GAINS = InnerLoopGains()
+
+
+def altitude_command(z: ca.SX, z_dot: ca.SX, z_int: ca.SX, wn: ca.SX) -> ca.SX:
+    """Vertical acceleration command (NED, down positive) of the altitude PID, reference 0.
+
+    Closed-loop characteristic polynomial ``(s + ω_z)^3`` for a double integrator.
+    """
+    return -(3 * wn**2) * z - (3 * wn) * z_dot - wn**3 * z_int
+
+
+def limit_norm(a: ca.SX, limit: ca.SX) -> ca.SX:
+    """Scale the vector ``a`` down to norm ``limit`` if longer (direction kept, no division by zero)."""
+    norm = ca.sqrt(ca.sumsqr(a))
+    return a * (limit / ca.fmax(norm, limit))
+
+
+def tilt_setpoints(a_h: ca.SX, g_z: ca.SX, psi: ca.SX) -> tuple[ca.SX, ca.SX, ca.SX]:
+    """Roll and pitch setpoints that realise a horizontal acceleration, and the commanded tilt.
+
+    With ``R = Rz(ψ) Ry(θ) Rx(φ)`` the thrust direction is ``-R e3`` and
+    ``ξ'' = g e3 - (u1/m) R e3``.  For a desired specific force
+    ``f = (a_x, a_y, -g_z)``, rotate its horizontal part into the yaw frame,
+    ``b = Rz(-ψ) a_h``.  Then ``Ry(θ) Rx(φ) e3 = (cos φ sin θ, -sin φ, cos φ cos θ)``
+    must be parallel to ``-(b_x, b_y, -g_z)``, which gives
+    ``tan θ = -b_x / g_z`` and ``tan φ = b_y cos θ / g_z``, and
+    ``cos φ cos θ = g_z / ‖f‖``, i.e. a tilt ``atan(‖a_h‖ / g_z)``.
+
+    Returns
+    -------
+    phi_d, theta_d, tilt_cmd : SX
+        Setpoints [rad] and the commanded tilt [rad].
+    """
+    c, s = ca.cos(psi), ca.sin(psi)
+    bx = c * a_h[0] + s * a_h[1]
+    by = -s * a_h[0] + c * a_h[1]
+    theta_d = ca.atan2(-bx, g_z)
+    phi_d = ca.atan(by * ca.cos(theta_d) / g_z)
+    tilt = ca.atan(ca.sqrt(ca.sumsqr(a_h)) / g_z)
+    return phi_d, theta_d, tilt
+
+
+def sqrt_shaping(e: ca.SX, k: ca.SX, alpha: ca.SX) -> ca.SX:
+    """Rate demand for the angle error ``e``: ``k e`` near zero, ``sqrt(2 α |e|)``-like beyond.
+
+    ``k e`` for ``|e| <= α/k²``, else ``sign(e) sqrt(2 α (|e| - α/(2 k²)))``: the
+    two pieces and their slopes agree at the switch (value ``α/k``, slope ``k``).
+    """
+    lin = alpha / k**2
+    ae = ca.fabs(e)
+    beyond = ca.sign(e) * ca.sqrt(2 * alpha * ca.fmax(ae - lin / 2, lin / 2))
+    return ca.if_else(ae <= lin, k * e, beyond)
+
+
+def attitude_torques(
+    eta: ca.SX,
+    rates_body: ca.SX,
+    phi_d: ca.SX,
+    theta_d: ca.SX,
+    J_nom: ca.SX,
+    wn_att: ca.SX,
+    zeta_att: ca.SX,
+    wn_yaw: ca.SX,
+    zeta_yaw: ca.SX,
+    scale: ca.SX,
+    accel_limit: ca.SX,
+) -> ca.SX:
+    """Body torques ``(τ_φ, τ_θ, τ_ψ)`` [N m] of the attitude PD and the yaw hold at ψ = 0.
+
+    ``rates_body`` are the gyro's body rates ``(p, q, r)``; ``J_nom`` the
+    controller's inertia estimate ``(Ĵx, Ĵy, Ĵz)``.  Roll and pitch errors go
+    through :func:`sqrt_shaping` with deceleration ``accel_limit``.
+    """
+    e_phi = phi_d - eta[0]
+    e_theta = theta_d - eta[1]
+    e_psi = -eta[2]
+    k_rate = 2 * zeta_att * wn_att
+    k_angle = wn_att / (2 * zeta_att)
+    return scale * ca.vertcat(
+        J_nom[0] * k_rate * (sqrt_shaping(e_phi, k_angle, accel_limit) - rates_body[0]),
+        J_nom[1] * k_rate * (sqrt_shaping(e_theta, k_angle, accel_limit) - rates_body[1]),
+        J_nom[2] * (wn_yaw**2 * e_psi - 2 * zeta_yaw * wn_yaw * rates_body[2]),
+    )
+
+
+def allocate(u1: ca.SX, tau: ca.SX, l: ca.SX, b: ca.SX, d: ca.SX, omega_max: ca.SX) -> tuple[ca.SX, ca.SX]:
+    """Rotor speeds [rad/s] for a thrust/torque demand, with the saturation priority of the module docstring.
+
+    Parameters
+    ----------
+    u1
+        Collective thrust demand [N].
+    tau
+        Torque demand ``(τ_φ, τ_θ, τ_ψ)`` [N m].
+    l, b, d
+        Arm length, thrust and drag coefficients the controller assumes.
+    omega_max
+        Rotor-speed limit [rad/s].
+
+    Returns
+    -------
+    w : SX (4,)
+        Commanded rotor speeds in ``[0, ω_max]``.
+    T : SX (4,)
+        The allocated rotor thrusts ``b w²`` [N].
+    """
+    t_max = b * omega_max**2
+    c = u1 / 4
+    r = tau[0] / (2 * l)
+    q = tau[1] / (2 * l)
+    y = tau[2] * b / (4 * d)
+    # a. roll/pitch scaled together so that no pair needs more than T_max of spread
+    big = ca.fmax(ca.fabs(r), ca.fabs(q))
+    k = (t_max / 2) / ca.fmax(big, t_max / 2)
+    r, q = r * k, q * k
+    M = big * k
+    # b. collective shifted so that both pairs fit with zero yaw
+    c = ca.fmin(ca.fmax(c, M), t_max - M)
+    # c. yaw share clipped to what is left
+    y_lo = ca.fmax(c - t_max + ca.fabs(q), ca.fabs(r) - c)
+    y_hi = ca.fmin(c - ca.fabs(q), t_max - ca.fabs(r) - c)
+    y = ca.fmin(ca.fmax(y, y_lo), y_hi)
+    T = ca.vertcat(c + q - y, c - r + y, c - q - y, c + r + y)
+    T = ca.fmin(ca.fmax(T, 0), t_max)  # rounding only
+    return ca.sqrt(T / b), T

@@ -1,0 +1,159 @@
+"""Numeric functions generated from the symbolic model (CasADi and numpy).
+
+No dynamics equation is typed here: every function is produced by
+:func:`sympy.lambdify` (with common-subexpression elimination) from the
+expressions of :mod:`nniquad.model.symbolic`, either onto CasADi ``SX`` symbols, giving
+a named :class:`casadi.Function`, or onto numpy.
+
+Vehicle parameters are an *input* of every generated function (vector ``p`` in
+the order of :attr:`nniquad.model.symbolic.Symbols.params`), so one compiled function
+serves every vehicle, including the perturbed vehicles of a Monte Carlo study.
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+from typing import Callable, Mapping, Sequence
+
+import casadi as ca
+import numpy as np
+import sympy as sp
+
+from nniquad.model import symbolic as S
+from nniquad.model.vehicle import Vehicle
+
+__all__ = [
+    "PARAM_NAMES",
+    "param_vector",
+    "casadi_function",
+    "numpy_function",
+    "dynamics_function",
+    "dynamics_numpy",
+    "mixer_function",
+    "mixer_numpy",
+    "rotation_function",
+]
+
+#: Names of the entries of the parameter vector ``p`` (vehicle field names).
+PARAM_NAMES: tuple[str, ...] = ("m", "g", "Jx", "Jy", "Jz", "Jr", "l", "b", "d")
+
+_CASADI_MODULE = {
+    "sin": ca.sin, "cos": ca.cos, "tan": ca.tan, "sqrt": ca.sqrt, "exp": ca.exp, "log": ca.log,
+    "Abs": ca.fabs, "sign": ca.sign, "atan2": ca.atan2, "asin": ca.asin, "acos": ca.acos, "atan": ca.atan,
+    "Max": ca.fmax, "Min": ca.fmin,
+}
+
+
+def param_vector(vehicle: Vehicle) -> np.ndarray:
+    """Vehicle parameters as the vector ``p`` the generated functions take."""
+    return np.array([getattr(vehicle, name) for name in PARAM_NAMES], dtype=float)
+
+
+def _flatten(outputs: Mapping[str, sp.Matrix | sp.Expr]) -> list[list[sp.Expr]]:
+    return [list(sp.Matrix([e]) if not isinstance(e, sp.MatrixBase) else e) for e in outputs.values()]
+
+
+def casadi_function(
+    name: str,
+    inputs: Mapping[str, Sequence[sp.Symbol]],
+    outputs: Mapping[str, sp.Matrix | sp.Expr],
+) -> ca.Function:
+    """Turn sympy expressions into a named :class:`casadi.Function` (SX, with CSE).
+
+    Parameters
+    ----------
+    name
+        Function name.
+    inputs
+        Input name -> the sympy symbols packed into that (column) input, in order.
+    outputs
+        Output name -> expression or matrix (matrices keep their shape).
+    """
+    sx_in = {key: ca.SX.sym(key, len(syms)) for key, syms in inputs.items()}
+    flat_syms = [sym for syms in inputs.values() for sym in syms]
+    flat_args = [sx_in[key][i] for key, syms in inputs.items() for i in range(len(syms))]
+    exprs = _flatten(outputs)
+    shapes = [e.shape if isinstance(e, sp.MatrixBase) else (1, 1) for e in outputs.values()]
+    fn = sp.lambdify(flat_syms, exprs, modules=[_CASADI_MODULE], cse=True)
+    values = fn(*flat_args)
+    sx_out = []
+    for col, (rows, cols) in zip(values, shapes):
+        flat = ca.vertcat(*[ca.SX(v) if not isinstance(v, ca.SX) else v for v in col])
+        # sympy flattens row-major, casadi reshapes column-major: reshape transposed, then transpose
+        sx_out.append(ca.reshape(flat, cols, rows).T)
+    return ca.Function(name, list(sx_in.values()), sx_out, list(sx_in.keys()), list(outputs.keys()))
+
+
+def numpy_function(
+    inputs: Sequence[sp.Symbol],
+    output: sp.Matrix | sp.Expr,
+) -> Callable[..., np.ndarray]:
+    """Turn a sympy expression or matrix into a numpy function of the given symbols (with CSE)."""
+    return sp.lambdify(list(inputs), output, modules="numpy", cse=True)
+
+
+def _dynamics_inputs() -> dict[str, tuple[sp.Symbol, ...]]:
+    s = S.symbols()
+    return {"x": s.state, "u": (s.u1,) + s.tau, "Omega_r": (s.Omega_r,), "p": s.params}
+
+
+@lru_cache(maxsize=None)
+def dynamics_function(variant: str = "exact") -> ca.Function:
+    """CasADi function ``f(x[12], u[4], Omega_r, p[9]) -> xdot[12]`` of the 12-state model (NED).
+
+    ``u = (u1 [N], tau_phi, tau_theta, tau_psi [N m])``; ``Omega_r`` [rad/s] is the
+    signed rotor-speed sum of the gyroscopic term; ``variant`` as in
+    :func:`nniquad.model.symbolic.full_dynamics` (``"exact"`` or ``"paper"``), or
+    ``"paper-printed"`` for the paper's eq. (full_dynamics) as printed.
+    """
+    f = S.paper_full_dynamics() if variant == "paper-printed" else S.full_dynamics(variant)
+    return casadi_function(f"quadrotor_{variant.replace('-', '_')}", _dynamics_inputs(), {"xdot": f})
+
+
+@lru_cache(maxsize=None)
+def dynamics_numpy(variant: str = "exact") -> Callable[..., np.ndarray]:
+    """Numpy version of :func:`dynamics_function`: ``f(x, u, Omega_r, p) -> xdot`` (1-D arrays)."""
+    f = S.paper_full_dynamics() if variant == "paper-printed" else S.full_dynamics(variant)
+    s = S.symbols()
+    raw = numpy_function(list(s.state) + [s.u1, *s.tau, s.Omega_r, *s.params], f)
+
+    def evaluate(x: np.ndarray, u: np.ndarray, omega_r: float, p: np.ndarray) -> np.ndarray:
+        return np.asarray(raw(*np.asarray(x, float), *np.asarray(u, float), float(omega_r), *np.asarray(p, float)),
+                          dtype=float).reshape(-1)
+
+    return evaluate
+
+
+@lru_cache(maxsize=None)
+def mixer_function() -> ca.Function:
+    """CasADi ``mixer(w[4], p) -> (u[4], Omega_r)``: rotor speeds [rad/s] to thrust/torques."""
+    s = S.symbols()
+    A = S.mixer_matrix()
+    w2 = sp.Matrix([w**2 for w in s.rotor])
+    return casadi_function(
+        "mixer",
+        {"w": s.rotor, "p": s.params},
+        {"u": A * w2, "Omega_r": S.rotor_momentum_sum()},
+    )
+
+
+@lru_cache(maxsize=None)
+def _mixer_matrix_numpy() -> Callable[..., np.ndarray]:
+    s = S.symbols()
+    return numpy_function(list(s.params), S.mixer_matrix())
+
+
+def mixer_numpy(vehicle: Vehicle) -> np.ndarray:
+    """The 4x4 mixer matrix ``A`` (``u = A w^2``) for a vehicle, as numpy."""
+    return np.asarray(_mixer_matrix_numpy()(*param_vector(vehicle)), dtype=float)
+
+
+@lru_cache(maxsize=None)
+def rotation_function() -> ca.Function:
+    """CasADi ``rotation(eta[3]) -> (R[3x3], W[3x3])``."""
+    s = S.symbols()
+    return casadi_function(
+        "rotation",
+        {"eta": s.eta},
+        {"R": S.rotation_zyx(), "W": S.euler_rate_matrix()},
+    )
