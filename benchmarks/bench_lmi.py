@@ -32,7 +32,8 @@ def _time(fn, repeat: int = 3) -> float:
 
 def run() -> list[dict]:
     from nniquad.analysis import lmi
-    from nniquad.analysis.linear import PAPER_GAINS, controller_matrices, plant_matrices
+    from nniquad.analysis.linear import controller_matrices, plant_matrices
+    from nniquad.control.gains import PAPER_GAINS
     from nniquad.model.vehicle import PAPER_VEHICLE
 
     m, g = PAPER_VEHICLE.m, PAPER_VEHICLE.g

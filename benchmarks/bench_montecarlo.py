@@ -22,8 +22,8 @@ from pathlib import Path
 
 from nniquad.study import montecarlo as mc
 from nniquad.certificates.certificate import build_certificate, load_certificate, write_certificate
-from nniquad.control.inner_loops import InnerLoopGains
-from nniquad.analysis.linear import Gains
+from nniquad.control.gains import InnerLoopGains
+from nniquad.control.gains import Gains
 from nniquad.model.vehicle import PAPER_VEHICLE
 
 __all__ = ["run"]

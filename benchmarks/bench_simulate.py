@@ -14,7 +14,7 @@ import time
 import numpy as np
 
 from nniquad.sim import simulate as sim
-from nniquad.analysis.linear import PAPER_GAINS, Gains
+from nniquad.control.gains import PAPER_GAINS, Gains
 from nniquad.sim.simulate import SimOptions, SimParams, simulate, simulate_batch
 from nniquad.model.vehicle import PAPER_VEHICLE
 

@@ -47,17 +47,18 @@ from IPython.display import Image, display
 from scipy.optimize import brentq
 
 from nniquad.analysis import linear as L
+from nniquad.control.gains import PAPER_GAINS
 from nniquad.analysis import lmi
 from nniquad.sim import simulate as S
 from nniquad.reporting.display import show_figure as show, show_table as md_table
-from nniquad.control.inner_loops import DEFAULT_INNER_LOOP_GAINS
+from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS
 from nniquad.analysis.metrics import settling_time_batch
 from nniquad.reporting.plots import paper_figure
 from nniquad.model.vehicle import PAPER_VEHICLE
 
 T_START = time.perf_counter()
 V = PAPER_VEHICLE
-G = L.PAPER_GAINS
+G = PAPER_GAINS
 OUT = Path(tempfile.mkdtemp(prefix="nniquad-nb01-"))
 
 

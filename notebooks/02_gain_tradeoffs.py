@@ -38,6 +38,7 @@ import numpy as np
 from matplotlib.colors import LogNorm, Normalize
 
 from nniquad.analysis import linear as L
+from nniquad.control.gains import Gains
 from nniquad.sim import simulate as S
 from nniquad.reporting.display import show_figure as show, show_table as md_table
 from nniquad.analysis.bound import time_optimal_bound
@@ -117,7 +118,7 @@ for f in GAMMA_FACTORS:
     kk, uu = np.meshgrid(KP, U)  # rows: u, columns: kp
     dd = uu / (M * kk)
     ok = Gam * dd <= RK4_LIMIT
-    gains = [L.Gains(k, Gam, d) for k, d in zip(kk[ok], dd[ok])]
+    gains = [Gains(k, Gam, d) for k, d in zip(kk[ok], dd[ok])]
     res = S.simulate_batch(V, gains, MAP_OPTS)
     out = {}
     for name, scale in (("settling_s", 1), ("overshoot_pct", 1), ("peak_tilt_deg", 1), ("tilt_limit_fraction", 100)):
@@ -342,7 +343,7 @@ KP_REF = 5.0
 
 def shape_gains(kp, r, u):
     d = u / (M * kp)
-    return L.Gains(kp, r * math.sqrt(kp) / d, d)
+    return Gains(kp, r * math.sqrt(kp) / d, d)
 
 
 t0 = time.perf_counter()

@@ -42,6 +42,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from nniquad.analysis import linear as L
+from nniquad.control.gains import PDGains
 from nniquad.sim import simulate as S
 from nniquad.reporting.display import show_figure as show, show_table as md_table
 from nniquad.analysis.bound import time_optimal_bound
@@ -130,8 +131,8 @@ NNI_MARGIN = (1.0, 1.25)  # m kp δ in units of the sector bound 1/γ_max
 NNI_R = (0.75, 1.0, 1.35, 1.8)  # controller pole Γδ in units of √k_p
 
 CANDIDATES = {
-    "pd_velocity": [S.PDGains(kp, 2 * z * math.sqrt(kp)) for kp in PD_KP for z in PD_ZETA],
-    "pd_filtered": [S.PDGains(kp, 2 * z * math.sqrt(kp), tf) for kp in PF_KP for z in PF_ZETA for tf in PF_TAU],
+    "pd_velocity": [PDGains(kp, 2 * z * math.sqrt(kp)) for kp in PD_KP for z in PD_ZETA],
+    "pd_filtered": [PDGains(kp, 2 * z * math.sqrt(kp), tf) for kp in PF_KP for z in PF_ZETA for tf in PF_TAU],
     "nni": [decode([math.log(kp), math.log(mg), math.log(r * math.sqrt(kp))], V.m, GAMMA_MAX)[0]
             for kp in NNI_KP for mg in NNI_MARGIN for r in NNI_R] + [NNI_REF],
 }
@@ -153,8 +154,8 @@ def score(controller, options, gains_list):
 
 
 def fmt_gains(g):
-    if isinstance(g, S.PDGains):
-        return f"k_p = {g.kp:.3g}, k_d = {g.kd:.3g}" + (f", τ_f = {g.tau_f:.3g}" if g.tau_f != S.PDGains.tau_f else "")
+    if isinstance(g, PDGains):
+        return f"k_p = {g.kp:.3g}, k_d = {g.kd:.3g}" + (f", τ_f = {g.tau_f:.3g}" if g.tau_f != PDGains.tau_f else "")
     return f"k_p = {g.kp:.3g}, Γ = {g.Gamma:.3g}, δ = {g.delta:.3g}"
 
 

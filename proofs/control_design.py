@@ -20,6 +20,7 @@ import numpy as np
 import sympy as sp
 
 from nniquad.analysis import linear as L
+from nniquad.control.gains import Gains, PAPER_GAINS
 from nniquad.model import symbolic as S
 
 from .claims import FAILS, HOLDS, HOLDS_WITH_CORRECTION, Finding, claim
@@ -485,7 +486,7 @@ def closed_loop_stability(sign: int = +1) -> Finding:
        "parameter_constraint, regardless of model uncertainties in the quadrotor dynamics, provided the NNI property "
        "is preserved.", "symbolic+numeric")
 def remark_robustness(true_masses: Sequence[float] = (0.25, 0.3, 0.4, 0.5, 0.75, 1.0, 2.0),
-                      nominal_mass: float = 0.5, gains: L.Gains = L.PAPER_GAINS, gamma: float = 0.8) -> Finding:
+                      nominal_mass: float = 0.5, gains: Gains = PAPER_GAINS, gamma: float = 0.8) -> Finding:
     """Mass uncertainty in the paper's model (kp an exact acceleration gain): the plant stays NNI for any mass."""
     kp_min = min(gains.axes())
     designed = nominal_mass * kp_min * gains.delta >= 1 / gamma

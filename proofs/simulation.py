@@ -18,6 +18,7 @@ import numpy as np
 import sympy as sp
 
 from nniquad.analysis import linear as L
+from nniquad.control.gains import Gains, PAPER_GAINS
 from nniquad.analysis import metrics as MT
 
 from .claims import FAILS, HOLDS, HOLDS_WITH_CORRECTION, Finding, claim
@@ -28,10 +29,10 @@ SEC = "simulation"
 XI0 = (2.0, -1.5)
 #: A gain set that satisfies the sector bound with gamma = 0.8 (m kp delta = 1.2654) and that the full vehicle
 #: settles with (checked by ``full_model_stability``): slow, well-damped dominant poles.
-CORRECTED_FULL_MODEL_GAINS = L.Gains(kp=3.42, Gamma=3.59, delta=0.74)
+CORRECTED_FULL_MODEL_GAINS = Gains(kp=3.42, Gamma=3.59, delta=0.74)
 
 
-def linear_response(m: float, gains: L.Gains, x0: np.ndarray, t: np.ndarray) -> np.ndarray:
+def linear_response(m: float, gains: Gains, x0: np.ndarray, t: np.ndarray) -> np.ndarray:
     """State of the reduced linear loop (both axes, ``[x, x', z1, y, y', z2]``) at times ``t``.
 
     Exact propagation: ``x(t_k+1) = expm(A dt) x(t_k)`` on a uniform grid (scipy's matrix exponential).
@@ -97,7 +98,7 @@ def _shape(t: np.ndarray, xy: np.ndarray) -> dict:
        "With the paper's gains (kp = 5, Gamma = 160, delta = 0.6, m = 0.5 kg) from xi_h(0) = (2, -1.5) m at rest, "
        "'the position trajectories exhibit smooth transient response with no oscillations or overshoot'.",
        "symbolic+simulation")
-def simulation_claim(gains: L.Gains = L.PAPER_GAINS, m: float = 0.5, state0: Sequence[float] | None = None,
+def simulation_claim(gains: Gains = PAPER_GAINS, m: float = 0.5, state0: Sequence[float] | None = None,
                      horizon_s: float = 400.0, dt: float = 0.01) -> Finding:
     """Reduced linear loop: exact response (expm) with python-control as a second route; symbolic zero at s = 0."""
     import control as ct
@@ -151,7 +152,7 @@ def simulation_claim(gains: L.Gains = L.PAPER_GAINS, m: float = 0.5, state0: Seq
                    ev, cex, correction)
 
 
-def _full_run(gains: L.Gains, horizon_s: float, model: str = "full") -> dict:
+def _full_run(gains: Gains, horizon_s: float, model: str = "full") -> dict:
     from nniquad.sim.simulate import SimOptions, simulate
 
     tr = simulate(gains=gains, options=SimOptions(model=model, horizon_s=horizon_s))
@@ -169,8 +170,8 @@ def _full_run(gains: L.Gains, horizon_s: float, model: str = "full") -> dict:
 @claim("full-model-stability", ["thm:main_result", "sec:simulation", "tab:simulation_parameters"], SEC,
        "The paper's gains regulate the full nonlinear vehicle (12 states, realistic attitude loop, 30 deg tilt limit, "
        "rotor saturation) from xi_h(0) = (2, -1.5) m to the origin.", "simulation+LMI")
-def full_model_stability(gains: L.Gains = L.PAPER_GAINS, horizon_s: float = 300.0,
-                         correction_gains: L.Gains = CORRECTED_FULL_MODEL_GAINS) -> Finding:
+def full_model_stability(gains: Gains = PAPER_GAINS, horizon_s: float = 300.0,
+                         correction_gains: Gains = CORRECTED_FULL_MODEL_GAINS) -> Finding:
     """Simulate the full vehicle (nniquad.sim.simulate), the tilt-limited reduced loop, and the saturated-loop ROA LMI."""
     from nniquad.analysis import lmi
     from nniquad.model.vehicle import PAPER_VEHICLE as V

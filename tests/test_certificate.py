@@ -11,8 +11,8 @@ import pytest
 from nniquad.certificates.certificate import (SCHEMA_VERSION, build_certificate, canonical_digest, load_certificate,
                                 verify_certificate, write_certificate)
 from nniquad.errors import CertificateError
-from nniquad.control.inner_loops import InnerLoopGains
-from nniquad.analysis.linear import Gains
+from nniquad.control.gains import InnerLoopGains
+from nniquad.control.gains import Gains
 from nniquad.model.vehicle import PAPER_VEHICLE as V
 
 # a gain set found by `nniquad tune --model full --roa-radius 0` (it only has to be certifiable here)

@@ -8,6 +8,7 @@ import sympy as sp
 
 from nniquad.errors import GainError
 from nniquad.analysis import linear as L
+from nniquad.control.gains import Gains, PAPER_GAINS
 
 m_, kp_, G_, d_ = (L.SYMBOLS[k] for k in ("m", "kp", "Gamma", "delta"))
 s = sp.Symbol("s")
@@ -116,11 +117,11 @@ def test_dc_gains_with_python_control():
 @pytest.mark.parametrize("bad", [float("nan"), float("inf"), 0.0, -1.0, "x", True, None])
 def test_gains_validation(bad):
     with pytest.raises(GainError) as info:
-        L.Gains(kp=5.0, Gamma=bad, delta=0.6)
+        Gains(kp=5.0, Gamma=bad, delta=0.6)
     assert "Gamma" in str(info.value) and "\n" not in str(info.value)
 
 
 def test_paper_gains():
-    assert L.PAPER_GAINS.axes() == (5.0, 5.0) and L.PAPER_GAINS.Gamma == 160.0 and L.PAPER_GAINS.delta == 0.6
+    assert PAPER_GAINS.axes() == (5.0, 5.0) and PAPER_GAINS.Gamma == 160.0 and PAPER_GAINS.delta == 0.6
     with pytest.raises(GainError):
         L.closed_loop_A_axis(float("nan"), 5.0, 160.0, 0.6)

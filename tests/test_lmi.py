@@ -10,17 +10,8 @@ import pytest
 from nniquad.analysis import lmi
 from nniquad.errors import GainError, SolverError
 from nniquad.analysis.frequency import ni_interconnection_check
-from nniquad.analysis.linear import (
-    Gains,
-    PAPER_GAINS,
-    closed_loop_A_axis,
-    controller_matrices,
-    controller_ss,
-    plant_matrices,
-    plant_ss,
-    saturation_split,
-    stable,
-)
+from nniquad.analysis.linear import closed_loop_A_axis, controller_matrices, controller_ss, plant_matrices, plant_ss, saturation_split, stable
+from nniquad.control.gains import Gains, PAPER_GAINS
 
 
 @pytest.mark.parametrize("m, kp", [(0.5, 5.0), (1.3, 0.7), (0.2, 40.0)])

@@ -18,8 +18,8 @@ import numpy as np
 import pytest
 
 from nniquad.study import montecarlo as mc
-from nniquad.control.inner_loops import InnerLoopGains
-from nniquad.analysis.linear import Gains
+from nniquad.control.gains import InnerLoopGains
+from nniquad.control.gains import Gains
 from nniquad.model.vehicle import PAPER_VEHICLE
 
 # tuned gains: the full model settles in 1.53 s from (2, -1.5) m; certified reach 3.66 m

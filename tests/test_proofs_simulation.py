@@ -6,6 +6,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from nniquad.analysis import linear as L
+from nniquad.control.gains import Gains
 from nniquad.analysis import metrics as MT
 from nniquad.proofs import simulation as SIM
 from nniquad.proofs.claims import FAILS, HOLDS, HOLDS_WITH_CORRECTION
@@ -35,7 +36,7 @@ def test_simulation_claim_fails_with_numbers_from_a_second_integrator():
 
 def test_simulation_claim_can_hold_from_a_slow_eigenvector():
     # poles -1, -2, -3 (m = 0.5): kp = 11, Gamma = 30, delta = 0.2; start on the eigenvector of -1
-    g = L.Gains(kp=11.0, Gamma=30.0, delta=0.2)
+    g = Gains(kp=11.0, Gamma=30.0, delta=0.2)
     A3 = L.closed_loop_A_axis(0.5, g.kp, g.Gamma, g.delta)
     lam, V = np.linalg.eig(A3)
     v = np.real(V[:, np.argmin(np.abs(lam + 1))])

@@ -14,8 +14,10 @@ from scipy.linalg import expm
 
 from nniquad.sim import simulate as sim
 from nniquad.errors import GainError, SimulationError
-from nniquad.control.inner_loops import InnerLoopGains, allocate
-from nniquad.analysis.linear import PAPER_GAINS, Gains, closed_loop_A
+from nniquad.control.inner_loops import allocate
+from nniquad.control.gains import InnerLoopGains
+from nniquad.analysis.linear import closed_loop_A
+from nniquad.control.gains import PAPER_GAINS, Gains
 from nniquad.analysis.metrics import settling_time
 from nniquad.model.numeric import dynamics_function, mixer_function, param_vector
 from nniquad.sim.simulate import SimOptions, SimParams, simulate, simulate_batch

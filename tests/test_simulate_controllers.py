@@ -14,8 +14,9 @@ from scipy.linalg import expm
 
 from nniquad.sim import simulate as sim
 from nniquad.errors import GainError, SimulationError
-from nniquad.analysis.linear import PAPER_GAINS
-from nniquad.sim.simulate import PDGains, SimOptions
+from nniquad.control.gains import PAPER_GAINS
+from nniquad.sim.simulate import SimOptions
+from nniquad.control.gains import PDGains
 from nniquad.model.vehicle import PAPER_VEHICLE
 
 XI0 = np.array(sim.DEFAULT_XI0)

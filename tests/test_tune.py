@@ -9,7 +9,8 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from nniquad.errors import GainError, NniquadError
-from nniquad.analysis.linear import Gains, smallest_gamma
+from nniquad.analysis.linear import smallest_gamma
+from nniquad.control.gains import Gains
 from nniquad.analysis.metrics import settling_time
 from nniquad.tuning.tune import (TuneOptions, attitude_accel_headroom, certified_reach, decode, encode, search_box,
                          tune)

@@ -52,12 +52,9 @@ import numpy as np
 import sympy as sp
 
 from nniquad.errors import GainError
-from nniquad.validate import finite_number
+from nniquad.control.gains import positive_gain
 
 __all__ = [
-    "positive_gain",
-    "Gains",
-    "PAPER_GAINS",
     "SYMBOLS",
     "plant_matrices_sym",
     "controller_matrices_sym",
@@ -100,65 +97,9 @@ _ARGS = (SYMBOLS["m"], SYMBOLS["kp"], SYMBOLS["Gamma"], SYMBOLS["delta"])
 # ----------------------------------------------------------------------------- gains
 
 
-def positive_gain(name: str, value: float) -> float:
-    """``value`` as a finite positive float, else :class:`GainError` naming ``name``."""
-    return finite_number(name, value, error=GainError, positive=True)
 
 
-@dataclass(frozen=True)
-class Gains:
-    """A gain set of the paper's controller.
 
-    Parameters
-    ----------
-    kp
-        Inner-loop proportional gain of the x axis, :math:`k_p^x` (1/s^2).
-    Gamma
-        Integral resonant controller gain Γ.
-    delta
-        Integral resonant controller parameter δ (DC gain of C(s) is 1/δ).
-    kpy
-        Inner-loop gain of the y axis; ``None`` means equal to ``kp``.
-
-    Raises
-    ------
-    GainError
-        If a gain is not a finite positive number (one-line message naming it).
-    """
-
-    kp: float
-    Gamma: float
-    delta: float
-    kpy: float | None = None
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "kp", positive_gain("kp", self.kp))
-        object.__setattr__(self, "Gamma", positive_gain("Gamma", self.Gamma))
-        object.__setattr__(self, "delta", positive_gain("delta", self.delta))
-        if self.kpy is not None:
-            object.__setattr__(self, "kpy", positive_gain("kpy", self.kpy))
-
-    @property
-    def kpx(self) -> float:
-        """Inner-loop gain of the x axis."""
-        return self.kp
-
-    @property
-    def kp_y(self) -> float:
-        """Inner-loop gain of the y axis (``kp`` when ``kpy`` is ``None``)."""
-        return self.kp if self.kpy is None else self.kpy
-
-    def axes(self) -> tuple[float, float]:
-        """``(kpx, kpy)``."""
-        return self.kp, self.kp_y
-
-    def as_dict(self) -> dict[str, float]:
-        """Plain dictionary (``kpy`` resolved)."""
-        return {"kp": self.kp, "kpy": self.kp_y, "Gamma": self.Gamma, "delta": self.delta}
-
-
-#: The paper's gains (Table "Simulation Parameters"): kp^x = kp^y = 5, Γ = 160, δ = 0.6.
-PAPER_GAINS = Gains(kp=5.0, Gamma=160.0, delta=0.6)
 
 
 # ----------------------------------------------------------------------------- symbolic layer

@@ -59,7 +59,8 @@ from typing import Any, Sequence
 import numpy as np
 
 from nniquad.errors import GainError, SolverError
-from nniquad.analysis.linear import Gains, PAPER_GAINS, closed_loop_A_axis, controller_matrices, plant_matrices, saturation_split
+from nniquad.analysis.linear import closed_loop_A_axis, controller_matrices, plant_matrices, saturation_split
+from nniquad.control.gains import Gains, PAPER_GAINS
 
 __all__ = [
     "LMIResult",

@@ -49,18 +49,10 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 
 from nniquad.errors import CertificateError, GainError, NniquadError, VehicleError
-from nniquad.control.inner_loops import DEFAULT_INNER_LOOP_GAINS, InnerLoopGains
+from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, InnerLoopGains
 from nniquad.io import atomic_write_text
-from nniquad.analysis.linear import (
-    Gains,
-    closed_loop_A_axis,
-    controller_matrices,
-    plant_matrices,
-    poles_and_damping,
-    saturation_split,
-    sector_delta_min,
-    smallest_gamma,
-)
+from nniquad.analysis.linear import closed_loop_A_axis, controller_matrices, plant_matrices, poles_and_damping, saturation_split, sector_delta_min, smallest_gamma
+from nniquad.control.gains import Gains
 from nniquad.model.vehicle import Vehicle
 
 __all__ = [

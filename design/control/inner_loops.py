@@ -82,8 +82,6 @@ import casadi as ca
 from nniquad.errors import SimulationError
 
 __all__ = [
-    "InnerLoopGains",
-    "DEFAULT_INNER_LOOP_GAINS",
     "altitude_command",
     "limit_norm",
     "tilt_setpoints",
@@ -100,53 +98,6 @@ G_Z_MIN_FRACTION = 0.2
 TILT_COMPENSATION_MIN_COS = 0.5
 
 
-@dataclass(frozen=True)
-class InnerLoopGains:
-    """Gains of the loops the paper leaves unspecified (see the module docstring).
-
-    Attributes
-    ----------
-    attitude_wn_rad_s
-        Natural frequency ω_a of roll and pitch [rad/s] (default 25).
-    attitude_zeta
-        Damping ratio ζ_a of roll and pitch (default 0.8).
-    yaw_wn_rad_s
-        Natural frequency ω_ψ of the yaw hold [rad/s] (default 8).
-    yaw_zeta
-        Damping ratio ζ_ψ of the yaw hold (default 0.8).
-    altitude_wn_rad_s
-        ω_z of the altitude PID, triple pole at ``-ω_z`` [rad/s] (default 3).
-    attitude_gain_scale
-        Factor on all attitude torques (1 = nominal); models an attitude-gain error.
-    attitude_accel_limit_rad_s2
-        Deceleration ``α`` of the square-root shaping of the roll/pitch error
-        [rad/s²]; the default 1e6 leaves the linear PD unchanged.
-    """
-
-    attitude_wn_rad_s: float = 25.0
-    attitude_zeta: float = 0.8
-    yaw_wn_rad_s: float = 8.0
-    yaw_zeta: float = 0.8
-    altitude_wn_rad_s: float = 3.0
-    attitude_gain_scale: float = 1.0
-    attitude_accel_limit_rad_s2: float = 1e6
-
-    def __post_init__(self) -> None:
-        for f in fields(self):
-            value = getattr(self, f.name)
-            try:
-                v = float(value)
-            except (TypeError, ValueError):
-                raise SimulationError(f"inner-loop gain {f.name} must be a number, got {value!r}") from None
-            if not math.isfinite(v) or v <= 0.0:
-                raise SimulationError(f"inner-loop gain {f.name} must be finite and positive, got {value!r}")
-            object.__setattr__(self, f.name, v)
-
-    def as_dict(self) -> dict[str, float]:
-        return asdict(self)
-
-
-DEFAULT_INNER_LOOP_GAINS = InnerLoopGains()
 
 
 def altitude_command(z: ca.SX, z_dot: ca.SX, z_int: ca.SX, wn: ca.SX) -> ca.SX:

@@ -132,7 +132,8 @@ def build_report(vehicle: Vehicle, options: ReportOptions, progress: Progress | 
     from nniquad.analysis.bound import time_optimal_bound
     from nniquad.certificates.certificate import build_certificate, certificate_gains, certificate_inner_loop, verify_certificate, write_certificate
     from nniquad.errors import CertificateError
-    from nniquad.analysis.linear import PAPER_GAINS, poles_and_damping
+    from nniquad.analysis.linear import poles_and_damping
+    from nniquad.control.gains import PAPER_GAINS
     from nniquad.sim.simulate import SimOptions, paper_figure_runs
     from nniquad.tuning.tune import DEFAULT_ROA_RADIUS_M, TuneOptions, tune
 

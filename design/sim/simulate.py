@@ -104,9 +104,9 @@ import numpy as np
 
 from nniquad.control import inner_loops as IL
 from nniquad.errors import GainError, SimulationError
-from nniquad.control.inner_loops import DEFAULT_INNER_LOOP_GAINS, InnerLoopGains
+from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, InnerLoopGains
 from nniquad.io import atomic_write_with
-from nniquad.analysis.linear import PAPER_GAINS, Gains, positive_gain
+from nniquad.control.gains import PAPER_GAINS, Gains, PDGains, positive_gain
 from nniquad.validate import finite_number
 from nniquad.analysis.metrics import Metrics, compute_metrics, settling_time_batch
 from nniquad.model.numeric import PARAM_NAMES, mixer_function, rotation_function
@@ -122,7 +122,6 @@ __all__ = [
     "CONTROLLERS",
     "SimOptions",
     "SimParams",
-    "PDGains",
     "to_controller_gains",
     "Trajectory",
     "BatchResult",
@@ -391,31 +390,6 @@ def to_gains(gains: Gains | Mapping[str, Any] | Sequence[float]) -> Gains:
     return Gains(*vals)
 
 
-@dataclass(frozen=True)
-class PDGains:
-    """Gains of the PD comparison controllers ``a_h = -k_p ξ_m - k_d v`` (both axes alike).
-
-    Attributes
-    ----------
-    kp
-        Position gain [1/s²] (> 0).
-    kd
-        Derivative gain [1/s] (> 0).
-    tau_f
-        Time constant of the dirty-derivative filter [s] (``pd_filtered``; > 0
-        there, ignored by ``pd_velocity``; default 0.02).
-    """
-
-    kp: float
-    kd: float
-    tau_f: float = 0.02
-
-    def __post_init__(self) -> None:
-        for name in ("kp", "kd", "tau_f"):
-            object.__setattr__(self, name, positive_gain(name, getattr(self, name)))
-
-    def as_dict(self) -> dict[str, float]:
-        return {"kp": self.kp, "kd": self.kd, "tau_f": self.tau_f}
 
 
 def to_controller_gains(gains: Any, controller: str = "nni") -> Gains | PDGains:

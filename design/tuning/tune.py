@@ -68,8 +68,9 @@ import numpy as np
 
 from nniquad.analysis.bound import BoundResult, time_optimal_bound
 from nniquad.errors import GainError, NniquadError
-from nniquad.control.inner_loops import DEFAULT_INNER_LOOP_GAINS, InnerLoopGains
-from nniquad.analysis.linear import Gains, smallest_gamma
+from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, InnerLoopGains
+from nniquad.analysis.linear import smallest_gamma
+from nniquad.control.gains import Gains
 from nniquad.analysis.metrics import Metrics
 from nniquad.validate import finite_number
 from nniquad.model.vehicle import PAPER_VEHICLE, Vehicle

@@ -45,8 +45,8 @@ def run(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
     from nniquad.certificates.certificate import build_certificate, verify_certificate, write_certificate
-    from nniquad.control.inner_loops import DEFAULT_INNER_LOOP_GAINS
-    from nniquad.analysis.linear import Gains
+    from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS
+    from nniquad.control.gains import Gains
     from nniquad.tuning.tune import tune
     from .common import finite_positive, vehicle_from_args
 

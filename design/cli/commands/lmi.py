@@ -52,7 +52,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _gains(args: argparse.Namespace):
-    from nniquad.analysis.linear import Gains
+    from nniquad.control.gains import Gains
 
     kpy = None if args.kpy is None else finite_positive("kpy", args.kpy)
     return Gains(

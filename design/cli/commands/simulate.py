@@ -126,7 +126,7 @@ class StderrProgress:
 
 
 def _gains(args: argparse.Namespace):
-    from nniquad.analysis.linear import PAPER_GAINS, Gains
+    from nniquad.control.gains import PAPER_GAINS, Gains
 
     explicit = {k: getattr(args, k) for k in ("kp", "kpy", "Gamma", "delta") if getattr(args, k) is not None}
     if args.certificate:
@@ -145,7 +145,7 @@ def _inner(args: argparse.Namespace):
     """Inner-loop gains: the certificate's (its ``inner_loop``) or the defaults, then the explicit options."""
     from dataclasses import replace
 
-    from nniquad.control.inner_loops import DEFAULT_INNER_LOOP_GAINS
+    from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS
 
     inner = DEFAULT_INNER_LOOP_GAINS
     if args.certificate:

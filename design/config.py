@@ -1,0 +1,37 @@
+"""Every default of the project, in one place.
+
+Modules, the command line, the report and the notebooks read these names;
+none of them retypes the numbers.
+"""
+
+from __future__ import annotations
+
+import math
+
+__all__ = [
+    "XI0_M",
+    "XI0_NORM_M",
+    "TILT_LIMIT_DEG",
+    "BAND_FRACTION",
+    "GAMMA_MAX",
+    "DIVERGENCE_FACTOR",
+    "DT_S",
+    "OUTPUT_DT_S",
+]
+
+#: Initial horizontal position of the paper's run, north/east [m], at rest (DESIGN.md).
+XI0_M: tuple[float, float] = (2.0, -1.5)
+#: Its distance from the origin [m]: the default certified reach and the scale of the settling band.
+XI0_NORM_M: float = math.hypot(*XI0_M)
+#: Tilt limit [deg]; the horizontal acceleration is then at most g tan(30 deg).
+TILT_LIMIT_DEG: float = 30.0
+#: Settling band as a fraction of the initial distance (2 %).
+BAND_FRACTION: float = 0.02
+#: gamma_max of the sector bound, the paper's choice.
+GAMMA_MAX: float = 0.8
+#: A run whose distance exceeds this multiple of its initial distance has diverged.
+DIVERGENCE_FACTOR: float = 100.0
+#: RK4 step of every simulation [s].
+DT_S: float = 1e-3
+#: Output sample period of a simulation [s].
+OUTPUT_DT_S: float = 0.01
