@@ -32,7 +32,7 @@ def model_equations(variant: str) -> list[tuple[str, str, object]]:
     """(key, title, sympy object) of every equation printed by ``derive``."""
     import sympy as sp
 
-    from .. import symbolic as S
+    from nniquad.model import symbolic as S
 
     s = S.symbols()
     eta_dd = S.rotational_dynamics(variant)
