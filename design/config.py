@@ -15,6 +15,7 @@ __all__ = [
     "BAND_FRACTION",
     "GAMMA_MAX",
     "DIVERGENCE_FACTOR",
+    "ALTITUDE_LIMIT_M",
     "DT_S",
     "OUTPUT_DT_S",
 ]
@@ -31,6 +32,8 @@ BAND_FRACTION: float = 0.02
 GAMMA_MAX: float = 0.8
 #: A run whose distance exceeds this multiple of its initial distance has diverged.
 DIVERGENCE_FACTOR: float = 100.0
+#: A ``full`` run whose altitude deviates by more than this [m] has lost altitude (a failure).
+ALTITUDE_LIMIT_M: float = 2.0
 #: RK4 step of every simulation [s].
 DT_S: float = 1e-3
 #: Output sample period of a simulation [s].

@@ -14,6 +14,7 @@ __all__ = [
     "SolverError",
     "CertificateError",
     "SimulationError",
+    "MonteCarloError",
 ]
 
 
@@ -39,3 +40,7 @@ class CertificateError(NniquadError):
 
 class SimulationError(NniquadError):
     """A simulation option is invalid (negative horizon, zero rate, ...)."""
+
+
+class MonteCarloError(NniquadError):
+    """A Monte Carlo option is invalid, or the cluster cannot be reached or failed."""

@@ -500,7 +500,7 @@ def remark_robustness(true_masses: Sequence[float] = (0.25, 0.3, 0.4, 0.5, 0.75,
                    "not contain m)",
           "constraint with the nominal mass": {"nominal m": nominal_mass, "gamma": gamma, "holds": designed},
           "true masses": rows,
-          "note": "nniquad.sim.simulate models the implemented inner loop (command scaled by the nominal mass); there the "
+          "note": "nniquad.sim models the implemented inner loop (command scaled by the nominal mass); there the "
                   "stability condition m_nominal kp delta > 1 does not involve the true mass"}
     bad = [r for r in rows if not r["stable"]]
     if designed and not bad:

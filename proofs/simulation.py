@@ -3,7 +3,7 @@
 The paper's simulation claims are tested on the model the theory covers -- the
 reduced linear loop of :mod:`nniquad.analysis.linear`, propagated exactly with the matrix
 exponential and cross-checked with python-control -- and, for
-``full-model-stability``, on the 12-state vehicle of :mod:`nniquad.sim.simulate`
+``full-model-stability``, on the 12-state vehicle of :mod:`nniquad.sim`
 (realistic attitude loop, 30 deg tilt limit, rotor saturation).
 Conventions follow DESIGN.md: start at xi_h(0) = (2, -1.5) m at rest, z(0) = 0;
 overshoot and settling from :mod:`nniquad.analysis.metrics`.
@@ -153,9 +153,9 @@ def simulation_claim(gains: Gains = PAPER_GAINS, m: float = 0.5, state0: Sequenc
 
 
 def _full_run(gains: Gains, horizon_s: float, model: str = "full") -> dict:
-    from nniquad.sim.simulate import SimOptions, simulate
+    from nniquad.sim import SimOptions, simulate
 
-    tr = simulate(gains=gains, options=SimOptions(model=model, horizon_s=horizon_s))
+    tr = simulate(gains=gains, options=SimOptions(model=model, horizon_s=horizon_s))[0]
     d = np.linalg.norm(tr.xy, axis=1)
     w = max(1, int(round(60.0 / tr.options.output_dt_s)))
     windows = [float(d[i:i + w].max()) for i in range(0, d.size - 1, w)]

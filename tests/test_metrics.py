@@ -243,3 +243,65 @@ def test_shape_errors_are_domain_errors():
         settling_time(t[::-1], np.ones((5, 2)))
     with pytest.raises(NniquadError):
         settling_time_batch(t, np.ones((5, 2)))
+
+
+def test_overshoot_is_measured_along_the_start_direction_with_a_sideways_offset_at_the_peak():
+    """At the overshoot peak the run is 1.2 m to the side: only the component along e0 counts.
+
+    The distance past the origin at the peak is hypot(along, sideways), 61 % of
+    ‖ξ(0)‖ against 37 % along e0: an implementation that measures that distance fails.
+    """
+    zeta, wn, D = 0.3, 2.0, 2.5
+    sigma, w = zeta * wn, wn * math.sqrt(1 - zeta**2)
+    t = np.arange(0.0, 10.0, 1e-4)
+    x = D * np.exp(-sigma * t) * (np.cos(w * t) + sigma / w * np.sin(w * t))
+    y = 1.5 * (1.0 - np.exp(-t))  # sideways drift, 1.5 (1 - e^{-π/ω}) ≈ 1.2 m at the peak t = π/ω
+    t_peak = math.pi / w
+    side_at_peak = 1.5 * (1.0 - math.exp(-t_peak))
+    along_at_peak = D * math.exp(-sigma * t_peak)
+    expected = 100.0 * math.exp(-zeta * math.pi / math.sqrt(1 - zeta**2))
+    got = overshoot_pct(t, along(x) + along(y, E_PERP))
+    assert got == pytest.approx(expected, abs=1e-6)
+    # the wrong measure (distance past the origin) would be this much larger
+    assert 100.0 * math.hypot(along_at_peak, side_at_peak) / D > expected + 20.0
+    # the batch form agrees, also when the run's own start direction is not the paper's
+    rot = np.array([[0.0, -1.0], [1.0, 0.0]])
+    xy_rot = (along(x) + along(y, E_PERP)) @ rot.T
+    assert overshoot_pct_batch(t, xy_rot[None])[0] == pytest.approx(expected, abs=1e-6)
+
+
+# ------------------------------------------------------------------ divergence and altitude loss
+
+
+def test_divergence_scale_threshold_and_non_finite_altitude():
+    t = np.linspace(0.0, 1.0, 3)
+    xy = from_distances([2.5, 200.0, 1.0])  # 80 x the start: not diverged at factor 100
+    assert not diverged(xy)
+    assert diverged(from_distances([2.5, 251.0, 1.0]))  # beyond 100 x 2.5 m
+    # an explicit scale (Monte Carlo: max(start distance, band)) replaces the start distance
+    assert diverged(xy, scale_m=1.0) and not diverged(xy, scale_m=3.0)
+    assert diverged(from_distances([0.0, 101.0, 0.0]))  # a run from the origin: 1 m scale
+    assert diverged(xy, z=np.array([0.0, np.nan, 0.0]))  # a non-finite altitude blows the run up too
+    flags = diverged_batch(np.stack([xy, from_distances([2.5, 251.0, 0.0])]), z_batch=np.zeros((2, 3)))
+    assert flags.tolist() == [False, True]
+    assert t.size == 3
+
+
+def test_altitude_loss_and_the_one_failure_verdict():
+    from nniquad.analysis.metrics import altitude_lost_batch, failure_reason
+    from nniquad.config import ALTITUDE_LIMIT_M
+
+    z = np.array([[0.0, ALTITUDE_LIMIT_M, 0.0], [0.0, -1.01 * ALTITUDE_LIMIT_M, 0.0], [0.0, np.nan, 0.0]])
+    assert altitude_lost_batch(z).tolist() == [False, True, True]  # the limit itself is allowed; NaN is lost
+    assert altitude_lost_batch(z + 5.0, z_ref=5.0).tolist() == [False, True, True]
+    assert failure_reason(True, True, False) == "diverged"
+    assert failure_reason(False, True, True) == "altitude lost"
+    assert failure_reason(False, False, False) == "not settled"
+    assert failure_reason(False, None, True) is None
+    # compute_metrics: a run that settles horizontally but falls 10 m is a failure, not a success
+    t = np.linspace(0.0, 10.0, 1001)
+    m = compute_metrics(t, along(2.5 * np.exp(-t)), z=0.5 * t**2 / 5.0)
+    assert m.settling_s is not None and not m.diverged
+    assert m.altitude_lost is True and m.failure == "altitude lost"
+    assert compute_metrics(t, along(2.5 * np.exp(-t))).altitude_lost is None
+    assert Metrics.from_json(m.to_json()) == m

@@ -1,6 +1,6 @@
 """Monte Carlo robustness studies: statistics, reproducibility, executors (local pool, Dask) and the CLI.
 
-Reference values are independent of :mod:`nniquad.study.montecarlo`: closed forms of
+Reference values are independent of :mod:`nniquad.study`: closed forms of
 the Wilson interval and of the order-statistic median interval, numpy's own
 ``SeedSequence.spawn`` streams, the certificate's stored ``full`` run, and the
 thrust limit ``4 b ω_max² < m g``.
@@ -17,7 +17,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from nniquad.study import montecarlo as mc
+import nniquad.study as mc
+from nniquad.study import executors
 from nniquad.control.gains import InnerLoopGains
 from nniquad.control.gains import Gains
 from nniquad.model.vehicle import PAPER_VEHICLE
@@ -107,7 +108,7 @@ def test_scenario_streams_match_seedsequence_spawn(setup4):
         rng = np.random.default_rng(children[i])
         expected = rng.uniform(*mc.DEFAULT_RANGES.mass_factor)
         assert dict(many[i].factors)["mass"] == expected
-        assert many[i].sim_params.m == pytest.approx(PAPER_VEHICLE.m * expected, rel=1e-15)
+        assert many[i].sim_params.plant.m == pytest.approx(PAPER_VEHICLE.m * expected, rel=1e-15)
     assert mc.draw_scenarios(5, seed + 1, mc.DEFAULT_RANGES, setup4) != few
     # every start lies in the displacement disk, at most the certified reach
     assert setup4.region_m == pytest.approx(REACH_M)
@@ -136,7 +137,7 @@ def test_known_bad_scenarios_fail(setup4):
     liftable = 4 * v.b * v.omega_max**2 / v.g  # heaviest mass the rotors can hold [kg]
     scenarios = mc.draw_scenarios(6, 2, BENIGN, setup4)
     bad = {1, 4}
-    scenarios = [s.with_params(m=1.3 * liftable) if s.index in bad else s for s in scenarios]
+    scenarios = [s.with_params(plant={"m": 1.3 * liftable}) if s.index in bad else s for s in scenarios]
     results = mc.run_study(scenarios, workers=1).results
     for r in results:
         if r.index in bad:
@@ -161,12 +162,12 @@ def test_nominal_scenario_reproduces_the_certificate(cert_path):
     cert = load_certificate(cert_path)
     setup = mc.study_setup(cert, horizon_s=6.0)
     base = setup.base
-    assert base.att_accel == cert["inner_loop"]["attitude_accel_limit_rad_s2"]
-    assert base.att_wn == cert["inner_loop"]["attitude_wn_rad_s"] and base.motor_lag == 1.0
+    assert base.inner.attitude_accel_limit_rad_s2 == cert["inner_loop"]["attitude_accel_limit_rad_s2"]
+    assert base.inner.attitude_wn_rad_s == cert["inner_loop"]["attitude_wn_rad_s"] and base.run.motor_lag == 1.0
     assert setup.region_m == pytest.approx(cert["region_of_attraction"]["max_displacement_m"])
     assert setup.label == "sha256:" + cert["digest"]["value"][:16]
     s = mc.draw_scenario(0, 0, mc.DEFAULT_RANGES, setup)
-    continuous = tuple(float(v) for v in base.with_(sample_hold=0.0).vector())
+    continuous = tuple(float(v) for v in base.with_(run={"sample_hold": 0.0}).vector())
     nominal = replace(s, params=continuous, xi0_m=tuple(cert["xi0_m"]), noise_sigma_m=0.0)
     r = mc.run_scenarios([nominal])[0]
     ref = cert["performance"]["full"]
@@ -250,7 +251,7 @@ def test_cli_interrupt_keeps_finished_batches(run_cli, cert_path, tmp_path, monk
             raise KeyboardInterrupt
         return real(batch)
 
-    monkeypatch.setattr(mc, "run_scenarios", interrupted_on_second_batch)
+    monkeypatch.setattr(executors, "run_scenarios", interrupted_on_second_batch)
     js = tmp_path / "study.json"
     code, out, err = run_cli("montecarlo", "--certificate", str(cert_path), "--samples", "6", "--horizon", "2",
                              "--workers", "1", "--batch-size", "2", "--json", str(js))

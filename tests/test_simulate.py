@@ -12,7 +12,7 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.linalg import expm
 
-from nniquad.sim import simulate as sim
+from nniquad import sim
 from nniquad.errors import GainError, SimulationError
 from nniquad.control.inner_loops import allocate
 from nniquad.control.gains import InnerLoopGains
@@ -20,7 +20,7 @@ from nniquad.analysis.linear import closed_loop_A
 from nniquad.control.gains import PAPER_GAINS, Gains
 from nniquad.analysis.metrics import settling_time
 from nniquad.model.numeric import dynamics_function, mixer_function, param_vector
-from nniquad.sim.simulate import SimOptions, SimParams, simulate, simulate_batch
+from nniquad.sim import SimOptions, SimParams, simulate
 from nniquad.model.vehicle import PAPER_VEHICLE
 
 V = PAPER_VEHICLE
@@ -44,7 +44,7 @@ def _expm_xy(A6: np.ndarray, x0: np.ndarray, t: np.ndarray) -> np.ndarray:
 @pytest.mark.parametrize("gains", [PAPER_GAINS, FAST], ids=["paper", "fast"])
 def test_linear_matches_matrix_exponential(gains):
     """RK4 at 1 ms against expm of the closed-loop A of nniquad.analysis.linear: within 1e-6 m over 30 s."""
-    tr = simulate(V, gains, SimOptions(model="linear", horizon_s=30.0))
+    tr = simulate(V, gains, SimOptions(model="linear", horizon_s=30.0))[0]
     A6 = closed_loop_A(V.m, gains.kp, gains.Gamma, gains.delta)
     ref = _expm_xy(A6, np.array([2.0, 0, 0, -1.5, 0, 0]), tr.t)
     assert np.max(np.abs(tr.xy - ref)) < 1e-6
@@ -52,17 +52,17 @@ def test_linear_matches_matrix_exponential(gains):
 
 def test_reduced_limits_the_commanded_tilt_exactly_and_equals_linear_below_it():
     o = SimOptions(model="reduced", horizon_s=5.0)
-    tr = simulate(V, PAPER_GAINS, o)
+    tr = simulate(V, PAPER_GAINS, o)[0]
     # kp |xi0| = 12.5 m/s^2 > g tan 30 = 5.66 m/s^2: the limit is active at the start
     assert tr.cmd_tilt_deg[0] == pytest.approx(30.0, abs=1e-9)
     assert np.max(tr.cmd_tilt_deg) <= 30.0 + 1e-9
     assert np.max(np.hypot(*tr.a_cmd.T)) <= V.g * math.tan(math.radians(30.0)) * (1 + 1e-12)
-    lin = simulate(V, PAPER_GAINS, o.with_(model="linear"))
+    lin = simulate(V, PAPER_GAINS, o.with_(model="linear"))[0]
     assert np.max(lin.cmd_tilt_deg) > 50.0
     # from 1 % of the initial state the limit never acts, so reduced == linear to round-off
     small = o.with_(xi0=(0.02, -0.015))
-    a = simulate(V, PAPER_GAINS, small)
-    b = simulate(V, PAPER_GAINS, small.with_(model="linear"))
+    a = simulate(V, PAPER_GAINS, small)[0]
+    b = simulate(V, PAPER_GAINS, small.with_(model="linear"))[0]
     assert np.max(np.abs(a.xy - b.xy)) < 1e-12
 
 
@@ -93,7 +93,7 @@ def test_full_rk4_matches_solve_ivp(lag):
     below anything the metrics resolve (the settling band is 5 cm).
     """
     o = SimOptions(model="full", horizon_s=4.0, motor_lag=lag)
-    tr = simulate(V, PAPER_GAINS, o)
+    tr = simulate(V, PAPER_GAINS, o)[0]
     if not lag:  # saturation really is exercised (with lag the motors filter the short saturated command)
         assert np.max(tr.rotor_speeds) == pytest.approx(V.omega_max)
     P = SimParams.from_options(V, PAPER_GAINS, o).vector()
@@ -123,7 +123,7 @@ def test_full_small_amplitude_is_linear_loop_with_attitude_lag():
     rel = []
     for scale in (0.01, 0.005):
         xi0 = (2.0 * scale, -1.5 * scale)
-        tr = simulate(V, PAPER_GAINS, SimOptions(model="full", horizon_s=10.0, xi0=xi0))
+        tr = simulate(V, PAPER_GAINS, SimOptions(model="full", horizon_s=10.0, xi0=xi0))[0]
         Phi = expm(A5 * 0.01)
         ref = np.empty((tr.t.size, 2))
         for axis in range(2):
@@ -133,7 +133,7 @@ def test_full_small_amplitude_is_linear_loop_with_attitude_lag():
                 s = Phi @ s
         rel.append(np.max(np.abs(tr.xy - ref)) / math.hypot(*xi0))
         if scale == 0.01:
-            lin = simulate(V, PAPER_GAINS, SimOptions(model="linear", horizon_s=10.0, xi0=xi0))
+            lin = simulate(V, PAPER_GAINS, SimOptions(model="linear", horizon_s=10.0, xi0=xi0))[0]
             assert np.max(np.abs(tr.xy - lin.xy)) / math.hypot(*xi0) > 0.2
     assert rel[0] < 1e-5
     assert 3.0 < rel[0] / rel[1] < 5.0  # quadratic nonlinearity, not a model mismatch
@@ -151,8 +151,8 @@ def test_lag_makes_paper_gains_unstable_but_fast_attitude_recovers_linear():
     assert growth(25.0) > 0.03 and growth(300.0) < -0.01
     xi0 = (0.02, -0.015)
     o = SimOptions(model="full", horizon_s=20.0, xi0=xi0)
-    slow = simulate(V, PAPER_GAINS, o)
-    fast = simulate(V, PAPER_GAINS, o.with_(inner=InnerLoopGains(attitude_wn_rad_s=300.0)))
+    slow = simulate(V, PAPER_GAINS, o)[0]
+    fast = simulate(V, PAPER_GAINS, o.with_(inner=InnerLoopGains(attitude_wn_rad_s=300.0)))[0]
     d_slow = np.hypot(*slow.xy[-300:].T).max()
     d_fast = np.hypot(*fast.xy[-300:].T).max()
     assert d_slow > 1.5 * math.hypot(*xi0) and d_fast < math.hypot(*xi0)
@@ -167,7 +167,7 @@ def test_attitude_loop_converges_with_saturated_rotors():
     """
     for inner in (InnerLoopGains(), InnerLoopGains(attitude_wn_rad_s=60.0, attitude_zeta=0.7)):
         o = SimOptions(model="full", horizon_s=2.0, xi0=(200.0, -150.0), inner=inner)
-        tr = simulate(V, PAPER_GAINS, o)
+        tr = simulate(V, PAPER_GAINS, o)[0]
         assert np.all(np.isfinite(tr.state))
         assert np.max(tr.rotor_speeds) == pytest.approx(V.omega_max)
         assert np.min(tr.rotor_speeds) >= 0.0
@@ -212,17 +212,17 @@ def test_allocation_inverts_the_mixer_and_keeps_priorities():
 def test_batch_equals_single_runs_and_per_run_exogenous_inputs():
     o = SimOptions(model="full", horizon_s=1.0, noise_sigma_m=0.01)
     gains = [PAPER_GAINS, FAST, Gains(kp=6.0, Gamma=100.0, delta=0.5)]
-    res = simulate_batch(V, gains, o, keep_trajectories=True)
+    res = simulate(V, gains, o)
     for b, g in enumerate(gains):
-        one = simulate(V, g, o)
+        one = simulate(V, g, o)[0]
         assert np.max(np.abs(res.xy[b] - one.xy)) < 1e-12
-        assert res.metrics[b] == one.metrics()
+        assert res.metrics()[b] == one.metrics()
     # per-run exogenous inputs (Monte Carlo): run b with seed b equals a single run with seed b
     P = np.stack([SimParams.from_options(V, FAST, o).vector()] * 2)
     x0 = np.stack([sim.initial_state("full", SimParams.from_vector(P[0]))] * 2)
     E = np.stack([sim.exogenous_inputs(o, seed=s) for s in (0, 7)])
     X, _ = sim.run_batch("full", P, x0, E, steps_per_sample=o.steps_per_sample, n_samples=o.n_samples)
-    one = simulate(V, FAST, o.with_(seed=7))
+    one = simulate(V, FAST, o.with_(seed=7))[0]
     assert np.max(np.abs(X[1] - one.state)) < 1e-12
     assert np.max(np.abs(X[0] - X[1])) > 1e-4
 
@@ -230,11 +230,11 @@ def test_batch_equals_single_runs_and_per_run_exogenous_inputs():
 def test_settling_batch_and_progress():
     o = SimOptions(model="linear", horizon_s=15.0)
     seen = []
-    res = simulate_batch(V, [FAST, PAPER_GAINS], o, progress=seen.append)
-    s = sim.settling_batch(V, [FAST, PAPER_GAINS], o)
+    res = simulate(V, [FAST, PAPER_GAINS], o, progress=seen.append)
+    s = res.settling_s
     assert seen[-1] == pytest.approx(1.0) and seen == sorted(seen)
-    assert s[0] == pytest.approx(res.metrics[0].settling_s, abs=1e-12)
-    assert math.isnan(s[1]) and res.metrics[1].settling_s is None  # paper gains: ~224 s
+    assert s[0] == pytest.approx(res.metrics()[0].settling_s, abs=1e-12)
+    assert math.isnan(s[1]) and res.metrics()[1].settling_s is None  # paper gains: ~224 s
 
 
 # ------------------------------------------------------------------------------ simulate -> metrics
@@ -265,7 +265,7 @@ def test_metrics_of_a_hand_made_trajectory():
 
 def test_simulated_settling_matches_independent_fine_grid():
     """Settling from the 10 ms trajectory vs the metric on a 1 ms expm solution: within 5 ms."""
-    tr = simulate(V, FAST, SimOptions(model="linear", horizon_s=20.0))
+    tr = simulate(V, FAST, SimOptions(model="linear", horizon_s=20.0))[0]
     t = np.arange(0, 20.0 + 1e-9, 1e-3)
     ref = _expm_xy(closed_loop_A(V.m, FAST.kp, FAST.Gamma, FAST.delta), np.array([2.0, 0, 0, -1.5, 0, 0]), t)
     ts = settling_time(t, ref)
@@ -284,32 +284,60 @@ def test_noise_is_seeded_sampled_and_held():
     assert np.all(E[1:20, 0] == E[0, 0]) and E[20, 0] != E[0, 0]
     np.testing.assert_array_equal(E, sim.exogenous_inputs(o))
     assert not np.array_equal(E, sim.exogenous_inputs(o.with_(seed=1)))
-    a, b = simulate(V, FAST, o), simulate(V, FAST, o)
+    a, b = simulate(V, FAST, o)[0], simulate(V, FAST, o)[0]
     np.testing.assert_array_equal(a.state, b.state)
-    clean = simulate(V, FAST, o.with_(noise_sigma_m=0.0))
+    clean = simulate(V, FAST, o.with_(noise_sigma_m=0.0))[0]
     assert 1e-5 < np.max(np.abs(a.xy - clean.xy)) < 0.05
     # the held measurement only changes at sample instants (every 20 ms = 2 output samples)
     held = a.state[:, 6]
     assert np.all(np.diff(held)[1::2] == 0.0) and np.all(np.diff(held)[0::2] != 0.0)
 
 
+@pytest.mark.parametrize("rate_hz", [50.0, 30.0, 100.0, 7.0])
+def test_noise_sample_instants_over_a_long_run(rate_hz):
+    """Sample j is taken at the first step k with k dt >= j / rate, for every j of a 20 s run.
+
+    The reference is exact rational arithmetic (k_j = ceil(j / (rate dt))), so a
+    floating-point floor that lands one step late at some j (e.g. 50 Hz, j = 3 ...)
+    fails here, while the sample count alone would still be right.
+    """
+    from fractions import Fraction
+
+    o = SimOptions(model="linear", horizon_s=20.0, noise_sigma_m=0.01, noise_rate_hz=rate_hz)
+    E = sim.exogenous_inputs(o)
+    n = E.shape[0]
+    steps_per_sample = 1 / (Fraction(rate_hz).limit_denominator(1000) * Fraction(o.dt_s).limit_denominator(10**6))
+    expected = []
+    j = 0
+    while True:
+        k = math.ceil(j * steps_per_sample)
+        if k >= n:
+            break
+        expected.append(k)
+        j += 1
+    np.testing.assert_array_equal(np.flatnonzero(E[:, 2]), expected)
+    # the noise value changes exactly at those instants and is held in between
+    changes = np.flatnonzero(np.any(np.diff(E[:, 0:2], axis=0) != 0.0, axis=1)) + 1
+    np.testing.assert_array_equal(changes, expected[1:])
+
+
 def test_tilt_jitter_under_noise_is_reported():
     o = SimOptions(model="reduced", horizon_s=20.0, noise_sigma_m=0.005, noise_rate_hz=50.0)
-    m = simulate(V, FAST, o).metrics()
+    m = simulate(V, FAST, o)[0].metrics()
     assert m.settling_s is not None and m.tilt_jitter_rms_deg is not None and m.tilt_jitter_rms_deg > 0
 
 
 def test_constant_wind_gives_the_steady_offset():
     """Equilibrium of xi'' = -kp xi + z/m + F/m, z = xi/delta: xi = F / (m kp - 1/delta)."""
     F = (0.2, -0.1)
-    tr = simulate(V, FAST, SimOptions(model="linear", horizon_s=30.0, wind_N=F))
+    tr = simulate(V, FAST, SimOptions(model="linear", horizon_s=30.0, wind_N=F))[0]
     expect = np.array(F) / (V.m * FAST.kp - 1.0 / FAST.delta)
     np.testing.assert_allclose(tr.xy[-1], expect, atol=1e-6)
 
 
 def test_full_with_mass_error_gust_and_motor_lag_holds_altitude():
     o = SimOptions(model="full", horizon_s=8.0, true_mass_kg=0.55, gust_N=0.05, motor_lag=True, seed=3)
-    tr = simulate(V, FAST, o)
+    tr = simulate(V, FAST, o)[0]
     m = tr.metrics()
     assert not m.diverged and np.all(np.isfinite(tr.state))
     assert abs(tr.z_ned[-1]) < 0.01  # the altitude integral removes the 10 % mass error's offset
@@ -343,12 +371,12 @@ def test_bad_options_raise_one_line_errors(kwargs, message):
                                    {"kp": 5.0, "Gamma": 160.0}])
 def test_bad_gains_raise_gain_error(gains):
     with pytest.raises(GainError):
-        simulate(V, gains, SimOptions(model="linear", horizon_s=1.0))
+        simulate(V, gains, SimOptions(model="linear", horizon_s=1.0))[0]
 
 
 def test_step_too_large_for_controller_pole():
     with pytest.raises(SimulationError, match="Gamma\\*delta"):
-        simulate(V, Gains(kp=5.0, Gamma=5000.0, delta=1.0), SimOptions(model="linear", horizon_s=1.0))
+        simulate(V, Gains(kp=5.0, Gamma=5000.0, delta=1.0), SimOptions(model="linear", horizon_s=1.0))[0]
 
 
 def test_compile_failure_falls_back_to_the_vm(monkeypatch, tmp_path):
@@ -359,13 +387,13 @@ def test_compile_failure_falls_back_to_the_vm(monkeypatch, tmp_path):
     monkeypatch.setenv("CC", "/nonexistent/compiler")
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        out = sim._compile(fn)
+        out = sim.codegen.compile_function(fn)
     assert any("CasADi VM" in str(w.message) for w in caught)
     assert float(out([1.0, 2.0])[0]) == pytest.approx(2 * math.sin(1.0))
 
 
 def test_trajectory_save_roundtrip(tmp_path):
-    tr = simulate(V, FAST, SimOptions(model="reduced", horizon_s=0.5))
+    tr = simulate(V, FAST, SimOptions(model="reduced", horizon_s=0.5))[0]
     p = tr.save(tmp_path / "run.npz")
     with np.load(p) as data:
         np.testing.assert_array_equal(data["state"], tr.state)
@@ -380,10 +408,10 @@ def test_trajectory_save_roundtrip(tmp_path):
 def test_params_vector_roundtrip_and_layout():
     p = SimParams.from_options(V, PAPER_GAINS, SimOptions(true_mass_kg=0.6))
     v = p.vector()
-    assert v.size == len(sim.PARAM_FIELDS)
+    assert v.size == len(sim.param_layout("nni"))
     assert SimParams.from_vector(v) == p
-    names = [n for n, _, _ in sim.PARAM_FIELDS]
-    assert v[names.index("m")] == 0.6 and v[names.index("m_nom")] == V.m
+    names = [f.name for f in sim.param_layout("nni")]
+    assert v[names.index("plant.m")] == 0.6 and v[names.index("nominal.m")] == V.m
 
 
 def test_paper_figure_and_trajectory_plot(tmp_path):
@@ -395,3 +423,83 @@ def test_paper_figure_and_trajectory_plot(tmp_path):
     q = trajectory_plot(runs["full"], tmp_path / "full.png")
     assert p.stat().st_size > 20_000 and q.stat().st_size > 20_000
     assert not list(tmp_path.glob("*.tmp"))
+
+
+# ------------------------------------------------------------------------------ the one entry point
+
+
+def test_simulation_result_holds_many_runs_with_named_signals(tmp_path):
+    o = SimOptions(model="reduced", horizon_s=3.0)
+    gains = [FAST, PAPER_GAINS, Gains(kp=6.0, Gamma=100.0, delta=0.5)]
+    res = simulate(V, gains, o)
+    assert len(res) == 3 and res.controller == "nni" and res.model == "reduced"
+    assert res.states.shape == (3, res.t.size, len(sim.STATE_NAMES["reduced"]))
+    assert res.xy.shape == (3, res.t.size, 2) and res.tilt_deg.shape == (3, res.t.size)
+    np.testing.assert_array_equal(res.state("x"), res.xy[..., 0])
+    np.testing.assert_array_equal(res.output("tilt_cmd"), res.outputs[:, :, 2])
+    assert res.z_ned is None and res.altitude_lost is None
+    with pytest.raises(SimulationError, match="no state"):
+        res.state("nope")
+    # a run view is a Trajectory of that run
+    last = res[-1]
+    assert isinstance(last, sim.Trajectory) and last.gains == gains[2] and last.params == res.params[2]
+    np.testing.assert_array_equal(last.xy, res.xy[2])
+    np.testing.assert_array_equal(res.tilt_deg[1], res[1].tilt_deg)
+    assert [tr.gains for tr in res] == gains
+    with pytest.raises(IndexError):
+        res[3]
+    # per-run metrics, and the vectorised settling times agree with them
+    mets = res.metrics()
+    assert mets == [tr.metrics() for tr in res]
+    np.testing.assert_allclose(res.settling_s, [np.nan if m.settling_s is None else m.settling_s for m in mets])
+    data = res.to_json()
+    assert len(data["runs"]) == 3 and data["runs"][0]["gains"] == FAST.as_dict()
+    assert "runs=3" in repr(res)
+    fig = res.plot(tmp_path / "runs.png")
+    assert (tmp_path / "runs.png").stat().st_size > 10_000 and len(fig.axes) == 2
+
+
+def test_per_run_options_and_params_equal_separate_runs():
+    """Option sets per run (tuner: inner-loop gains; Monte Carlo: seeds) and ready params, in one call."""
+    o = SimOptions(model="full", horizon_s=1.0, noise_sigma_m=0.01)
+    inners = [InnerLoopGains(), InnerLoopGains(attitude_wn_rad_s=40.0)]
+    res = simulate(V, FAST, [o.with_(inner=i, seed=s) for i, s in zip(inners, (0, 5))])
+    for b, (inner, seed) in enumerate(zip(inners, (0, 5))):
+        one = simulate(V, FAST, o.with_(inner=inner, seed=seed))[0]
+        np.testing.assert_array_equal(res.states[b], one.state)
+    # ready parameter sets: a heavier plant, built by hand, equals the true-mass option
+    p = SimParams.from_options(V, FAST, o).with_(plant={"m": 0.6})
+    a = simulate(None, None, o, params=[p])
+    b = simulate(V, FAST, o.with_(true_mass_kg=0.6))
+    np.testing.assert_array_equal(a.states, b.states)
+    assert a.vehicle is None and a.gains == (FAST,)
+    with pytest.raises(GainError, match="not both"):
+        simulate(V, FAST, o, params=[p])
+    with pytest.raises(SimulationError, match="2 gain sets given for 3 runs"):
+        simulate(V, [FAST, PAPER_GAINS], [o, o, o])
+    with pytest.raises(SimulationError, match="share model"):
+        simulate(V, FAST, [o, o.with_(horizon_s=2.0)])
+
+
+def test_one_verdict_for_a_vehicle_that_falls():
+    """A vehicle that cannot hover falls: altitude lost, in simulate's metrics and in the Monte Carlo verdict alike."""
+    import nniquad.study as mc
+    from nniquad.analysis.metrics import failure_reason
+
+    o = SimOptions(model="full", horizon_s=3.0)
+    heavy = SimParams.from_options(V, FAST, o).with_(plant={"m": 1.5 * V.max_thrust() / V.g})
+    res = simulate(None, None, o, params=[heavy])
+    m = res[0].metrics()
+    assert m.altitude_dev_m > 10.0  # free fall for most of 3 s: ~ g t^2 / 2 less the remaining thrust
+    assert not m.diverged and m.altitude_lost and m.failure == "altitude lost"
+    assert res.altitude_lost.tolist() == [True] and res.diverged.tolist() == [False]
+    setup = mc.study_setup_from(V, FAST, horizon_s=3.0)
+    s = mc.draw_scenario(0, 0, mc.DEFAULT_RANGES, setup).with_params(plant={"m": heavy.plant.m})
+    assert mc.run_scenarios([s])[0].failure == failure_reason(False, True, False) == "altitude lost"
+
+
+def test_step_too_large_for_the_motor_pole():
+    with pytest.raises(SimulationError, match="motor time constant"):
+        simulate(V, FAST, SimOptions(model="full", horizon_s=0.1, motor_lag=True, tau_motor_s=1e-9))
+    # without motor lag the time constant is unused
+    simulate(V, FAST, SimOptions(model="full", horizon_s=0.1, tau_motor_s=1e-9))

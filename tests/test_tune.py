@@ -124,12 +124,12 @@ def test_cli_tune_quick(run_cli, tmp_path):
 
 
 def test_mass_range_tunes_the_worst_case():
-    from nniquad.sim.simulate import simulate
+    from nniquad.sim import simulate
     from nniquad.tuning.tune import simulation_options
 
     res = tune(V, TuneOptions(model="reduced", roa_radius_m=0.0, budget="quick", mass_range=(0.4, 0.7)))
     base = simulation_options(res.options, res.horizon_s)
-    settle = [simulate(V, res.gains, base.with_(true_mass_kg=m)).metrics().settling_s for m in (0.4, 0.5, 0.7)]
+    settle = [simulate(V, res.gains, base.with_(true_mass_kg=m))[0].metrics().settling_s for m in (0.4, 0.5, 0.7)]
     assert all(s is not None for s in settle)
     # the reported figure is the worst of the three scenarios, not the nominal one
     assert res.settling_s == pytest.approx(max(settle), abs=1e-9)

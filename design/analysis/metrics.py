@@ -12,6 +12,15 @@ the design notes (``DESIGN.md``):
   direction ``e0 = ξ_h(0)/‖ξ_h(0)‖``, ``max_t(-⟨ξ_h(t), e0⟩)`` clipped at 0, in
   percent of ``‖ξ_h(0)‖``.
 * **Tilt** -- the total tilt angle ``arccos(cos φ cos θ)`` in degrees.
+* **Diverged** -- a non-finite sample (position or altitude), or a horizontal
+  distance beyond ``DIVERGENCE_FACTOR`` (100) times the run's scale, by
+  default ``‖ξ_h(0)‖`` (1 m for a run that starts at the origin).
+* **Altitude lost** -- an altitude deviation beyond ``ALTITUDE_LIMIT_M`` (2 m)
+  from the reference, or a non-finite altitude (``full`` runs only).
+* **Failure** -- the first of "diverged", "altitude lost", "not settled" that
+  applies (:func:`failure_reason`); ``simulate``, ``tune`` and the Monte Carlo
+  study all read their verdicts from :func:`diverged_batch`,
+  :func:`altitude_lost_batch` and :func:`failure_reason`.
 
 All functions are pure and take numpy arrays: time ``t`` [s] of shape ``(N,)``,
 horizontal positions ``xy`` [m] of shape ``(N, 2)``.  The ``*_batch`` variants
@@ -29,6 +38,7 @@ from typing import Any, Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from nniquad.config import ALTITUDE_LIMIT_M, BAND_FRACTION, DIVERGENCE_FACTOR, TILT_LIMIT_DEG
 from nniquad.errors import SimulationError
 
 __all__ = [
@@ -45,14 +55,16 @@ __all__ = [
     "peak_abs",
     "diverged",
     "diverged_batch",
+    "altitude_lost_batch",
+    "failure_reason",
     "Metrics",
     "compute_metrics",
 ]
 
-#: Settling band as a fraction of the initial distance (2 %, DESIGN.md).
-DEFAULT_BAND_FRACTION = 0.02
-#: A run whose distance exceeds this multiple of the initial distance is diverged.
-DEFAULT_DIVERGENCE_FACTOR = 100.0
+#: Settling band as a fraction of the initial distance (:data:`nniquad.config.BAND_FRACTION`).
+DEFAULT_BAND_FRACTION = BAND_FRACTION
+#: A run whose distance exceeds this multiple of its scale is diverged (:data:`nniquad.config.DIVERGENCE_FACTOR`).
+DEFAULT_DIVERGENCE_FACTOR = DIVERGENCE_FACTOR
 
 
 # ---------------------------------------------------------------------------
@@ -330,26 +342,53 @@ def peak_abs(signal: ArrayLike) -> float:
 
 
 def diverged_batch(
-    xy_batch: ArrayLike, threshold_m: float | None = None, factor: float = DEFAULT_DIVERGENCE_FACTOR
+    xy_batch: ArrayLike,
+    threshold_m: float | None = None,
+    factor: float = DEFAULT_DIVERGENCE_FACTOR,
+    *,
+    scale_m: float | ArrayLike | None = None,
+    z_batch: ArrayLike | None = None,
 ) -> NDArray[np.bool_]:
-    """Divergence flags of a batch ``(B, N, 2)`` (see :func:`diverged`)."""
+    """Divergence flags of a batch of runs (see :func:`diverged`).
+
+    Parameters
+    ----------
+    xy_batch
+        Horizontal positions [m], shape ``(B, N, 2)``.
+    threshold_m
+        Distance [m] beyond which a run has diverged; default ``factor · scale_m``.
+    factor
+        Multiple of the scale (default :data:`nniquad.config.DIVERGENCE_FACTOR`).
+    scale_m
+        Scale [m] per run, scalar or ``(B,)``; default ``‖xy[:, 0]‖`` (1 m where
+        that is zero or non-finite: a run starting at the origin has no scale).
+    z_batch
+        Altitudes, shape ``(B, N)``; a non-finite altitude also counts as diverged.
+
+    Returns
+    -------
+    ndarray of bool
+        Shape ``(B,)``.
+    """
     a = np.asarray(xy_batch, dtype=float)
     if a.ndim != 3 or a.shape[-1] != 2:
         raise SimulationError(f"positions must have shape (B, N, 2), got {a.shape}")
     d = np.hypot(a[..., 0], a[..., 1])
-    if threshold_m is None:
-        d0 = d[:, 0]
-        # A run starting at the origin has no scale: fall back to 1 m.
-        thr = factor * np.where(np.isfinite(d0) & (d0 > 0), d0, 1.0)
-    else:
+    if threshold_m is not None:
         thr = np.full(d.shape[0], float(threshold_m))
+    else:
+        scale = d[:, 0] if scale_m is None else np.broadcast_to(np.asarray(scale_m, float), d[:, 0].shape)
+        thr = factor * np.where(np.isfinite(scale) & (scale > 0), scale, 1.0)
     bad = ~np.all(np.isfinite(a), axis=(1, 2))
+    if z_batch is not None:
+        bad |= ~np.all(np.isfinite(np.asarray(z_batch, dtype=float).reshape(d.shape[0], -1)), axis=1)
     with np.errstate(invalid="ignore"):
         far = np.any(d > thr[:, None], axis=1)
     return bad | far
 
 
-def diverged(xy: ArrayLike, threshold_m: float | None = None, factor: float = DEFAULT_DIVERGENCE_FACTOR) -> bool:
+def diverged(xy: ArrayLike, threshold_m: float | None = None, factor: float = DEFAULT_DIVERGENCE_FACTOR, *,
+             scale_m: float | None = None, z: ArrayLike | None = None) -> bool:
     """True when a run blew up: a non-finite sample, or a distance beyond a threshold.
 
     Parameters
@@ -358,14 +397,59 @@ def diverged(xy: ArrayLike, threshold_m: float | None = None, factor: float = DE
         Horizontal positions [m], shape ``(N, 2)``.
     threshold_m
         Distance [m] beyond which the run counts as diverged; default
-        ``factor · ‖xy[0]‖`` (1 m scale when the run starts at the origin).
+        ``factor · scale_m``.
     factor
-        Multiple of the initial distance used when ``threshold_m`` is ``None``.
+        Multiple of the scale used when ``threshold_m`` is ``None``.
+    scale_m
+        Scale [m]; default ``‖xy[0]‖`` (1 m when the run starts at the origin).
+    z
+        Altitude [m], shape ``(N,)``; non-finite counts as diverged.
     """
     a = np.asarray(xy, dtype=float)
     if a.ndim != 2 or a.shape[-1] != 2:
         raise SimulationError(f"positions must have shape (N, 2), got {a.shape}")
-    return bool(diverged_batch(a[None], threshold_m, factor)[0])
+    zb = None if z is None else np.asarray(z, dtype=float)[None]
+    return bool(diverged_batch(a[None], threshold_m, factor, scale_m=scale_m, z_batch=zb)[0])
+
+
+def altitude_lost_batch(z_batch: ArrayLike, limit_m: float = ALTITUDE_LIMIT_M, z_ref: float = 0.0) -> NDArray[np.bool_]:
+    """Altitude-loss flags: the largest ``|z - z_ref|`` of each run exceeds ``limit_m`` (or is not finite).
+
+    Parameters
+    ----------
+    z_batch
+        Altitudes [m], shape ``(B, N)``.
+    limit_m
+        Largest allowed deviation [m] (default :data:`nniquad.config.ALTITUDE_LIMIT_M`).
+    z_ref
+        Reference altitude [m], same frame.
+
+    Returns
+    -------
+    ndarray of bool
+        Shape ``(B,)``.
+    """
+    z = np.asarray(z_batch, dtype=float)
+    if z.ndim != 2:
+        raise SimulationError(f"altitudes must have shape (B, N), got {z.shape}")
+    with np.errstate(invalid="ignore"):
+        dev = np.max(np.abs(z - z_ref), axis=1)
+        return ~(dev <= limit_m)  # NaN counts as lost
+
+
+def failure_reason(diverged: bool, altitude_lost: bool | None, settled: bool) -> str | None:
+    """The one verdict of a run: ``"diverged"``, ``"altitude lost"``, ``"not settled"`` or ``None`` (success).
+
+    Checked in that order: a run that blew up has also lost its altitude and not
+    settled, and is reported as diverged.
+    """
+    if diverged:
+        return "diverged"
+    if altitude_lost:
+        return "altitude lost"
+    if not settled:
+        return "not settled"
+    return None
 
 
 # ---------------------------------------------------------------------------
@@ -395,9 +479,12 @@ class Metrics:
     tilt_jitter_rms_deg
         RMS tilt after settling [deg].
     diverged
-        The run blew up (non-finite or far away).
+        The run blew up (non-finite or far away, :func:`diverged`).
     horizon_s
         Duration of the run [s].
+    altitude_lost
+        The altitude deviation exceeded its limit (:func:`altitude_lost_batch`);
+        ``None`` without an altitude signal.
     """
 
     settling_s: float | None
@@ -410,6 +497,12 @@ class Metrics:
     tilt_jitter_rms_deg: float | None
     diverged: bool
     horizon_s: float
+    altitude_lost: bool | None = None
+
+    @property
+    def failure(self) -> str | None:
+        """:func:`failure_reason` of the run: ``"diverged"``, ``"altitude lost"``, ``"not settled"`` or ``None``."""
+        return failure_reason(self.diverged, self.altitude_lost, self.settling_s is not None)
 
     def to_json(self) -> dict[str, Any]:
         """Plain dict; ``None`` and non-finite numbers become JSON ``null``."""
@@ -445,11 +538,12 @@ def compute_metrics(
     phi: ArrayLike | None = None,
     theta: ArrayLike | None = None,
     cmd_tilt_deg: ArrayLike | None = None,
-    tilt_limit_deg: float = 30.0,
+    tilt_limit_deg: float = TILT_LIMIT_DEG,
     rotor_speeds: ArrayLike | None = None,
     z: ArrayLike | None = None,
     z_ref: float = 0.0,
     band_fraction: float = DEFAULT_BAND_FRACTION,
+    altitude_limit_m: float = ALTITUDE_LIMIT_M,
 ) -> Metrics:
     """Every metric the given signals allow, bundled in :class:`Metrics`.
 
@@ -472,6 +566,8 @@ def compute_metrics(
         Altitude and its reference [m] (same frame).
     band_fraction
         Settling band fraction (default 2 %).
+    altitude_limit_m
+        Altitude deviation counted as altitude loss [m].
 
     Returns
     -------
@@ -482,7 +578,7 @@ def compute_metrics(
     ta = _time(t)
     a = np.asarray(xy, dtype=float)
     _xy_batch(ta, a, batched=False)
-    div = diverged(a)
+    div = diverged(a, z=z)
     settling = None if div else settling_time(ta, a, band_fraction)
     over = None if div else _opt(overshoot_pct(ta, a))
     tilt = None
@@ -503,4 +599,6 @@ def compute_metrics(
         tilt_jitter_rms_deg=None if tilt is None else rms_after(ta, tilt, settling),
         diverged=div,
         horizon_s=float(ta[-1] - ta[0]),
+        altitude_lost=None if z is None else bool(altitude_lost_batch(np.asarray(z, float)[None], altitude_limit_m,
+                                                                      z_ref)[0]),
     )

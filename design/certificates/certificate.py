@@ -203,13 +203,13 @@ def performance_runs(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, t
                      xi0: Sequence[float] = (2.0, -1.5), horizon_s: float = PERFORMANCE_HORIZON_S,
                      motor_lag: bool = True) -> dict[str, Any]:
     """Settings and metrics of the two reference runs (``reduced`` and ``full``)."""
-    from nniquad.sim.simulate import SimOptions, simulate
+    from nniquad.sim import SimOptions, simulate
 
     out = {}
     for model in ("reduced", "full"):
         opts = SimOptions(model=model, horizon_s=horizon_s, output_dt_s=0.005, tilt_limit_deg=tilt_limit_deg,
                           xi0=tuple(xi0), motor_lag=motor_lag and model == "full", inner=inner)
-        met = simulate(vehicle, gains, opts).metrics()
+        met = simulate(vehicle, gains, opts)[0].metrics()
         out[model] = {"settling_s": met.settling_s, "overshoot_pct": met.overshoot_pct,
                       "peak_tilt_deg": met.peak_tilt_deg, "diverged": met.diverged, "settings": opts.to_json()}
     return out
@@ -502,7 +502,7 @@ def _roa_check(cert: Mapping[str, Any], lmi: Mapping[str, Any], vehicle: Vehicle
 
 def _performance_checks(cert: Mapping[str, Any], vehicle: Vehicle, gains: Gains, inner: InnerLoopGains,
                         tol: Mapping[str, float]) -> list[Check]:
-    from nniquad.sim.simulate import SimOptions, simulate
+    from nniquad.sim import SimOptions, simulate
 
     perf = _get(cert, "performance")
     out = []
@@ -518,7 +518,7 @@ def _performance_checks(cert: Mapping[str, Any], vehicle: Vehicle, gains: Gains,
                                  "wind_N": tuple(settings.get("wind_N", (0.0, 0.0))), "inner": inner})
         except (TypeError, NniquadError) as exc:
             raise CertificateError(f"certificate performance.{model}.settings: {exc}") from None
-        met = simulate(vehicle, gains, opts).metrics()
+        met = simulate(vehicle, gains, opts)[0].metrics()
         diffs = []
         ok = True
         for key, tkey in (("settling_s", "settling_abs_s"), ("overshoot_pct", "overshoot_abs_pct"),

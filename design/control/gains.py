@@ -1,19 +1,35 @@
 """Typed gain blocks: the paper's NNI controller, the PD comparison laws and the inner loops.
 
 Each block validates its numbers on construction (a one-line error naming the
-gain).  The simulator reads the controller law from the block's type, and its
-parameter-vector layout from the blocks' fields.
+gain).  Each horizontal-controller block names its law in the class attribute
+``controller`` (``"nni"``, ``"pd_velocity"``, ``"pd_filtered"``): the simulator
+reads the law from the block's type, and the gain part of its parameter vector
+from the block's fields (units in each field's ``metadata``,
+:func:`field_unit`).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, fields
+from dataclasses import Field, asdict, dataclass, field, fields
+from typing import Any, ClassVar, Union
 
 from nniquad.errors import GainError, SimulationError
 from nniquad.validate import finite_number
 
-__all__ = ["positive_gain", "Gains", "PAPER_GAINS", "PDGains", "InnerLoopGains", "DEFAULT_INNER_LOOP_GAINS"]
+__all__ = [
+    "positive_gain",
+    "field_unit",
+    "Gains",
+    "PAPER_GAINS",
+    "PDGains",
+    "PDFilteredGains",
+    "ControllerGains",
+    "CONTROLLER_GAINS",
+    "DEFAULT_TAU_F_S",
+    "InnerLoopGains",
+    "DEFAULT_INNER_LOOP_GAINS",
+]
 
 
 def positive_gain(name: str, value: float) -> float:
@@ -21,9 +37,19 @@ def positive_gain(name: str, value: float) -> float:
     return finite_number(name, value, error=GainError, positive=True)
 
 
+def _f(unit: str, meaning: str, **kw: Any) -> Any:
+    """A dataclass field carrying its unit and meaning (read by the simulator's parameter layout)."""
+    return field(metadata={"unit": unit, "meaning": meaning}, **kw)
+
+
+def field_unit(f: Field) -> tuple[str, str]:
+    """``(unit, meaning)`` of a gain-block field (``("-", name)`` when it has none)."""
+    return str(f.metadata.get("unit", "-")), str(f.metadata.get("meaning", f.name))
+
+
 @dataclass(frozen=True)
 class Gains:
-    """A gain set of the paper's controller.
+    """A gain set of the paper's controller (``controller = "nni"``).
 
     Parameters
     ----------
@@ -42,10 +68,12 @@ class Gains:
         If a gain is not a finite positive number (one-line message naming it).
     """
 
-    kp: float
-    Gamma: float
-    delta: float
-    kpy: float | None = None
+    controller: ClassVar[str] = "nni"
+
+    kp: float = _f("1/s^2", "inner-loop gain, x axis")
+    Gamma: float = _f("-", "NNI controller gain Gamma")
+    delta: float = _f("-", "NNI controller parameter delta, C(0) = 1/delta")
+    kpy: float | None = _f("1/s^2", "inner-loop gain, y axis (None: kp)", default=None)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "kp", positive_gain("kp", self.kp))
@@ -72,14 +100,70 @@ class Gains:
         """Plain dictionary (``kpy`` resolved)."""
         return {"kp": self.kp, "kpy": self.kp_y, "Gamma": self.Gamma, "delta": self.delta}
 
+    def values(self) -> dict[str, float]:
+        """The numbers the simulator's parameter vector holds, in field order (``kpy`` resolved)."""
+        return {"kp": self.kp, "Gamma": self.Gamma, "delta": self.delta, "kpy": self.kp_y}
+
+    @classmethod
+    def from_values(cls, values: dict[str, float]) -> "Gains":
+        """Inverse of :meth:`values` (``kpy`` equal to ``kp`` becomes ``None``)."""
+        kpy = values["kpy"]
+        return cls(values["kp"], values["Gamma"], values["delta"], None if kpy == values["kp"] else kpy)
+
 
 #: The paper's gains (Table "Simulation Parameters"): kp^x = kp^y = 5, Γ = 160, δ = 0.6.
 PAPER_GAINS = Gains(kp=5.0, Gamma=160.0, delta=0.6)
 
+#: Default time constant of the dirty-derivative filter of :class:`PDFilteredGains` [s].
+DEFAULT_TAU_F_S = 0.02
+
+
+class _PlainBlock:
+    """``values`` / ``from_values`` / ``as_dict`` for blocks whose fields are all plain positive numbers."""
+
+    def __post_init__(self) -> None:
+        for f in fields(self):  # type: ignore[arg-type]
+            object.__setattr__(self, f.name, positive_gain(f.name, getattr(self, f.name)))
+
+    def values(self) -> dict[str, float]:
+        """The numbers the simulator's parameter vector holds, in field order."""
+        return {f.name: getattr(self, f.name) for f in fields(self)}  # type: ignore[arg-type]
+
+    def as_dict(self) -> dict[str, float]:
+        """Plain dictionary of the gains."""
+        return self.values()
+
+    @classmethod
+    def from_values(cls, values: dict[str, float]):
+        """Inverse of :meth:`values`."""
+        return cls(**{f.name: values[f.name] for f in fields(cls)})  # type: ignore[arg-type]
+
 
 @dataclass(frozen=True)
-class PDGains:
-    """Gains of the PD comparison controllers ``a_h = -k_p ξ_m - k_d v`` (both axes alike).
+class PDGains(_PlainBlock):
+    """PD comparison law with the **true** horizontal velocity, ``a_h = -k_p ξ_m - k_d ξ'`` (both axes alike).
+
+    ``controller = "pd_velocity"`` (a perfect velocity sensor).
+
+    Attributes
+    ----------
+    kp
+        Position gain [1/s²] (> 0).
+    kd
+        Derivative gain [1/s] (> 0).
+    """
+
+    controller: ClassVar[str] = "pd_velocity"
+
+    kp: float = _f("1/s^2", "PD position gain")
+    kd: float = _f("1/s", "PD derivative gain")
+
+
+@dataclass(frozen=True)
+class PDFilteredGains(_PlainBlock):
+    """PD law with the velocity from a dirty derivative ``s/(τ_f s + 1)`` of the measured position.
+
+    ``controller = "pd_filtered"``: ``a_h = -k_p ξ_m - k_d v̂``.
 
     Attributes
     ----------
@@ -88,25 +172,25 @@ class PDGains:
     kd
         Derivative gain [1/s] (> 0).
     tau_f
-        Time constant of the dirty-derivative filter [s] (``pd_filtered``; > 0
-        there, ignored by ``pd_velocity``; default 0.02).
+        Time constant of the derivative filter [s] (> 0; default :data:`DEFAULT_TAU_F_S`).
     """
 
-    kp: float
-    kd: float
-    tau_f: float = 0.02
+    controller: ClassVar[str] = "pd_filtered"
 
-    def __post_init__(self) -> None:
-        for name in ("kp", "kd", "tau_f"):
-            object.__setattr__(self, name, positive_gain(name, getattr(self, name)))
+    kp: float = _f("1/s^2", "PD position gain")
+    kd: float = _f("1/s", "PD derivative gain")
+    tau_f: float = _f("s", "time constant of the derivative filter", default=DEFAULT_TAU_F_S)
 
-    def as_dict(self) -> dict[str, float]:
-        return {"kp": self.kp, "kd": self.kd, "tau_f": self.tau_f}
+
+#: Any horizontal-controller gain block.
+ControllerGains = Union[Gains, PDGains, PDFilteredGains]
+#: The gain block of each controller law, by name.
+CONTROLLER_GAINS: dict[str, type] = {cls.controller: cls for cls in (Gains, PDGains, PDFilteredGains)}
 
 
 @dataclass(frozen=True)
 class InnerLoopGains:
-    """Gains of the loops the paper leaves unspecified (see the module docstring).
+    """Gains of the loops the paper leaves unspecified (:mod:`nniquad.control.inner_loops`).
 
     Attributes
     ----------
@@ -127,13 +211,14 @@ class InnerLoopGains:
         [rad/s²]; the default 1e6 leaves the linear PD unchanged.
     """
 
-    attitude_wn_rad_s: float = 25.0
-    attitude_zeta: float = 0.8
-    yaw_wn_rad_s: float = 8.0
-    yaw_zeta: float = 0.8
-    altitude_wn_rad_s: float = 3.0
-    attitude_gain_scale: float = 1.0
-    attitude_accel_limit_rad_s2: float = 1e6
+    attitude_wn_rad_s: float = _f("rad/s", "attitude natural frequency", default=25.0)
+    attitude_zeta: float = _f("-", "attitude damping ratio", default=0.8)
+    yaw_wn_rad_s: float = _f("rad/s", "yaw-hold natural frequency", default=8.0)
+    yaw_zeta: float = _f("-", "yaw-hold damping ratio", default=0.8)
+    altitude_wn_rad_s: float = _f("rad/s", "altitude PID triple-pole frequency", default=3.0)
+    attitude_gain_scale: float = _f("-", "factor on the attitude torques (gain error)", default=1.0)
+    attitude_accel_limit_rad_s2: float = _f("rad/s^2", "angular-acceleration limit of the attitude error shaping",
+                                            default=1e6)
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -148,6 +233,15 @@ class InnerLoopGains:
 
     def as_dict(self) -> dict[str, float]:
         return asdict(self)
+
+    def values(self) -> dict[str, float]:
+        """The numbers the simulator's parameter vector holds, in field order."""
+        return asdict(self)
+
+    @classmethod
+    def from_values(cls, values: dict[str, float]) -> "InnerLoopGains":
+        """Inverse of :meth:`values`."""
+        return cls(**{f.name: values[f.name] for f in fields(cls)})
 
 
 DEFAULT_INNER_LOOP_GAINS = InnerLoopGains()

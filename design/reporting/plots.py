@@ -1,4 +1,4 @@
-"""Matplotlib figures of simulated runs (computing lives in :mod:`nniquad.sim.simulate`).
+"""Matplotlib figures of simulated runs (computing lives in :mod:`nniquad.sim`).
 
 Every function takes results that were already computed, draws them, and writes
 a PNG atomically (a crash never leaves half a file).  Figures are built with
@@ -16,10 +16,12 @@ import numpy as np
 
 from nniquad.io import atomic_write_with
 
-if TYPE_CHECKING:  # pragma: no cover
-    from nniquad.sim.simulate import Trajectory
+from nniquad.config import BAND_FRACTION
 
-__all__ = ["trajectory_plot", "paper_figure", "MODEL_STYLE"]
+if TYPE_CHECKING:  # pragma: no cover
+    from nniquad.sim.results import SimulationResult, Trajectory
+
+__all__ = ["trajectory_plot", "paper_figure", "runs_plot", "MODEL_STYLE"]
 
 #: Line style per model, shared by every figure.
 MODEL_STYLE: dict[str, dict[str, object]] = {
@@ -41,7 +43,7 @@ def _save(fig, path: str | os.PathLike[str]) -> Path:
 
 
 def _band(traj: "Trajectory") -> float:
-    return 0.02 * float(np.hypot(*traj.xy[0]))
+    return BAND_FRACTION * float(np.hypot(*traj.xy[0]))
 
 
 def trajectory_plot(traj: "Trajectory", path: str | os.PathLike[str]) -> Path:
@@ -50,7 +52,7 @@ def trajectory_plot(traj: "Trajectory", path: str | os.PathLike[str]) -> Path:
     Parameters
     ----------
     traj
-        A :class:`nniquad.sim.simulate.Trajectory`.
+        A :class:`nniquad.sim.results.Trajectory`.
     path
         PNG file to write.
     """
@@ -117,7 +119,7 @@ def paper_figure(
     ----------
     results
         Trajectories keyed by model (or a sequence; keyed by their ``model``),
-        e.g. from :func:`nniquad.sim.simulate.paper_figure_runs`.
+        e.g. from :func:`nniquad.sim.paper_figure_runs`.
     path
         PNG file to write.
     zoom_s
@@ -190,3 +192,44 @@ def paper_figure(
                            f"kp = {g.kp:g}, Γ = {g.Gamma:g}, δ = {g.delta:g}"))
     fig.tight_layout()
     return _save(fig, path)
+
+
+def runs_plot(result: "SimulationResult", path: str | os.PathLike[str] | None = None, *,
+              labels: Sequence[str] | None = None, title: str | None = None):
+    """Every run of a :class:`nniquad.sim.results.SimulationResult`: distance (log, with the 2 % band) and tilt.
+
+    Parameters
+    ----------
+    result
+        The runs (``SimulationResult.plot`` calls this).
+    path
+        PNG file to write; ``None`` only returns the figure.
+    labels
+        One legend label per run; default the gains.
+    title
+        Figure title; default the model and the number of runs.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    n = len(result)
+    if labels is not None and len(labels) != n:
+        raise ValueError(f"{len(labels)} labels for {n} runs")
+    fig = _figure(figsize=(9, 6))
+    ax_d, ax_t = fig.subplots(2, 1, sharex=True)
+    dist, tilt = result.distance, result.tilt_deg
+    for i in range(n):
+        label = labels[i] if labels is not None else ", ".join(f"{k}={v:.4g}" for k, v in result.gains[i].as_dict().items())
+        ax_d.semilogy(result.t, np.maximum(dist[i], 1e-9), lw=1.0, label=label)
+        ax_t.plot(result.t, tilt[i], lw=1.0)
+    ax_d.axhline(BAND_FRACTION * float(dist[0, 0]), color="tab:green", ls=":", lw=1, label="2 % band")
+    ax_d.set_ylabel("‖ξ_h‖ [m]")
+    ax_t.set_ylabel("tilt [deg]")
+    ax_t.set_xlabel("time [s]")
+    ax_d.legend(loc="upper right", fontsize=7)
+    fig.suptitle(title or f"{result.model} model, {n} run{'s' if n != 1 else ''} ({result.controller})")
+    fig.tight_layout()
+    if path is not None:
+        _save(fig, path)
+    return fig

@@ -134,7 +134,7 @@ def build_report(vehicle: Vehicle, options: ReportOptions, progress: Progress | 
     from nniquad.errors import CertificateError
     from nniquad.analysis.linear import poles_and_damping
     from nniquad.control.gains import PAPER_GAINS
-    from nniquad.sim.simulate import SimOptions, paper_figure_runs
+    from nniquad.sim import SimOptions, paper_figure_runs
     from nniquad.tuning.tune import DEFAULT_ROA_RADIUS_M, TuneOptions, tune
 
     say = progress or (lambda stage, frac, detail="": None)

@@ -266,8 +266,8 @@ def encode(gains: Gains, m: float, gamma_max: float, inner: InnerLoopGains | Non
 
 
 def simulation_options(options: TuneOptions, horizon_s: float, inner: InnerLoopGains = DEFAULT_INNER_LOOP_GAINS):
-    """The :class:`nniquad.sim.simulate.SimOptions` every candidate is simulated with (nominal mass)."""
-    from nniquad.sim.simulate import SimOptions
+    """The :class:`nniquad.sim.SimOptions` every candidate is simulated with (nominal mass)."""
+    from nniquad.sim import SimOptions
 
     return SimOptions(model=options.model, horizon_s=horizon_s, output_dt_s=0.005,
                       tilt_limit_deg=options.tilt_limit_deg, noise_sigma_m=options.noise_sigma_m,
@@ -318,29 +318,21 @@ def evaluate(vehicle: Vehicle, points: np.ndarray, options: TuneOptions, horizon
     metrics : list of Metrics
         Of the nominal scenario.
     """
-    from nniquad.sim.simulate import OUTPUT_NAMES, STATE_NAMES, SimParams, Trajectory, exogenous_inputs, initial_state, run_batch
+    from nniquad.sim import simulate
 
     pts = np.atleast_2d(points)
     alpha = attitude_accel_headroom(vehicle, options.tilt_limit_deg)
     decoded = [decode(q, vehicle.m, options.gamma_max, inner, alpha) for q in pts]
     base = simulation_options(options, horizon_s, inner)
     tilt_cap = options.tilt_limit_deg + TILT_SLACK_DEG if options.model == "full" else None
-    names = STATE_NAMES[options.model]
-    ix, iy = names.index("x"), names.index("y")
     xi0_norm = math.hypot(*base.xi0)
     worst = np.full(len(pts), -np.inf)
     nominal: list[Metrics] = []
     for k, scen in enumerate(_scenario_options(options, base, vehicle)):
-        params = np.stack([SimParams.from_options(vehicle, g, scen.with_(inner=inn)).vector() for g, inn in decoded])
-        x0 = np.stack([initial_state(scen.model, SimParams.from_vector(p), scen.xi0, scen.zc0) for p in params])
-        X, Y = run_batch(scen.model, params, x0, exogenous_inputs(scen), steps_per_sample=scen.steps_per_sample,
-                         n_samples=scen.n_samples)
-        t = np.arange(scen.n_samples + 1) * scen.output_dt_s
-        for b, (g, inn) in enumerate(decoded):
-            tr = Trajectory(scen.model, scen.with_(inner=inn), g, vehicle, t, X[b], Y[b], names,
-                            OUTPUT_NAMES[scen.model])
-            met = tr.metrics()
-            worst[b] = max(worst[b], _cost(met, X[b, -1, [ix, iy]], xi0_norm, horizon_s, tilt_cap))
+        res = simulate(vehicle, [g for g, _ in decoded], [scen.with_(inner=inn) for _, inn in decoded])
+        xy_end = res.xy[:, -1]
+        for b, met in enumerate(res.metrics()):
+            worst[b] = max(worst[b], _cost(met, xy_end[b], xi0_norm, horizon_s, tilt_cap))
             if k == 0:
                 nominal.append(met)
     return worst, nominal

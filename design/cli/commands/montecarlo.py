@@ -98,7 +98,7 @@ _RANGE_OPTIONS = (
 
 
 def _ranges(args: argparse.Namespace):
-    from nniquad.study.montecarlo import ScenarioRanges
+    from nniquad.study import ScenarioRanges
 
     changes = {field: (tuple(v) if isinstance(v, list) else v)
                for attr, field, _ in _RANGE_OPTIONS if (v := getattr(args, attr)) is not None}
@@ -167,7 +167,7 @@ def _worker_threads(client: Any) -> dict[str, int]:
 
 
 def _positive(name: str, value: Any) -> None:
-    from nniquad.study.montecarlo import MonteCarloError
+    from nniquad.errors import MonteCarloError
 
     if value is not None and value <= 0:
         raise MonteCarloError(f"{name} must be a positive integer, got {value}")
@@ -179,7 +179,7 @@ def _study_json(args, setup, ranges) -> dict[str, Any]:
 
 
 def _rerun(args: argparse.Namespace, setup, ranges) -> int:
-    from nniquad.study.montecarlo import MonteCarloError, draw_scenario, run_scenarios
+    from nniquad.study import MonteCarloError, draw_scenario, run_scenarios
 
     try:
         indices = [int(v) for v in str(args.rerun).split(",") if v.strip()]
@@ -208,7 +208,7 @@ def _rerun(args: argparse.Namespace, setup, ranges) -> int:
 
 def run(args: argparse.Namespace) -> int:
     from nniquad.certificates.certificate import load_certificate
-    from nniquad.study.montecarlo import (MonteCarloError, close_client, cluster_threads, connect_scheduler, draw_scenarios,
+    from nniquad.study import (MonteCarloError, close_client, cluster_threads, connect_scheduler, draw_scenarios,
                               run_study, study_setup, summarize)
 
     if args.rerun is None:
@@ -266,8 +266,8 @@ def run(args: argparse.Namespace) -> int:
     summary = summarize(study.results, n_worst=args.worst, partial=study.partial) if study.results else None
     if summary is not None:
         print(f"certificate: {args.certificate}  {setup.label}")
-        g = setup.base
-        print(f"gains: kp={g.kpx:g} kpy={g.kpy:g} Gamma={g.Gamma:g} delta={g.delta:g}   horizon {setup.horizon_s:g} s, "
+        g = setup.base.gains
+        print(f"gains: kp={g.kp:g} kpy={g.kp_y:g} Gamma={g.Gamma:g} delta={g.delta:g}   horizon {setup.horizon_s:g} s, "
               f"displacement up to {setup.region_m:.3g} m, settling band {setup.band_m:.3g} m")
         print(summary.table(rerun_hint=hint))
         print(f"{study.executor}, {study.workers} worker(s), batches of {study.batch_size}: "

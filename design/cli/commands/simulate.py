@@ -9,6 +9,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from nniquad.config import ALTITUDE_LIMIT_M
 from nniquad.errors import GainError, NniquadError
 from .common import add_json_option, add_vehicle_option, vehicle_from_args, write_json_if_asked
 
@@ -30,8 +31,8 @@ The horizontal command is the paper's: -kp xi + z/m, z the output of the NNI
 controller z' = -Gamma delta z + Gamma xi, in positive feedback.  Defaults are
 the paper's gains (kp = 5, Gamma = 160, delta = 0.6) and initial state.
 
-Prints settling time (2 % band, last exit), overshoot, peak tilt and whether
-the run diverged.  --json writes them with the trajectory file (.npz next to
+Prints settling time (2 % band, last exit), overshoot, peak tilt, whether
+the run diverged or lost altitude, and the verdict.  --json writes them with the trajectory file (.npz next to
 the JSON, or --trajectory FILE with .npz or .csv).  Runs that take more than a
 few seconds show progress on stderr."""
 
@@ -168,7 +169,7 @@ def _fmt(value: Any, unit: str = "", digits: int = 4) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    from nniquad.sim.simulate import SimOptions, simulate
+    from nniquad.sim import SimOptions, simulate
 
     vehicle = vehicle_from_args(args)
     gains = _gains(args)
@@ -202,7 +203,7 @@ def run(args: argparse.Namespace) -> int:
         raise NniquadError(f"--trajectory must end in .npz or .csv, got {traj_path}")
 
     progress = StderrProgress(f"{args.model} model, {options.horizon_s:g} s simulated")
-    traj = simulate(vehicle, gains, options, progress=progress)
+    traj = simulate(vehicle, gains, options, progress=progress)[0]
     progress.done()
     m = traj.metrics()
 
@@ -219,6 +220,8 @@ def run(args: argparse.Namespace) -> int:
         ("peak altitude deviation", _fmt(m.altitude_dev_m, "m"), ""),
         ("tilt RMS after settling", _fmt(m.tilt_jitter_rms_deg, "deg"), ""),
         ("diverged", _fmt(m.diverged), ""),
+        ("altitude lost", _fmt(m.altitude_lost), "" if m.altitude_lost is None else f"(> {ALTITUDE_LIMIT_M:g} m)"),
+        ("verdict", m.failure or "settled", ""),
         ("horizon", _fmt(m.horizon_s, "s"), ""),
     ]
     for name, value, note in rows:
@@ -239,6 +242,8 @@ def run(args: argparse.Namespace) -> int:
         "overshoot_pct": m.overshoot_pct,
         "peak_tilt_deg": m.peak_tilt_deg,
         "diverged": m.diverged,
+        "altitude_lost": m.altitude_lost,
+        "failure": m.failure,
         "horizon_s": m.horizon_s,
         "trajectory": None if written is None else str(written),
         "metrics": m.to_json(),

@@ -1,0 +1,169 @@
+"""Options of a simulation run (:class:`SimOptions`), validated on construction.
+
+The controller law is not an option: it is the type of the gain block given to
+:func:`nniquad.sim.simulate` (:mod:`nniquad.control.gains`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from nniquad.config import DT_S, OUTPUT_DT_S, TILT_LIMIT_DEG, XI0_M
+from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, InnerLoopGains
+from nniquad.errors import SimulationError
+from nniquad.validate import finite_number
+
+__all__ = ["MODELS", "SimOptions", "check_model"]
+
+#: Models of the closed loop (:mod:`nniquad.sim.models`).
+MODELS: tuple[str, ...] = ("linear", "reduced", "full")
+
+
+def check_model(model: str) -> str:
+    """``model`` if it is one of :data:`MODELS`, else :class:`SimulationError`."""
+    if not isinstance(model, str) or model not in MODELS:
+        raise SimulationError(f"unknown model {model!r} (choose one of {', '.join(MODELS)})")
+    return model
+
+
+def _finite(name: str, value: Any, *, positive: bool = False, nonneg: bool = False) -> float:
+    return finite_number(name, value, error=SimulationError, positive=positive, nonneg=nonneg)
+
+
+@dataclass(frozen=True)
+class SimOptions:
+    """Options of one simulation (validated on construction; errors are :class:`SimulationError`).
+
+    Attributes
+    ----------
+    model
+        ``"linear"``, ``"reduced"`` or ``"full"``.
+    horizon_s
+        Simulated duration [s] (rounded up to a whole output sample).
+    dt_s
+        RK4 step [s] (default :data:`nniquad.config.DT_S`, 1 ms).
+    output_dt_s
+        Output sample period [s]; a whole multiple of ``dt_s`` (default :data:`nniquad.config.OUTPUT_DT_S`, 10 ms).
+    tilt_limit_deg
+        Tilt limit [deg] of ``reduced`` and ``full`` (default :data:`nniquad.config.TILT_LIMIT_DEG`), in (0, 90).
+    xi0
+        Initial horizontal position [m] (vehicle at rest, level, ψ = 0, z = 0; default
+        :data:`nniquad.config.XI0_M`).
+    zc0
+        Initial NNI controller state (default 0; the PD laws ignore it).
+    noise_sigma_m
+        Standard deviation of the position noise [m] (≥ 0).
+    noise_rate_hz
+        Position-sensor sample rate [Hz] (> 0, at most ``1/dt_s``).
+    sample_hold
+        Position measurement sampled at ``noise_rate_hz`` and held; ``None``
+        (default) means sampled iff ``noise_sigma_m > 0``, else continuous.
+    seed
+        Seed of the noise and gust sequences (``numpy.random.default_rng``).
+    wind_N
+        Constant horizontal wind force (north, east) [N].
+    gust_N
+        Standard deviation of the gust force per axis [N] (≥ 0).
+    gust_tau_s
+        Correlation time of the gust (first-order Gauss-Markov) [s].
+    motor_lag
+        First-order rotor-speed lag (``full`` only).
+    tau_motor_s
+        Motor time constant [s]; ``None`` takes the vehicle's.
+    true_mass_kg
+        Mass of the plant [kg]; ``None`` means the vehicle's (= the controller's).
+    inner
+        Gains of the inner loops (``full``).
+    """
+
+    model: str = "full"
+    horizon_s: float = 60.0
+    dt_s: float = DT_S
+    output_dt_s: float = OUTPUT_DT_S
+    tilt_limit_deg: float = TILT_LIMIT_DEG
+    xi0: tuple[float, float] = XI0_M
+    zc0: tuple[float, float] = (0.0, 0.0)
+    noise_sigma_m: float = 0.0
+    noise_rate_hz: float = 100.0
+    sample_hold: bool | None = None
+    seed: int = 0
+    wind_N: tuple[float, float] = (0.0, 0.0)
+    gust_N: float = 0.0
+    gust_tau_s: float = 1.0
+    motor_lag: bool = False
+    tau_motor_s: float | None = None
+    true_mass_kg: float | None = None
+    inner: InnerLoopGains = DEFAULT_INNER_LOOP_GAINS
+
+    def __post_init__(self) -> None:
+        check_model(self.model)
+        set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731
+        set_("horizon_s", _finite("horizon", self.horizon_s, positive=True))
+        set_("dt_s", _finite("time step dt", self.dt_s, positive=True))
+        set_("output_dt_s", _finite("output sample period", self.output_dt_s, positive=True))
+        k = self.output_dt_s / self.dt_s
+        if k < 1 - 1e-9 or abs(k - round(k)) > 1e-6 * k:
+            raise SimulationError(
+                f"output sample period {self.output_dt_s:g} s must be a whole multiple of the time step {self.dt_s:g} s"
+            )
+        tl = _finite("tilt limit", self.tilt_limit_deg, positive=True)
+        if tl >= 90:
+            raise SimulationError(f"tilt limit must be below 90 deg, got {self.tilt_limit_deg!r}")
+        set_("tilt_limit_deg", tl)
+        set_("xi0", self._pair("initial position xi0", self.xi0))
+        set_("zc0", self._pair("initial controller state zc0", self.zc0))
+        set_("wind_N", self._pair("wind force", self.wind_N))
+        set_("noise_sigma_m", _finite("noise sigma", self.noise_sigma_m, nonneg=True))
+        rate = _finite("noise sample rate", self.noise_rate_hz, positive=True)
+        if rate * self.dt_s > 1 + 1e-9:
+            raise SimulationError(
+                f"noise sample rate {rate:g} Hz exceeds the integration rate 1/dt = {1 / self.dt_s:g} Hz"
+            )
+        set_("noise_rate_hz", rate)
+        set_("gust_N", _finite("gust", self.gust_N, nonneg=True))
+        set_("gust_tau_s", _finite("gust correlation time", self.gust_tau_s, positive=True))
+        if not isinstance(self.seed, (int, np.integer)) or isinstance(self.seed, bool) or self.seed < 0:
+            raise SimulationError(f"seed must be a non-negative integer, got {self.seed!r}")
+        if self.tau_motor_s is not None:
+            set_("tau_motor_s", _finite("motor time constant", self.tau_motor_s, positive=True))
+        if self.true_mass_kg is not None:
+            set_("true_mass_kg", _finite("true mass", self.true_mass_kg, positive=True))
+        if not isinstance(self.inner, InnerLoopGains):
+            raise SimulationError("inner must be an InnerLoopGains")
+
+    @staticmethod
+    def _pair(name: str, value: Any) -> tuple[float, float]:
+        try:
+            a, b = value
+        except (TypeError, ValueError):
+            raise SimulationError(f"{name} must be a pair of numbers, got {value!r}") from None
+        return (_finite(name, a), _finite(name, b))
+
+    @property
+    def steps_per_sample(self) -> int:
+        """``K = output_dt / dt``."""
+        return int(round(self.output_dt_s / self.dt_s))
+
+    @property
+    def n_samples(self) -> int:
+        """Number of output intervals (the trajectory has one more sample, at t = 0)."""
+        return int(math.ceil(self.horizon_s / self.output_dt_s - 1e-9))
+
+    @property
+    def sampled(self) -> bool:
+        """Whether the position measurement is sampled and held."""
+        return (self.noise_sigma_m > 0) if self.sample_hold is None else bool(self.sample_hold)
+
+    def with_(self, **changes: Any) -> "SimOptions":
+        """Copy with some fields changed (validated again)."""
+        return replace(self, **changes)
+
+    def to_json(self) -> dict[str, Any]:
+        d = asdict(self)
+        d["inner"] = self.inner.as_dict()
+        d["xi0"], d["zc0"], d["wind_N"] = list(self.xi0), list(self.zc0), list(self.wind_N)
+        return d

@@ -1,0 +1,434 @@
+"""Monte Carlo scenarios: the perturbation ranges, the study setup and the seeded draw of each scenario.
+
+See :mod:`nniquad.study` for the ranges and why they were chosen, and for the
+reproducibility rule: scenario ``i`` of seed ``S`` comes from its own stream.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, replace
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+from nniquad.config import ALTITUDE_LIMIT_M, BAND_FRACTION, DT_S, OUTPUT_DT_S, TILT_LIMIT_DEG, XI0_M
+from nniquad.errors import MonteCarloError
+from nniquad.sim import SimOptions, SimParams, to_gains
+
+__all__ = [
+    "ScenarioRanges",
+    "DEFAULT_RANGES",
+    "StudySetup",
+    "Scenario",
+    "study_setup",
+    "study_setup_from",
+    "draw_scenario",
+    "draw_scenarios",
+    "DEFAULT_HORIZON_S",
+]
+
+#: Default simulated time of a scenario [s].
+DEFAULT_HORIZON_S = 20.0
+
+
+
+
+def _pair(name: str, value: Any, *, lo: float | None = None, hi: float | None = None,
+          positive: bool = False) -> tuple[float, float]:
+    try:
+        a, b = (float(v) for v in value)
+    except (TypeError, ValueError):
+        raise MonteCarloError(f"{name} must be a pair of numbers (low, high), got {value!r}") from None
+    if not (math.isfinite(a) and math.isfinite(b)):
+        raise MonteCarloError(f"{name} must be finite, got ({a:g}, {b:g})")
+    if a > b:
+        raise MonteCarloError(f"{name}: low {a:g} is above high {b:g}")
+    if positive and a <= 0:
+        raise MonteCarloError(f"{name} must be positive, got low {a:g}")
+    if lo is not None and a < lo:
+        raise MonteCarloError(f"{name} must be at least {lo:g}, got low {a:g}")
+    if hi is not None and b > hi:
+        raise MonteCarloError(f"{name} must be at most {hi:g}, got high {b:g}")
+    return (a, b)
+
+
+@dataclass(frozen=True)
+class ScenarioRanges:
+    """Ranges of the random perturbations; every one is drawn uniformly (see the module docstring).
+
+    Attributes
+    ----------
+    mass_factor
+        True mass / nominal mass (default 0.8-1.2).
+    inertia_factor
+        True inertia / nominal, drawn independently per axis (default 0.8-1.2);
+        ``Jz`` is capped at ``Jx + Jy`` (rigid-body triangle inequality).
+    attitude_gain_factor
+        Factor on the attitude-loop torques (default 0.7-1.3).
+    tau_motor_s
+        Motor time constant [s] (default 0.005-0.040; at least ``2 dt``).
+    noise_sigma_m
+        Standard deviation of the position noise [m] (default 0-0.02).
+    noise_rate_hz
+        Position-sensor sample rate [Hz] (default 100; the measurement is sampled and held).
+    wind_N
+        Magnitude of the constant horizontal wind force [N] (default 0-0.3),
+        direction uniform.
+    max_displacement_m
+        Cap on the initial displacement radius [m] (default 5); the radius is
+        ``min(certified region, cap)``.
+    altitude_limit_m
+        An altitude deviation beyond this [m] is "altitude lost" (default
+        :data:`nniquad.config.ALTITUDE_LIMIT_M`).
+    """
+
+    mass_factor: tuple[float, float] = (0.8, 1.2)
+    inertia_factor: tuple[float, float] = (0.8, 1.2)
+    attitude_gain_factor: tuple[float, float] = (0.7, 1.3)
+    tau_motor_s: tuple[float, float] = (0.005, 0.040)
+    noise_sigma_m: tuple[float, float] = (0.0, 0.02)
+    noise_rate_hz: float = 100.0
+    wind_N: tuple[float, float] = (0.0, 0.3)
+    max_displacement_m: float = 5.0
+    altitude_limit_m: float = ALTITUDE_LIMIT_M
+
+    def __post_init__(self) -> None:
+        set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731
+        set_("mass_factor", _pair("mass factor range", self.mass_factor, positive=True))
+        set_("inertia_factor", _pair("inertia factor range", self.inertia_factor, positive=True))
+        set_("attitude_gain_factor", _pair("attitude-gain factor range", self.attitude_gain_factor, positive=True))
+        set_("tau_motor_s", _pair("motor time-constant range", self.tau_motor_s, lo=0.002))
+        set_("noise_sigma_m", _pair("noise sigma range", self.noise_sigma_m, lo=0.0))
+        set_("wind_N", _pair("wind force range", self.wind_N, lo=0.0))
+        for name in ("noise_rate_hz", "max_displacement_m", "altitude_limit_m"):
+            v = getattr(self, name)
+            try:
+                fv = float(v)
+            except (TypeError, ValueError):
+                raise MonteCarloError(f"{name} must be a number, got {v!r}") from None
+            if not math.isfinite(fv) or fv <= 0:
+                raise MonteCarloError(f"{name} must be finite and positive, got {v!r}")
+            set_(name, fv)
+        if self.noise_rate_hz > 1000.0:
+            raise MonteCarloError(f"noise_rate_hz {self.noise_rate_hz:g} exceeds the 1 kHz integration rate")
+
+    def with_(self, **changes: Any) -> "ScenarioRanges":
+        """Copy with some ranges changed (validated again)."""
+        return replace(self, **changes)
+
+    def to_json(self) -> dict[str, Any]:
+        return {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(self).items()}
+
+
+DEFAULT_RANGES = ScenarioRanges()
+
+
+# =============================================================================== study setup
+
+
+@dataclass(frozen=True)
+class StudySetup:
+    """What every scenario of a study shares, taken from the certificate.
+
+    Attributes
+    ----------
+    base_params
+        Nominal :class:`nniquad.sim.SimParams` vector (certificate vehicle,
+        gains, inner loops, tilt limit; motor lag on; sampled measurement).
+    xi0_nominal_m
+        The certificate's initial position (sets the settling band).
+    region_m
+        Radius of the initial-displacement disk: ``min(certified region, cap)``.
+    band_m
+        Settling band radius [m] (2 % of ``‖xi0_nominal_m‖``).
+    horizon_s, dt_s, output_dt_s
+        Simulated time, RK4 step and output sample period [s].
+    label
+        Certificate identification (digest or name) for the report.
+    """
+
+    base_params: tuple[float, ...]
+    xi0_nominal_m: tuple[float, float]
+    region_m: float
+    band_m: float
+    horizon_s: float = DEFAULT_HORIZON_S
+    dt_s: float = DT_S
+    output_dt_s: float = OUTPUT_DT_S
+    label: str = ""
+
+    @property
+    def base(self) -> SimParams:
+        """:attr:`base_params` as a :class:`nniquad.sim.SimParams` (NNI layout)."""
+        return SimParams.from_vector(self.base_params)
+
+    def to_json(self) -> dict[str, Any]:
+        b = self.base
+        return {
+            "certificate": self.label,
+            "gains": b.gains.as_dict(),
+            "nominal_mass_kg": b.nominal.m,
+            "tilt_limit_deg": math.degrees(b.run.tilt_limit),
+            "xi0_nominal_m": list(self.xi0_nominal_m),
+            "displacement_radius_m": self.region_m,
+            "settling_band_m": self.band_m,
+            "horizon_s": self.horizon_s,
+            "dt_s": self.dt_s,
+            "output_dt_s": self.output_dt_s,
+        }
+
+
+def _cert_float(value: Any) -> float | None:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        return None
+    return v if math.isfinite(v) and v > 0 else None
+
+
+def study_setup_from(vehicle: Any, gains: Any, *, inner: Any = None, tilt_limit_deg: float = TILT_LIMIT_DEG,
+                     xi0_m: Sequence[float] = XI0_M, region_m: float | None = None,
+                     ranges: ScenarioRanges = DEFAULT_RANGES, horizon_s: float = DEFAULT_HORIZON_S,
+                     label: str = "") -> StudySetup:
+    """The shared part of a study from a vehicle, a gain set and inner-loop gains (no certificate).
+
+    ``region_m`` (default ``‖xi0_m‖``) is capped at ``ranges.max_displacement_m``.
+    """
+    h = _cert_float(horizon_s)
+    if h is None:
+        raise MonteCarloError(f"horizon must be a positive number of seconds, got {horizon_s!r}")
+    try:
+        xi0 = tuple(float(v) for v in xi0_m)
+        if len(xi0) != 2 or not all(math.isfinite(v) for v in xi0) or math.hypot(*xi0) <= 0:
+            raise ValueError
+    except (TypeError, ValueError):
+        raise MonteCarloError(f"initial position xi0_m must be a non-zero pair of numbers, got {xi0_m!r}") from None
+    opts: dict[str, Any] = {"model": "full", "horizon_s": h, "motor_lag": True, "sample_hold": True,
+                            "noise_rate_hz": ranges.noise_rate_hz, "tilt_limit_deg": tilt_limit_deg}
+    if inner is not None:
+        opts["inner"] = inner
+    options = SimOptions(**opts)
+    base = SimParams.from_options(vehicle, to_gains(gains, "nni"), options)
+    region = _cert_float(region_m)
+    if region is None:
+        region = math.hypot(*xi0)
+    return StudySetup(
+        base_params=tuple(float(v) for v in base.vector()),
+        xi0_nominal_m=(xi0[0], xi0[1]),
+        region_m=min(region, ranges.max_displacement_m),
+        band_m=BAND_FRACTION * math.hypot(*xi0),
+        horizon_s=h,
+        dt_s=options.dt_s,
+        output_dt_s=options.output_dt_s,
+        label=label,
+    )
+
+
+def _certificate_label(cert: Mapping[str, Any]) -> str:
+    for key in ("digest", "sha256"):
+        v = cert.get(key)
+        if isinstance(v, Mapping):
+            v = v.get("sha256") or v.get("value")
+        if isinstance(v, str) and v:
+            return f"sha256:{v[:16]}" if not v.startswith("sha256") else v[:23]
+    return str(cert.get("name", ""))
+
+
+def study_setup(cert: Mapping[str, Any] | StudySetup, ranges: ScenarioRanges = DEFAULT_RANGES, *,
+                horizon_s: float | None = None) -> StudySetup:
+    """The shared part of a study from a loaded certificate (:func:`nniquad.certificates.certificate.load_certificate`).
+
+    ``horizon_s`` defaults to :data:`DEFAULT_HORIZON_S` for a certificate.  A
+    :class:`StudySetup` is returned as it is (its own horizon and displacement
+    radius; ``ranges`` is not applied again), with ``horizon_s`` replaced only
+    when one is given.
+
+    Gains, vehicle and inner-loop gains come from
+    :func:`nniquad.certificates.certificate.certificate_gains`, ``certificate_vehicle`` and
+    ``certificate_inner_loop``; the displacement radius from
+    ``region_of_attraction.max_displacement_m`` (the nominal ``‖xi0_m‖`` when the
+    certificate states no region), capped at ``ranges.max_displacement_m``.
+
+    Raises
+    ------
+    MonteCarloError
+        Bad horizon, or a certificate without a usable initial position.
+    """
+    if isinstance(cert, StudySetup):
+        if horizon_s is None or horizon_s == cert.horizon_s:
+            return cert
+        h = _cert_float(horizon_s)
+        if h is None:
+            raise MonteCarloError(f"horizon must be a positive number of seconds, got {horizon_s!r}")
+        return replace(cert, horizon_s=h)
+    from nniquad.certificates import certificate as C
+
+    roa = cert.get("region_of_attraction")
+    tilt = _cert_float(cert.get("tilt_limit_deg"))
+    return study_setup_from(
+        C.certificate_vehicle(cert), C.certificate_gains(cert), inner=C.certificate_inner_loop(cert),
+        tilt_limit_deg=TILT_LIMIT_DEG if tilt is None else tilt, xi0_m=cert.get("xi0_m", XI0_M),
+        region_m=roa.get("max_displacement_m") if isinstance(roa, Mapping) else None,
+        ranges=ranges, horizon_s=DEFAULT_HORIZON_S if horizon_s is None else horizon_s,
+        label=_certificate_label(cert),
+    )
+
+
+# =============================================================================== scenarios
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """One perturbed run: everything :func:`run_scenarios` needs (picklable, a few hundred bytes).
+
+    Attributes
+    ----------
+    index, study_seed
+        The scenario is stream ``index`` of seed ``study_seed`` (rerun it with
+        ``--seed study_seed --rerun index``).
+    params
+        The perturbed :class:`nniquad.sim.SimParams` vector.
+    xi0_m
+        Initial horizontal position [m], at rest.
+    noise_sigma_m, noise_rate_hz, noise_seed
+        Position noise and the seed of its sequence.
+    horizon_s, dt_s, output_dt_s
+        Timing [s].
+    band_m, xi0_nominal_norm_m
+        Settling band radius [m] and the distance it is 2 % of.
+    altitude_limit_m
+        Altitude deviation counted as divergence [m].
+    factors
+        The drawn factors (mass, inertia per axis, attitude gain), for the report.
+    """
+
+    index: int
+    study_seed: int
+    params: tuple[float, ...]
+    xi0_m: tuple[float, float]
+    noise_sigma_m: float
+    noise_rate_hz: float
+    noise_seed: int
+    horizon_s: float
+    dt_s: float
+    output_dt_s: float
+    band_m: float
+    altitude_limit_m: float
+    factors: tuple[tuple[str, float], ...] = ()
+
+    @property
+    def sim_params(self) -> SimParams:
+        """:attr:`params` as a :class:`nniquad.sim.SimParams`."""
+        return SimParams.from_vector(self.params)
+
+    def with_params(self, **changes: Any) -> "Scenario":
+        """Copy with some parameters changed, by group (e.g. ``plant={"m": 3.0}`` for a vehicle that cannot hover).
+
+        Keywords as :meth:`nniquad.sim.SimParams.with_`.
+        """
+        return replace(self, params=tuple(float(v) for v in self.sim_params.with_(**changes).vector()))
+
+    def equilibrium_m(self) -> tuple[float, float]:
+        """Static equilibrium under the constant wind, ``F / (m̂ k_p − 1/δ)`` per axis (origin if none)."""
+        p = self.sim_params
+        out = []
+        for force, kp in ((p.run.wind_x, p.gains.kp), (p.run.wind_y, p.gains.kp_y)):
+            stiffness = p.nominal.m * kp - 1.0 / p.gains.delta
+            out.append(force / stiffness if stiffness > 0 else 0.0)
+        return (out[0], out[1])
+
+    def describe(self) -> dict[str, Any]:
+        """The drawn quantities with units (JSON ready)."""
+        sp = self.sim_params
+        p, w = sp.plant, sp.run
+        wind = math.hypot(w.wind_x, w.wind_y)
+        return {
+            "mass_kg": p.m,
+            **{f"{k}_factor": v for k, v in self.factors},
+            "Jx_kg_m2": p.Jx, "Jy_kg_m2": p.Jy, "Jz_kg_m2": p.Jz,
+            "attitude_gain": sp.inner.attitude_gain_scale,
+            "tau_motor_s": p.tau_motor,
+            "thrust_to_weight": 4 * p.b * p.omega_max**2 / (p.m * p.g),
+            "noise_sigma_m": self.noise_sigma_m,
+            "wind_N": [w.wind_x, w.wind_y],
+            "wind_magnitude_N": wind,
+            "wind_direction_deg": math.degrees(math.atan2(w.wind_y, w.wind_x)) % 360.0 if wind > 0 else 0.0,
+            "xi0_m": list(self.xi0_m),
+            "displacement_m": math.hypot(*self.xi0_m),
+        }
+
+
+def _stream(seed: int, index: int) -> np.random.Generator:
+    return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(index,)))
+
+
+def _check_seed(seed: Any) -> int:
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise MonteCarloError(f"seed must be a non-negative integer, got {seed!r}")
+    return int(seed)
+
+
+def draw_scenario(index: int, seed: int, ranges: ScenarioRanges, setup: StudySetup) -> Scenario:
+    """Scenario ``index`` of seed ``seed``: independent of how many others are drawn.
+
+    Draw order from the scenario's stream: mass factor, inertia factors (x, y,
+    z), attitude-gain factor, motor time constant, noise σ, wind magnitude,
+    wind direction, displacement radius (``R √u``, uniform over the disk),
+    displacement direction, noise seed.
+    """
+    seed = _check_seed(seed)
+    if isinstance(index, bool) or not isinstance(index, (int, np.integer)) or index < 0:
+        raise MonteCarloError(f"scenario index must be a non-negative integer, got {index!r}")
+    if 2 * setup.dt_s > ranges.tau_motor_s[0] + 1e-15:
+        raise MonteCarloError(f"motor time constant must be at least 2 dt = {2 * setup.dt_s:g} s for RK4")
+    rng = _stream(seed, int(index))
+    u = lambda r: float(rng.uniform(r[0], r[1]))  # noqa: E731
+    base = setup.base
+    f_m = u(ranges.mass_factor)
+    f_J = [u(ranges.inertia_factor) for _ in range(3)]
+    f_att = u(ranges.attitude_gain_factor)
+    tau = u(ranges.tau_motor_s)
+    sigma = u(ranges.noise_sigma_m)
+    wind = u(ranges.wind_N)
+    wdir = float(rng.uniform(0.0, 2 * math.pi))
+    radius = setup.region_m * math.sqrt(float(rng.uniform(0.0, 1.0)))
+    rdir = float(rng.uniform(0.0, 2 * math.pi))
+    noise_seed = int(rng.integers(0, 2**63 - 1))
+    plant = base.plant
+    Jx, Jy = plant.Jx * f_J[0], plant.Jy * f_J[1]
+    Jz = min(plant.Jz * f_J[2], Jx + Jy)
+    params = base.with_(
+        plant={"m": plant.m * f_m, "Jx": Jx, "Jy": Jy, "Jz": Jz, "tau_motor": tau},
+        inner={"attitude_gain_scale": base.inner.attitude_gain_scale * f_att},
+        run={"motor_lag": 1.0, "wind_x": wind * math.cos(wdir), "wind_y": wind * math.sin(wdir),
+             "sample_hold": 1.0, "dt": setup.dt_s},
+    )
+    return Scenario(
+        index=int(index), study_seed=seed, params=tuple(float(v) for v in params.vector()),
+        xi0_m=(radius * math.cos(rdir), radius * math.sin(rdir)),
+        noise_sigma_m=sigma, noise_rate_hz=ranges.noise_rate_hz, noise_seed=noise_seed,
+        horizon_s=setup.horizon_s, dt_s=setup.dt_s, output_dt_s=setup.output_dt_s,
+        band_m=setup.band_m, altitude_limit_m=ranges.altitude_limit_m,
+        factors=(("mass", f_m), ("Jx", f_J[0]), ("Jy", f_J[1]), ("Jz", f_J[2]), ("attitude_gain", f_att)),
+    )
+
+
+def draw_scenarios(n: int, seed: int, ranges: ScenarioRanges = DEFAULT_RANGES,
+                   cert: Mapping[str, Any] | StudySetup | None = None, *,
+                   horizon_s: float | None = None) -> list[Scenario]:
+    """Scenarios ``0 .. n-1`` of seed ``seed`` (``cert``: a loaded certificate or a :class:`StudySetup`).
+
+    ``horizon_s`` as in :func:`study_setup`: a setup keeps its own horizon
+    unless one is given.
+
+    Raises
+    ------
+    MonteCarloError
+        ``n <= 0``, a negative or non-integer seed, no certificate.
+    """
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n <= 0:
+        raise MonteCarloError(f"number of samples must be a positive integer, got {n!r}")
+    if cert is None:
+        raise MonteCarloError("a certificate (or a StudySetup) is required")
+    setup = study_setup(cert, ranges, horizon_s=horizon_s)
+    return [draw_scenario(i, seed, ranges, setup) for i in range(int(n))]
