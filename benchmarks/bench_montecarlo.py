@@ -20,7 +20,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from nniquad.study import montecarlo as mc
+import nniquad.study as mc
 from nniquad.certificates.certificate import build_certificate, load_certificate, write_certificate
 from nniquad.control.gains import InnerLoopGains
 from nniquad.control.gains import Gains

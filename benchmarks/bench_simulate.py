@@ -13,9 +13,9 @@ import time
 
 import numpy as np
 
-from nniquad.sim import simulate as sim
+from nniquad import sim
 from nniquad.control.gains import PAPER_GAINS, Gains
-from nniquad.sim.simulate import SimOptions, SimParams, simulate, simulate_batch
+from nniquad.sim import SimOptions, SimParams, simulate
 from nniquad.model.vehicle import PAPER_VEHICLE
 
 __all__ = ["run"]
@@ -49,7 +49,7 @@ def _accuracy() -> float:
     from scipy.integrate import solve_ivp
 
     o = SimOptions(model="full", horizon_s=4.0)
-    tr = simulate(PAPER_VEHICLE, PAPER_GAINS, o)
+    tr = simulate(PAPER_VEHICLE, PAPER_GAINS, o)[0]
     P = SimParams.from_options(PAPER_VEHICLE, PAPER_GAINS, o).vector()
     f = sim.rhs_function("full")
     e = np.zeros(5)
@@ -78,8 +78,8 @@ def run() -> list[dict]:
 
     gains = _gain_sets(BATCH)
     o = SimOptions(model="full", horizon_s=HORIZON_S)
-    simulate_batch(PAPER_VEHICLE, gains, o.with_(horizon_s=0.1))  # builds the mapped function
-    wall = _best(lambda: simulate_batch(PAPER_VEHICLE, gains, o), 2)
+    simulate(PAPER_VEHICLE, gains, o.with_(horizon_s=0.1))  # builds the mapped function
+    wall = _best(lambda: simulate(PAPER_VEHICLE, gains, o), 2)
     rows.append({"name": f"simulate: full, batch {BATCH} x {HORIZON_S:g} s (best of 2)", "value": wall, "unit": "s",
                  "target": BATCH_TARGET_S, "ok": wall <= BATCH_TARGET_S})
     rows.append({"name": "simulate: full, batch, throughput", "value": BATCH * HORIZON_S / wall, "unit": "sim-s/s"})

@@ -23,7 +23,7 @@
 # overshoot".
 #
 # This notebook runs the paper's gains on the three models of
-# `nniquad.sim.simulate`:
+# `nniquad.sim`:
 #
 # * `linear` -- the reduced horizontal loop the theorem covers (no limits);
 # * `reduced` -- the same with the tilt limit (attitude instantaneous);
@@ -39,6 +39,7 @@
 import math
 import tempfile
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import matplotlib.pyplot as plt
@@ -49,10 +50,10 @@ from scipy.optimize import brentq
 from nniquad.analysis import linear as L
 from nniquad.control.gains import PAPER_GAINS
 from nniquad.analysis import lmi
-from nniquad.sim import simulate as S
+import nniquad.sim as S
+from nniquad.config import XI0_M
 from nniquad.reporting.display import show_figure as show, show_table as md_table
 from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS
-from nniquad.analysis.metrics import settling_time_batch
 from nniquad.reporting.plots import paper_figure
 from nniquad.model.vehicle import PAPER_VEHICLE
 
@@ -116,7 +117,7 @@ print(f"envelope estimate of the 2 % settling time ln(50)/σ = {t_envelope:.0f} 
 # %% [markdown]
 # ## The missing figure
 #
-# `nniquad.sim.simulate.paper_figure_runs` runs the three models from
+# `nniquad.sim.paper_figure_runs` runs the three models from
 # the paper's initial position at rest over `PAPER_FIGURE_HORIZON_S` (long
 # enough to see the linear loop settle); `nniquad.reporting.plots.paper_figure` draws
 # x(t), y(t), the distance on a log scale with the 2 % band, and a zoom on the
@@ -200,17 +201,12 @@ print(f"linearised: dominant real part {dominant_real_part(wa_default):+.4f} 1/s
 
 wa_grid = np.array([25.0, 40.0, 60.0, 70.0, 80.0, 90.0, 100.0, 150.0])
 opt_full = S.SimOptions(model="full", horizon_s=S.PAPER_FIGURE_HORIZON_S)
-base = S.SimParams.from_options(V, G, opt_full)
-P = np.stack([base.with_(att_wn=float(w)).vector() for w in wa_grid])
-x0 = np.stack([S.initial_state("full", S.SimParams.from_vector(p)) for p in P])
-X, _ = S.run_batch("full", P, x0, S.exogenous_inputs(opt_full),
-                   steps_per_sample=opt_full.steps_per_sample, n_samples=opt_full.n_samples)
-names = S.STATE_NAMES["full"]
-xy_wa = X[:, :, [names.index("x"), names.index("y")]]
-t_wa = np.arange(opt_full.n_samples + 1) * opt_full.output_dt_s
-dist_wa = np.hypot(xy_wa[..., 0], xy_wa[..., 1])
+# one batched call: the same gains, one option set per attitude bandwidth
+res_wa = S.simulate(V, G, [opt_full.with_(inner=replace(DEFAULT_INNER_LOOP_GAINS, attitude_wn_rad_s=float(w)))
+                           for w in wa_grid])
+t_wa, dist_wa = res_wa.t, res_wa.distance
 growth = dist_wa[:, -w60:].max(axis=1) / dist_wa[:, :w60].max(axis=1)
-settle_wa = settling_time_batch(t_wa, xy_wa)
+settle_wa = res_wa.settling_s
 lin_re = np.array([dominant_real_part(w) for w in wa_grid])
 md_table(["ω_a [rad/s]", "linearised max Re [1/s]", "full: max dist. last 60 s / first 60 s", "full: settling [s]"],
          [[f"{w:g}", f"{r:+.4f}", f"{g:.2f}", fmt(None if np.isnan(s) else s)]
@@ -259,7 +255,7 @@ show(fig)
 u0 = lmi.axis_acceleration_limit(V.g, 30.0)
 roa_paper = lmi.region_of_attraction(V.m, G.kp, G.Gamma, G.delta, u0)
 reach_paper = roa_paper.values["max_displacement_m"]
-xi0_norm = math.hypot(*S.DEFAULT_XI0)
+xi0_norm = math.hypot(*XI0_M)
 print(f"u0 = {u0:.3f} m/s²; certified reach from rest {reach_paper:.2f} m (feasible: {roa_paper.feasible}); "
       f"the paper's start is at {xi0_norm:.2f} m")
 

@@ -39,7 +39,8 @@ from matplotlib.colors import LogNorm, Normalize
 
 from nniquad.analysis import linear as L
 from nniquad.control.gains import Gains
-from nniquad.sim import simulate as S
+import nniquad.sim as S
+from nniquad.config import XI0_M
 from nniquad.reporting.display import show_figure as show, show_table as md_table
 from nniquad.analysis.bound import time_optimal_bound
 from nniquad.tuning.tune import TuneOptions, certified_reach, search_box, tune
@@ -51,7 +52,7 @@ M = V.m
 GAMMA_PAPER = 0.8  # the paper's γ (also TuneOptions' default gamma_max)
 assert TuneOptions().gamma_max == GAMMA_PAPER
 U_SECTOR = 1.0 / GAMMA_PAPER  # sector bound in the form m kp δ >= 1/γ_max
-XI0_NORM = math.hypot(*S.DEFAULT_XI0)
+XI0_NORM = math.hypot(*XI0_M)
 
 
 
@@ -119,11 +120,11 @@ for f in GAMMA_FACTORS:
     dd = uu / (M * kk)
     ok = Gam * dd <= RK4_LIMIT
     gains = [Gains(k, Gam, d) for k, d in zip(kk[ok], dd[ok])]
-    res = S.simulate_batch(V, gains, MAP_OPTS)
+    res = S.simulate(V, gains, MAP_OPTS)
     out = {}
     for name, scale in (("settling_s", 1), ("overshoot_pct", 1), ("peak_tilt_deg", 1), ("tilt_limit_fraction", 100)):
         z = np.full(kk.shape, np.nan)
-        z[ok] = metric_array(res.metrics, name, scale)
+        z[ok] = metric_array(res.metrics(), name, scale)
         out[name] = z
     out["simulated"] = ok
     maps[f] = out
@@ -162,7 +163,7 @@ axes[0, 0].legend(handles=[plt.Line2D([], [], color="w", ls="--", label=f"sector
                            plt.Line2D([], [], color="r", ls=":", label="Routh limit m k_p δ = 1"),
                            plt.Line2D([], [], color="r", marker="*", ls="", label="quick-tuned optimum")],
                   loc="upper right", fontsize=8, facecolor="0.7")
-fig.suptitle(f"reduced model from ξ_h(0) = {S.DEFAULT_XI0} m; grey: not settled within {MAP_OPTS.horizon_s:g} s, "
+fig.suptitle(f"reduced model from ξ_h(0) = {XI0_M} m; grey: not settled within {MAP_OPTS.horizon_s:g} s, "
              f"white: not simulated (Γδ·dt > 2.5)")
 fig.tight_layout()
 show(fig)
@@ -365,7 +366,7 @@ KP_FAM = np.geomspace(0.3, 400.0, 40)
 FAM_HORIZON_S = 12.0
 fam = [(kp, r, u) for u in U_SHAPES for r in R_SHAPES for kp in KP_FAM]
 t0 = time.perf_counter()
-fam_settle = S.settling_batch(V, [shape_gains(*p) for p in fam], S.SimOptions(model="reduced", horizon_s=FAM_HORIZON_S))
+fam_settle = S.simulate(V, [shape_gains(*p) for p in fam], S.SimOptions(model="reduced", horizon_s=FAM_HORIZON_S)).settling_s
 fam_time = time.perf_counter() - t0
 fam_reach = np.array([reach_ref[list(U_SHAPES).index(u), list(R_SHAPES).index(r)] * KP_REF / kp for kp, r, u in fam])
 print(f"{len(fam)} reduced-model runs of {FAM_HORIZON_S:g} s in {fam_time:.1f} s")

@@ -22,9 +22,9 @@
 # * **NNI** -- the paper's structure a = −k_p ξ + z/m with the integral
 #   resonant controller, gains under the sector bound (certified);
 # * **PD, true velocity** -- a = −k_p ξ − k_d ξ' with a perfect velocity
-#   sensor (`controller="pd_velocity"`), the best a PD law can do;
+#   sensor (gains `PDGains`, law `"pd_velocity"`), the best a PD law can do;
 # * **PD, filtered derivative** -- the same law with the velocity estimated
-#   from the measured position by s/(τ_f s + 1) (`controller="pd_filtered"`),
+#   from the measured position by s/(τ_f s + 1) (gains `PDFilteredGains`, law `"pd_filtered"`),
 #   what one would do without a velocity sensor.
 #
 # Each is compared twice: with a perfect position measurement and with
@@ -42,8 +42,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from nniquad.analysis import linear as L
-from nniquad.control.gains import PDGains
-from nniquad.sim import simulate as S
+from nniquad.control.gains import DEFAULT_TAU_F_S, PDFilteredGains, PDGains
+import nniquad.sim as S
 from nniquad.reporting.display import show_figure as show, show_table as md_table
 from nniquad.analysis.bound import time_optimal_bound
 from nniquad.analysis.metrics import rms_after
@@ -100,7 +100,7 @@ print(f"inner loops: ω_a = {INNER.attitude_wn_rad_s:.4g} rad/s, ζ_a = {INNER.a
 # ## How the designs are scored
 #
 # For every controller a grid of gain sets is simulated in one batch
-# (`nniquad.sim.simulate.simulate_batch`; all runs of a comparison share one noise
+# (`nniquad.sim.simulate`; all runs of a comparison share one noise
 # realisation).  A run is *admissible* when it settles within the first half
 # of the horizon, its actual tilt stays within the limit plus the tuner's
 # slack, and it holds altitude within 0.5 m (a chattering attitude loop can
@@ -132,7 +132,7 @@ NNI_R = (0.75, 1.0, 1.35, 1.8)  # controller pole Γδ in units of √k_p
 
 CANDIDATES = {
     "pd_velocity": [PDGains(kp, 2 * z * math.sqrt(kp)) for kp in PD_KP for z in PD_ZETA],
-    "pd_filtered": [PDGains(kp, 2 * z * math.sqrt(kp), tf) for kp in PF_KP for z in PF_ZETA for tf in PF_TAU],
+    "pd_filtered": [PDFilteredGains(kp, 2 * z * math.sqrt(kp), tf) for kp in PF_KP for z in PF_ZETA for tf in PF_TAU],
     "nni": [decode([math.log(kp), math.log(mg), math.log(r * math.sqrt(kp))], V.m, GAMMA_MAX)[0]
             for kp in NNI_KP for mg in NNI_MARGIN for r in NNI_R] + [NNI_REF],
 }
@@ -141,9 +141,10 @@ assert all(L.smallest_gamma(V.m, g.kp, None, g.delta) <= GAMMA_MAX + 1e-12 for g
 
 def score(controller, options, gains_list):
     """Simulate a batch; return rows (gains, settling, jitter, peak tilt, altitude dev, Metrics jitter, admissible)."""
-    res = S.simulate_batch(V, gains_list, options.with_(controller=controller), keep_trajectories=True)
+    res = S.simulate(V, gains_list, options)  # the law is the type of the gain blocks
+    assert res.controller == controller
     rows = []
-    for g, m, tr in zip(gains_list, res.metrics, res.trajectories):
+    for g, m, tr in zip(gains_list, res.metrics(), res):
         jit = rms_after(tr.t, tr.tilt_deg, JITTER_FROM_S) if not m.diverged else None
         ok = (m.settling_s is not None and m.settling_s <= MAX_SETTLING_S and m.peak_tilt_deg is not None
               and m.peak_tilt_deg <= TILT_CAP and m.altitude_dev_m is not None and m.altitude_dev_m < 0.5
@@ -155,7 +156,9 @@ def score(controller, options, gains_list):
 
 def fmt_gains(g):
     if isinstance(g, PDGains):
-        return f"k_p = {g.kp:.3g}, k_d = {g.kd:.3g}" + (f", τ_f = {g.tau_f:.3g}" if g.tau_f != PDGains.tau_f else "")
+        return f"k_p = {g.kp:.3g}, k_d = {g.kd:.3g}"
+    if isinstance(g, PDFilteredGains):
+        return f"k_p = {g.kp:.3g}, k_d = {g.kd:.3g}" + (f", τ_f = {g.tau_f:.3g}" if g.tau_f != DEFAULT_TAU_F_S else "")
     return f"k_p = {g.kp:.3g}, Γ = {g.Gamma:.3g}, δ = {g.delta:.3g}"
 
 
@@ -291,7 +294,7 @@ md_table(["jitter budget"] + [CTRL_LABEL[c] for c in CANDIDATES] + ["fastest"], 
 CHECK_CAP = 1.0
 check_rows = []
 for c, r in picks[CHECK_CAP].items():
-    tr = S.simulate(V, r["gains"], r["options"].with_(controller=c, seed=1))
+    tr = S.simulate(V, r["gains"], r["options"].with_(seed=1))[0]
     m = tr.metrics()
     check_rows.append([CTRL_LABEL[c], fmt_gains(r["gains"]), f"{r['options'].inner.attitude_wn_rad_s:.0f}",
                        f"{r['settling']:.2f}", f"{r['jitter']:.3f}", f"{r['metrics_jitter']:.3f}",
