@@ -503,3 +503,31 @@ def test_step_too_large_for_the_motor_pole():
         simulate(V, FAST, SimOptions(model="full", horizon_s=0.1, motor_lag=True, tau_motor_s=1e-9))
     # without motor lag the time constant is unused
     simulate(V, FAST, SimOptions(model="full", horizon_s=0.1, tau_motor_s=1e-9))
+
+
+def test_parameter_layout_is_generated_from_the_typed_blocks():
+    """Every entry is group.field of a typed block, with that field's unit; a block's new field would appear here."""
+    from dataclasses import fields
+
+    from nniquad.control.gains import CONTROLLER_GAINS
+    from nniquad.model.vehicle import UNITS, Vehicle
+
+    vehicle = [f.name for f in fields(Vehicle) if f.name != "name"]
+    inner = [f.name for f in fields(InnerLoopGains)]
+    for controller, block in CONTROLLER_GAINS.items():
+        layout = sim.param_layout(controller)
+        names = [f.name for f in layout]
+        expected = ([f"gains.{f.name}" for f in fields(block)] + [f"nominal.{n}" for n in vehicle]
+                    + [f"inner.{n}" for n in inner] + [f"plant.{n}" for n in vehicle]
+                    + [f"run.{f.name}" for f in fields(sim.RunSettings)])
+        assert names == expected and len(set(names)) == len(names)
+        units = {f.name: f.unit for f in layout}
+        assert all(units[f"plant.{n}"] == UNITS[n] == units[f"nominal.{n}"] for n in vehicle)
+        assert units["run.dt"] == "s" and units["run.tilt_limit"] == "rad"
+    assert sim.param_layout("nni")[0].unit == "1/s^2" and sim.param_layout("pd_filtered")[2].unit == "s"
+    # the vector holds the typed values at their names
+    p = SimParams.from_options(V, Gains(4.0, 20.0, 0.8, kpy=3.0), SimOptions(tilt_limit_deg=20.0, wind_N=(0.1, 0.2)))
+    values = dict(zip([f.name for f in p.layout], p.vector()))
+    assert values["gains.kpy"] == 3.0 and values["gains.Gamma"] == 20.0 and values["nominal.Jz"] == V.Jz
+    assert values["run.tilt_limit"] == pytest.approx(math.radians(20.0)) and values["run.wind_y"] == 0.2
+    assert values["inner.attitude_wn_rad_s"] == InnerLoopGains().attitude_wn_rad_s

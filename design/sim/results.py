@@ -12,11 +12,10 @@ of every run (one definition, :mod:`nniquad.analysis.metrics`) and ``plot()``
 
 from __future__ import annotations
 
-import math
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterator, Sequence
+from typing import Any, Iterator
 
 import numpy as np
 

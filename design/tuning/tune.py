@@ -66,6 +66,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
+from nniquad.config import DT_S, TILT_LIMIT_DEG, XI0_NORM_M
 from nniquad.analysis.bound import BoundResult, time_optimal_bound
 from nniquad.errors import GainError, NniquadError
 from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, InnerLoopGains
@@ -92,7 +93,7 @@ __all__ = [
 ]
 
 #: ‖ξ_h(0)‖ of the paper's run [m]: the default certified reach.
-DEFAULT_ROA_RADIUS_M = math.hypot(2.0, -1.5)
+DEFAULT_ROA_RADIUS_M = XI0_NORM_M
 
 #: Search effort: (Sobol points, local starts, max. local iterations, extra seeds).
 BUDGETS: dict[str, tuple[int, int, int, int]] = {
@@ -156,7 +157,7 @@ class TuneOptions:
     roa_radius_m: float = DEFAULT_ROA_RADIUS_M
     mass_range: tuple[float, float] | None = None
     noise_sigma_m: float = 0.0
-    tilt_limit_deg: float = 30.0
+    tilt_limit_deg: float = TILT_LIMIT_DEG
     budget: str = "normal"
     seed: int = 0
     horizon_s: float | None = None
@@ -213,7 +214,7 @@ def _finite(name: str, value: Any) -> float:
 # ----------------------------------------------------------------------------- coordinates
 
 
-def search_box(options: TuneOptions, dt_s: float = 1e-3) -> tuple[np.ndarray, np.ndarray]:
+def search_box(options: TuneOptions, dt_s: float = DT_S) -> tuple[np.ndarray, np.ndarray]:
     """Lower and upper bounds of the search coordinates (see the module docstring).
 
     kp in [0.5, 2000] 1/s², u in [0, 4] (γ from γ_max down to γ_max e⁻⁴),
@@ -293,6 +294,10 @@ def _cost(metrics: Metrics, xy_end: np.ndarray, xi0_norm: float, horizon: float,
     Not settled: ``horizon (1 + min(‖ξ(T)‖/‖ξ(0)‖, 10))``; diverged: ``12 horizon``;
     actual tilt above ``tilt_cap``: ``horizon (1 + excess in deg)`` added; altitude
     deviation above :data:`ALTITUDE_CAP_M`: ``horizon (1 + excess in m)`` added.
+    "Diverged" is the project's one verdict (:attr:`Metrics.diverged`); a run that
+    loses altitude (:attr:`Metrics.altitude_lost`, beyond
+    :data:`nniquad.config.ALTITUDE_LIMIT_M`) is always above the stricter
+    :data:`ALTITUDE_CAP_M` and pays that penalty, in proportion, so failures stay ranked.
     """
     if metrics.diverged or not np.all(np.isfinite(xy_end)):
         return 12.0 * horizon
