@@ -32,26 +32,24 @@ def _time(fn, repeat: int = 3) -> float:
 
 def run() -> list[dict]:
     from nniquad.analysis import lmi
-    from nniquad.analysis.linear import controller_matrices, plant_matrices
-    from nniquad.control.gains import PAPER_GAINS
-    from nniquad.model.vehicle import PAPER_VEHICLE
+    from nniquad.analysis.linear import PAPER_LOOP as loop
+    from nniquad.config import TILT_LIMIT_DEG
 
-    m, g = PAPER_VEHICLE.m, PAPER_VEHICLE.g
-    A, B, C, D = plant_matrices(m, PAPER_GAINS.kp)
-    Ac, Bc, Cc, _ = controller_matrices(PAPER_GAINS.Gamma, PAPER_GAINS.delta)
-    u0 = lmi.axis_acceleration_limit(g, 30.0)
+    m, g = loop.m, loop.g
+    A, B, C, D = loop.plant_matrices()
+    Ac, Bc, Cc, _ = loop.controller_matrices()
+    u0 = lmi.axis_acceleration_limit(g, TILT_LIMIT_DEG)
     cases = {
         "ni_lemma_paper[plant]": lambda: lmi.ni_lemma_paper(A, B, C),
         "ni_lemma_dissipation[plant]": lambda: lmi.ni_lemma_dissipation(A, B, C, D),
         "ni_lemma_lanzon_petersen[plant]": lambda: lmi.ni_lemma_lanzon_petersen(A, B, C, D),
         "sni_lemma[controller]": lambda: lmi.sni_lemma(Ac, Bc, Cc),
         "ni_dissipation_strict[controller]": lambda: lmi.ni_dissipation_strict(Ac, Bc, Cc),
-        "closed_loop_decay (bisection)": lambda: lmi.closed_loop_decay(m, PAPER_GAINS),
-        "robust_mass_decay[common_P]": lambda: lmi.robust_mass_decay(0.8 * m, 1.2 * m, PAPER_GAINS),
-        "robust_mass_decay[pdlf] (bisection)": lambda: lmi.robust_mass_decay(0.8 * m, 1.2 * m, PAPER_GAINS, True),
-        "region_of_attraction[x]": lambda: lmi.region_of_attraction(m, PAPER_GAINS.kp, PAPER_GAINS.Gamma,
-                                                                    PAPER_GAINS.delta, u0),
-        "run_all": lambda: lmi.run_all(m, g, PAPER_GAINS),
+        "closed_loop_decay (bisection)": lambda: lmi.closed_loop_decay(loop),
+        "robust_mass_decay[common_P]": lambda: lmi.robust_mass_decay(loop, 0.8 * m, 1.2 * m),
+        "robust_mass_decay[pdlf] (bisection)": lambda: lmi.robust_mass_decay(loop, 0.8 * m, 1.2 * m, parameter_dependent=True),
+        "region_of_attraction[x]": lambda: lmi.region_of_attraction(loop, u0),
+        "run_all": lambda: lmi.run_all(loop),
     }
     rows = [{"name": f"lmi {name} build+solve", "value": _time(fn), "unit": "s"} for name, fn in cases.items()]
     t0 = time.perf_counter()

@@ -21,7 +21,7 @@ import time
 from pathlib import Path
 
 import nniquad.study as mc
-from nniquad.certificates.certificate import build_certificate, load_certificate, write_certificate
+from nniquad.certificates import build_certificate, load_certificate, write_certificate
 from nniquad.control.gains import InnerLoopGains
 from nniquad.control.gains import Gains
 from nniquad.model.vehicle import PAPER_VEHICLE

@@ -18,6 +18,7 @@ __all__ = [
     "ALTITUDE_LIMIT_M",
     "DT_S",
     "OUTPUT_DT_S",
+    "MASS_RANGE_FRACTION",
 ]
 
 #: Initial horizontal position of the paper's run, north/east [m], at rest (DESIGN.md).
@@ -38,3 +39,5 @@ ALTITUDE_LIMIT_M: float = 2.0
 DT_S: float = 1e-3
 #: Output sample period of a simulation [s].
 OUTPUT_DT_S: float = 0.01
+#: Default true-mass interval of the robust LMIs and certificates, as fractions of the nominal mass.
+MASS_RANGE_FRACTION: tuple[float, float] = (0.8, 1.2)

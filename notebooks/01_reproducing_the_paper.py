@@ -47,7 +47,7 @@ import numpy as np
 from IPython.display import Image, display
 from scipy.optimize import brentq
 
-from nniquad.analysis import linear as L
+from nniquad.analysis.linear import ReducedLoop
 from nniquad.control.gains import PAPER_GAINS
 from nniquad.analysis import lmi
 import nniquad.sim as S
@@ -77,8 +77,9 @@ print(f"paper gains: kp = {G.kp:g} 1/s², Γ = {G.Gamma:g}, δ = {G.delta:g}")
 
 # %%
 GAMMA_PAPER = 0.8
-delta_min = L.sector_delta_min(V.m, G.kp, GAMMA_PAPER)
-gamma_needed = L.smallest_gamma(V.m, G.kp, G.kpy, G.delta)
+LOOP = ReducedLoop.from_vehicle(V, G)
+delta_min = LOOP.sector_delta_min(GAMMA_PAPER)
+gamma_needed = LOOP.smallest_gamma
 print(f"δ_min(γ = {GAMMA_PAPER}) = {delta_min:.4f}; the paper's δ = {G.delta:g} satisfies it: {G.delta >= delta_min}")
 print(f"smallest γ these gains satisfy: {gamma_needed:.4f} (m kp δ = {V.m * G.kp * G.delta:.3f})")
 
@@ -91,7 +92,7 @@ print(f"smallest γ these gains satisfy: {gamma_needed:.4f} (m kp δ = {V.m * G.
 # a lightly damped pair near the plant's own resonance √k_p.
 
 # %%
-pdmp = L.poles_and_damping(V.m, G.kp, G.Gamma, G.delta, G.kpy)
+pdmp = LOOP.poles_and_damping()
 seen = set()
 rows = []
 for p, wn, z in zip(pdmp.poles, pdmp.wn, pdmp.zeta):
@@ -253,7 +254,7 @@ show(fig)
 
 # %%
 u0 = lmi.axis_acceleration_limit(V.g, 30.0)
-roa_paper = lmi.region_of_attraction(V.m, G.kp, G.Gamma, G.delta, u0)
+roa_paper = lmi.region_of_attraction(LOOP, u0)
 reach_paper = roa_paper.values["max_displacement_m"]
 xi0_norm = math.hypot(*XI0_M)
 print(f"u0 = {u0:.3f} m/s²; certified reach from rest {reach_paper:.2f} m (feasible: {roa_paper.feasible}); "

@@ -37,13 +37,21 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.colors import LogNorm, Normalize
 
-from nniquad.analysis import linear as L
 from nniquad.control.gains import Gains
 import nniquad.sim as S
 from nniquad.config import XI0_M
 from nniquad.reporting.display import show_figure as show, show_table as md_table
 from nniquad.analysis.bound import time_optimal_bound
-from nniquad.tuning.tune import TuneOptions, certified_reach, search_box, tune
+from nniquad.tuning.tune import TuneOptions, search_box, tune
+from nniquad.analysis.linear import ReducedLoop
+from nniquad.analysis.lmi import certified_reach as _reach
+
+
+def certified_reach(vehicle, gains, tilt):
+    """The certified reach of the ROA LMI (nniquad.analysis.lmi.certified_reach) for a vehicle and gains."""
+    return _reach(ReducedLoop.from_vehicle(vehicle, gains), tilt)
+
+
 from nniquad.model.vehicle import PAPER_VEHICLE
 
 T_START = time.perf_counter()
@@ -81,7 +89,7 @@ opt = tune(V, TuneOptions(model="reduced", roa_radius_m=0, budget="quick"))
 tune_time = time.perf_counter() - t0
 G_OPT = opt.gains
 u_opt = M * G_OPT.kp * G_OPT.delta
-pd_opt = L.poles_and_damping(M, G_OPT.kp, G_OPT.Gamma, G_OPT.delta)
+pd_opt = ReducedLoop(M, G_OPT).poles_and_damping()
 print(f"quick tune: {tune_time:.1f} s wall time, {opt.n_simulations} simulations")
 print(f"optimum: kp = {G_OPT.kp:.4g} 1/s², Γ = {G_OPT.Gamma:.4g}, δ = {G_OPT.delta:.4g} "
       f"(m kp δ = {u_opt:.4f}, i.e. smallest γ = {opt.gamma:.4f}); controller pole Γδ = {G_OPT.Gamma * G_OPT.delta:.3g} 1/s")
@@ -215,7 +223,7 @@ print(f"the first command a = kp ‖ξ_h(0)‖ reaches the tilt limit for kp ≥
 # σ³ + r σ² + σ + r ε.  The sector bound is ε ≥ 1 − γ_max.  So the best
 # damping, and the best decay rate in units of √k_p, that any gain set
 # admitted by γ_max can have is a two-parameter search, done here on a grid
-# with `nniquad.analysis.linear.characteristic_coefficients` (at k_p = 1).
+# with `nniquad.analysis.linear.ReducedLoop.characteristic_coefficients` (at k_p = 1).
 
 # %%
 GAMMA_CURVE = np.linspace(0.3, 0.995, 140)
@@ -224,7 +232,7 @@ R_GRID = np.unique(np.concatenate([np.geomspace(0.05, 20.0, 400), [math.sqrt(3.0
 # (and the triple-real-pole shape r = √3, ε = 1/9 derived below, so that the grid contains the best decay rate)
 EPS_GRID = np.unique(np.concatenate([1.0 - GAMMA_CURVE, np.linspace(0.001, 0.999, 200), [1.0 / 9.0]]))
 U_GRID = 1.0 / (1.0 - EPS_GRID)
-coef = np.array([[L.characteristic_coefficients(M, 1.0, r / (u / M), u / M) for r in R_GRID] for u in U_GRID])
+coef = np.array([[ReducedLoop(M, Gains(kp=1.0, Gamma=r / (u / M), delta=u / M)).characteristic_coefficients() for r in R_GRID] for u in U_GRID])
 n_u, n_r = coef.shape[:2]
 comp = np.zeros((n_u * n_r, 3, 3))
 comp[:, 0, :] = -coef.reshape(-1, 4)[:, 1:]
@@ -253,7 +261,7 @@ gamma_triple = 1.0 - p_triple**3 / (3.0 * p_triple)
 iu, ir = arg_decay[i08]
 r8, u8 = R_GRID[ir], U_GRID[iu]
 delta8 = u8 / (M * G_OPT.kp)
-chk = L.poles_and_damping(M, G_OPT.kp, r8 * math.sqrt(G_OPT.kp) / delta8, delta8)
+chk = ReducedLoop(M, Gains(kp=G_OPT.kp, Gamma=r8 * math.sqrt(G_OPT.kp) / delta8, delta=delta8)).poles_and_damping()
 print(f"γ_max = {GAMMA_CURVE[i08]:.3f}: best smallest damping ζ = {zeta_08:.3f}; best slowest decay rate "
       f"{decay_08:.3f} √kp (reached at r = {r8:.2f}, m kp δ = {u8:.3f}, where ζ_min = {zeta_min[iu, ir]:.3f})")
 print(f"check with poles_and_damping at kp = {G_OPT.kp:.4g} and that shape: decay {-chk.max_real_part / math.sqrt(G_OPT.kp):.3f} √kp, "
@@ -281,7 +289,7 @@ gamma_tune_time = time.perf_counter() - t0
 rows_g = []
 for gm, tr in tuned.items():
     g = tr.gains
-    pdg = L.poles_and_damping(M, g.kp, g.Gamma, g.delta)
+    pdg = ReducedLoop(M, g).poles_and_damping()
     rows_g.append([f"{gm:g}", f"{tr.settling_s:.3f}", f"{tr.ratio_to_bound:.3f}", f"{g.kp:.4g}",
                    f"{tr.gamma:.3f}", f"{pdg.min_damping:.3f}", f"{tr.metrics.overshoot_pct:.1f}"])
 md_table(["γ_max", "settling [s]", "/ bound", "k_p [1/s²]", "γ used", "ζ_min (linear loop)", "overshoot [%]"], rows_g)
@@ -326,7 +334,7 @@ show(fig)
 # %% [markdown]
 # ## Certified region of attraction against speed
 #
-# `nniquad.tuning.tune.certified_reach` solves the saturation LMI of `nniquad.analysis.lmi` and
+# `nniquad.analysis.lmi.certified_reach` solves the saturation LMI of `nniquad.analysis.lmi` and
 # returns the largest start distance (from rest) it proves converges.  With the
 # tilt limit as the only nonlinearity the reduced loop is invariant under
 # k_p → λ k_p with the shape (r, m k_p δ) fixed: time scales by 1/√λ and
@@ -390,7 +398,7 @@ s_start = float(front_s[start_ok].min())
 p_start = fam[front_i[int(np.flatnonzero(start_ok)[np.argmin(front_s[start_ok])])]]
 g_start = shape_gains(*p_start)
 reach_direct = certified_reach(V, g_start, tilt)
-pd_start = L.poles_and_damping(M, g_start.kp, g_start.Gamma, g_start.delta)
+pd_start = ReducedLoop(M, g_start).poles_and_damping()
 
 fig, ax = plt.subplots(figsize=(8, 5))
 sc = ax.scatter(fam_reach[okf], fam_settle[okf], c=np.log10([fam[i][0] for i in np.flatnonzero(okf)]), s=12,

@@ -35,12 +35,13 @@ import matplotlib.pyplot as plt
 import numpy as np
 from scipy.optimize import brentq
 
-from nniquad.analysis import linear as L
 import nniquad.sim as S
 from nniquad.config import XI0_M
 from nniquad.reporting.display import show_figure as show, show_table as md_table
 from nniquad.analysis.bound import max_horizontal_acceleration
-from nniquad.tuning.tune import TuneOptions, attitude_accel_headroom, certified_reach, tune
+from nniquad.tuning.tune import TuneOptions, attitude_accel_headroom, tune
+from nniquad.analysis.linear import ReducedLoop
+from nniquad.analysis.lmi import certified_reach
 from nniquad.model.vehicle import PAPER_VEHICLE
 
 T_START = time.perf_counter()
@@ -82,8 +83,8 @@ INNER = certificate_inner_loop(CERT)
 BASE = S.SimOptions(model="full", horizon_s=HORIZON_S, motor_lag=True, inner=INNER)
 TILT = BASE.tilt_limit_deg
 
-gamma_used = L.smallest_gamma(V.m, GAINS.kp, None, GAINS.delta)
-reach = certified_reach(V, GAINS, TILT)
+gamma_used = ReducedLoop.from_vehicle(V, GAINS).smallest_gamma
+reach = certified_reach(ReducedLoop.from_vehicle(V, GAINS), TILT)
 nominal = S.simulate(V, GAINS, BASE)[0]
 nom = nominal.metrics()
 nom_reduced = S.simulate(V, GAINS, S.SimOptions(model="reduced", horizon_s=HORIZON_S))[0].metrics()

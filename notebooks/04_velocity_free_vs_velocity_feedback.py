@@ -41,13 +41,14 @@ from dataclasses import replace
 import matplotlib.pyplot as plt
 import numpy as np
 
-from nniquad.analysis import linear as L
 from nniquad.control.gains import DEFAULT_TAU_F_S, PDFilteredGains, PDGains
 import nniquad.sim as S
 from nniquad.reporting.display import show_figure as show, show_table as md_table
 from nniquad.analysis.bound import time_optimal_bound
 from nniquad.analysis.metrics import rms_after
-from nniquad.tuning.tune import TILT_SLACK_DEG, TuneOptions, certified_reach, decode
+from nniquad.tuning.tune import TILT_SLACK_DEG, TuneOptions, decode
+from nniquad.analysis.linear import ReducedLoop
+from nniquad.analysis.lmi import certified_reach
 from nniquad.model.vehicle import PAPER_VEHICLE
 
 T_START = time.perf_counter()
@@ -91,8 +92,8 @@ INNER = certificate_inner_loop(CERT)
 BASE = S.SimOptions(model="full", horizon_s=HORIZON_S, motor_lag=True, inner=INNER)
 TILT_CAP = BASE.tilt_limit_deg + TILT_SLACK_DEG
 print(f"NNI: kp = {NNI_REF.kp:.4g}, Γ = {NNI_REF.Gamma:.4g}, δ = {NNI_REF.delta:.4g}; smallest γ = "
-      f"{L.smallest_gamma(V.m, NNI_REF.kp, None, NNI_REF.delta):.4f} (γ_max {GAMMA_MAX:g}); certified reach "
-      f"{certified_reach(V, NNI_REF, BASE.tilt_limit_deg):.2f} m")
+      f"{ReducedLoop.from_vehicle(V, NNI_REF).smallest_gamma:.4f} (γ_max {GAMMA_MAX:g}); certified reach "
+      f"{certified_reach(ReducedLoop.from_vehicle(V, NNI_REF), BASE.tilt_limit_deg):.2f} m")
 print(f"inner loops: ω_a = {INNER.attitude_wn_rad_s:.4g} rad/s, ζ_a = {INNER.attitude_zeta:.3f}; motor lag τ = "
       f"{1000 * V.tau_motor:g} ms; admissible actual tilt ≤ {TILT_CAP:g}°")
 
@@ -136,7 +137,7 @@ CANDIDATES = {
     "nni": [decode([math.log(kp), math.log(mg), math.log(r * math.sqrt(kp))], V.m, GAMMA_MAX)[0]
             for kp in NNI_KP for mg in NNI_MARGIN for r in NNI_R] + [NNI_REF],
 }
-assert all(L.smallest_gamma(V.m, g.kp, None, g.delta) <= GAMMA_MAX + 1e-12 for g in CANDIDATES["nni"])
+assert all(ReducedLoop.from_vehicle(V, g).smallest_gamma <= GAMMA_MAX + 1e-12 for g in CANDIDATES["nni"])
 
 
 def score(controller, options, gains_list):

@@ -20,7 +20,8 @@ import numpy as np
 import sympy as sp
 
 from nniquad.analysis import linear as L
-from nniquad.control.gains import Gains, PAPER_GAINS
+from nniquad.analysis.linear import PAPER_LOOP, ReducedLoop
+from nniquad.control.gains import Gains
 from nniquad.model import symbolic as S
 
 from .claims import FAILS, HOLDS, HOLDS_WITH_CORRECTION, Finding, claim
@@ -377,7 +378,7 @@ def sector_bound(threshold=paper_delta_sq_threshold) -> Finding:
     # not necessary for a fixed gamma: m kp delta = 1.1 is stable but needs gamma >= 1/1.1 > 0.8
     mv, kv = 0.5, 5.0
     dv = 1.1 / (mv * kv)
-    pd = L.poles_and_damping(mv, kv, 160.0, dv)
+    pd = ReducedLoop(mv, Gains(kp=kv, Gamma=160.0, delta=dv)).poles_and_damping()
     ev = {
         "sup over F of |u_c|^2/|F|^2": str(sup) + " (attained with F along the axis of the smallest kp)",
         "exact condition on delta^2": str(exact_sq),
@@ -434,9 +435,19 @@ def _closed_loop_sym(sign: int) -> sp.Matrix:
        "Theorem main_result for the reduced linear loop: for all positive m, kp^x, kp^y, Gamma, delta satisfying "
        "eq. parameter_constraint with some gamma in (0, 1), the positive-feedback loop of m xi'' + m Kp xi = F_h "
        "and the SNI controller is asymptotically stable and xi_h -> 0.", "symbolic+numeric")
-def closed_loop_stability(sign: int = +1) -> Finding:
-    """Routh-Hurwitz on the characteristic polynomial under the constraint, plus poles at the paper's gains."""
-    A_cl = _closed_loop_sym(sign)
+def closed_loop_stability(sign: int = +1, closed_loop: sp.Matrix | None = None) -> Finding:
+    """Routh-Hurwitz on the characteristic polynomial under the constraint, plus poles at the paper's gains.
+
+    Parameters
+    ----------
+    sign
+        Feedback sign of the interconnection (+1 is the paper's positive feedback).
+    closed_loop
+        A variant closed-loop matrix in the symbols of :data:`nniquad.analysis.linear.SYMBOLS`
+        (state ``[xi, xi_dot, z]``) instead of the interconnection; the verdict needs
+        both the symbolic Routh check *and* stable poles at the paper's gains.
+    """
+    A_cl = _closed_loop_sym(sign) if closed_loop is None else sp.Matrix(closed_loop)
     sv = sp.Symbol("s")
     poly = sp.Poly(sp.expand((sv * sp.eye(3) - A_cl).det()), sv)
     rows = L.routh_array(poly)
@@ -462,7 +473,10 @@ def closed_loop_stability(sign: int = +1) -> Finding:
     r_eig = np.sort_complex(np.linalg.eigvals(A_num))
     Ap, Bp, Cp, Dp = (np.array(M.subs(vals), dtype=float) for M in L.plant_matrices_sym())
     Ac, Bc, Cc, Dc = (np.array(M.subs(vals), dtype=float) for M in L.controller_matrices_sym())
-    r_ct = np.sort_complex(np.asarray(ct.feedback(ct.ss(Ap, Bp, Cp, Dp), ct.ss(Ac, Bc, Cc, Dc), sign=sign).poles()))
+    if closed_loop is None:
+        r_ct = np.sort_complex(np.asarray(ct.feedback(ct.ss(Ap, Bp, Cp, Dp), ct.ss(Ac, Bc, Cc, Dc), sign=sign).poles()))
+    else:  # a variant has no plant/controller split: python-control's poles of the matrix itself
+        r_ct = np.sort_complex(np.asarray(ct.ss(A_num, np.zeros((3, 1)), np.zeros((1, 3)), 0).poles()))
     dev = float(max(np.max(np.abs(r_np - r_eig)), np.max(np.abs(r_ct - r_eig))))
     ev = {"feedback sign": sign, "characteristic polynomial": str(poly.as_expr()),
           "Routh first column": [str(c) for c in first],
@@ -473,7 +487,7 @@ def closed_loop_stability(sign: int = +1) -> Finding:
           "max deviation between the three pole computations": dev,
           "scope": "the theorem is stated for eq. horizontal_subsystem (which contains u1, phi, theta); this check "
                    "covers the reduced linear loop only; the full vehicle is claim full-model-stability"}
-    if ok_sym and np.all(r_eig.real < 0):
+    if ok_sym and bool(np.all(r_eig.real < 0)):
         return Finding(HOLDS, "Routh first column > 0 under the constraint for all positive parameters "
                               "(stable iff m kp delta > 1, implied by the bound)", ev)
     bad = {"m": 0.5, "kp": 5.0, "Gamma": 160.0, "delta": 0.6, "poles": r_eig.round(6).tolist(),
@@ -486,13 +500,24 @@ def closed_loop_stability(sign: int = +1) -> Finding:
        "parameter_constraint, regardless of model uncertainties in the quadrotor dynamics, provided the NNI property "
        "is preserved.", "symbolic+numeric")
 def remark_robustness(true_masses: Sequence[float] = (0.25, 0.3, 0.4, 0.5, 0.75, 1.0, 2.0),
-                      nominal_mass: float = 0.5, gains: Gains = PAPER_GAINS, gamma: float = 0.8) -> Finding:
-    """Mass uncertainty in the paper's model (kp an exact acceleration gain): the plant stays NNI for any mass."""
+                      loop: ReducedLoop = PAPER_LOOP, gamma: float = 0.8) -> Finding:
+    """Mass uncertainty in the paper's model (kp an exact acceleration gain): the plant stays NNI for any mass.
+
+    Parameters
+    ----------
+    true_masses
+        True masses to test [kg].
+    loop
+        The nominal loop (its mass is the nominal mass).
+    gamma
+        The sector gain the gains were designed with.
+    """
+    nominal_mass, gains = loop.m, loop.gains
     kp_min = min(gains.axes())
     designed = nominal_mass * kp_min * gains.delta >= 1 / gamma
     rows = []
     for mt in true_masses:
-        pd = L.poles_and_damping(mt, gains.kp, gains.Gamma, gains.delta, gains.kpy)
+        pd = loop.with_mass(mt).poles_and_damping()
         rows.append({"true mass kg": mt, "plant NNI (V = 1/2 m |xi'|^2 + 1/2 m xi^T Kp xi)": True,
                      "m kp delta": mt * kp_min * gains.delta, "stable": pd.stable,
                      "max Re(pole)": pd.max_real_part})
@@ -510,7 +535,7 @@ def remark_robustness(true_masses: Sequence[float] = (0.25, 0.3, 0.4, 0.5, 0.75,
     m_crit = 1 / (kp_min * gains.delta)
     lo, hi = 1 / (gamma * kp_min * gains.delta), 4 * nominal_mass
     grid = np.geomspace(lo, hi, 41)
-    grid_ok = all(L.poles_and_damping(mt, gains.kp, gains.Gamma, gains.delta, gains.kpy).stable for mt in grid)
+    grid_ok = all(loop.with_mass(mt).poles_and_damping().stable for mt in grid)
     mu = sp.Symbol("m_true", positive=True)
     routh_true = sp.factor(L.routh_stability_region()["reduced"].lhs.subs(mL, mu))
     cex = {"true mass kg": bad[0]["true mass kg"], "m kp delta": bad[0]["m kp delta"],

@@ -18,28 +18,40 @@ import numpy as np
 import sympy as sp
 
 from nniquad.analysis import linear as L
-from nniquad.control.gains import Gains, PAPER_GAINS
 from nniquad.analysis import metrics as MT
+from nniquad.analysis.linear import PAPER_LOOP, ReducedLoop
+from nniquad.config import TILT_LIMIT_DEG, XI0_M
+from nniquad.control.gains import Gains, PAPER_GAINS
 
 from .claims import FAILS, HOLDS, HOLDS_WITH_CORRECTION, Finding, claim
 
-__all__ = ["linear_response", "delta_min", "simulation_claim", "full_model_stability", "CORRECTED_FULL_MODEL_GAINS"]
+__all__ = ["linear_response", "smooth_response", "delta_min", "simulation_claim", "full_model_stability",
+           "CORRECTED_FULL_MODEL_GAINS"]
 
 SEC = "simulation"
-XI0 = (2.0, -1.5)
+XI0 = XI0_M
 #: A gain set that satisfies the sector bound with gamma = 0.8 (m kp delta = 1.2654) and that the full vehicle
 #: settles with (checked by ``full_model_stability``): slow, well-damped dominant poles.
 CORRECTED_FULL_MODEL_GAINS = Gains(kp=3.42, Gamma=3.59, delta=0.74)
 
 
-def linear_response(m: float, gains: Gains, x0: np.ndarray, t: np.ndarray) -> np.ndarray:
+def linear_response(loop: ReducedLoop, x0: np.ndarray, t: np.ndarray) -> np.ndarray:
     """State of the reduced linear loop (both axes, ``[x, x', z1, y, y', z2]``) at times ``t``.
 
     Exact propagation: ``x(t_k+1) = expm(A dt) x(t_k)`` on a uniform grid (scipy's matrix exponential).
+
+    Parameters
+    ----------
+    loop
+        The reduced loop.
+    x0
+        Initial state (6 entries).
+    t
+        Uniform time grid [s].
     """
     from scipy.linalg import expm
 
-    A = L.closed_loop_A(m, gains.kp, gains.Gamma, gains.delta, gains.kpy)
+    A = loop.closed_loop_A()
     dt = float(t[1] - t[0])
     if not np.allclose(np.diff(t), dt, rtol=1e-9, atol=1e-12):
         raise ValueError("linear_response needs a uniform time grid")
@@ -57,17 +69,18 @@ def linear_response(m: float, gains: Gains, x0: np.ndarray, t: np.ndarray) -> np
        "the chosen delta = 0.6 satisfies the constraint.", "symbolic+numeric")
 def delta_min(m: float | str = "1/2", kp: float | str = "5", gamma: float | str = "4/5",
               stated_sq: float | str = "1/4", stated: float | str = "1/2", chosen: float | str = "3/5") -> Finding:
-    """Exact rational arithmetic, cross-checked with nniquad.analysis.linear.sector_delta_min."""
+    """Exact rational arithmetic, cross-checked with nniquad.analysis.linear.ReducedLoop.sector_delta_min."""
     mq, kq, gq = (sp.Rational(str(Fraction(str(v)))) for v in (m, kp, gamma))
     sq = 1 / (gq**2 * mq**2 * kq**2)
     dmin = sp.sqrt(sq)
     factors = {"gamma^2": str(gq**2), "m^2": str(mq**2), "kp^2": str(kq**2)}
-    lib = L.sector_delta_min(float(mq), float(kq), float(gq))
+    # delta_min depends on m, kp and gamma only (Gamma and delta are placeholders here)
+    lib = ReducedLoop(float(mq), Gains(kp=float(kq), Gamma=1.0, delta=1.0)).sector_delta_min(float(gq))
     st_sq = sp.Rational(str(Fraction(str(stated_sq))))
     st = sp.Rational(str(Fraction(str(stated))))
     ch = sp.Rational(str(Fraction(str(chosen))))
     ev = {"factors": factors, "delta_min^2": str(sq), "delta_min": str(dmin),
-          "nniquad.analysis.linear.sector_delta_min (numeric)": lib,
+          "nniquad.analysis.linear.ReducedLoop.sector_delta_min (numeric)": lib,
           "chosen delta satisfies delta >= delta_min": bool(ch >= dmin),
           "smallest gamma for the chosen delta, 1/(m kp delta)": str(1 / (mq * kq * ch)),
           "m kp delta (Routh: stable iff > 1)": str(mq * kq * ch)}
@@ -94,27 +107,45 @@ def _shape(t: np.ndarray, xy: np.ndarray) -> dict:
             "local extrema (oscillations)": extrema}
 
 
+def smooth_response(shape: dict) -> bool:
+    """The paper's words "smooth, no oscillations or overshoot" for a :func:`_shape` summary.
+
+    All three must hold: overshoot at most 0.1 %, no zero crossing along the
+    initial direction and no local extremum (a response that wiggles without
+    overshooting is not smooth).
+
+    Parameters
+    ----------
+    shape
+        The summary of :func:`_shape`.
+    """
+    return (shape["overshoot_pct (nniquad.analysis.metrics)"] <= 0.1
+            and shape["zero crossings along the initial direction"] == 0
+            and shape["local extrema (oscillations)"] == 0)
+
+
 @claim("simulation-claim", ["sec:simulation", "fig:position_tracking", "tab:simulation_parameters"], SEC,
        "With the paper's gains (kp = 5, Gamma = 160, delta = 0.6, m = 0.5 kg) from xi_h(0) = (2, -1.5) m at rest, "
        "'the position trajectories exhibit smooth transient response with no oscillations or overshoot'.",
        "symbolic+simulation")
-def simulation_claim(gains: Gains = PAPER_GAINS, m: float = 0.5, state0: Sequence[float] | None = None,
+def simulation_claim(loop: ReducedLoop = PAPER_LOOP, state0: Sequence[float] | None = None,
                      horizon_s: float = 400.0, dt: float = 0.01) -> Finding:
     """Reduced linear loop: exact response (expm) with python-control as a second route; symbolic zero at s = 0."""
     import control as ct
 
+    gains, m = loop.gains, loop.m
     x0 = np.array([XI0[0], 0.0, 0.0, XI0[1], 0.0, 0.0]) if state0 is None else np.asarray(state0, dtype=float)
     t = np.arange(0.0, horizon_s + dt / 2, dt)
-    X = linear_response(m, gains, x0, t)
+    X = linear_response(loop, x0, t)
     xy = X[:, [0, 3]]
     shape = _shape(t, xy)
     # second route: python-control initial_response of the same loop on a coarser grid
-    A = L.closed_loop_A(m, gains.kp, gains.Gamma, gains.delta, gains.kpy)
+    A = loop.closed_loop_A()
     sys = ct.ss(A, np.zeros((6, 1)), np.eye(6)[[0, 3]], np.zeros((2, 1)))
     tc = t[::10]
     resp = ct.initial_response(sys, tc, x0)
     dev = float(np.max(np.abs(np.asarray(resp.outputs).T - xy[::10])))
-    pdmp = L.poles_and_damping(m, gains.kp, gains.Gamma, gains.delta, gains.kpy)
+    pdmp = loop.poles_and_damping()
     # symbolic: X(s) = e1^T (sI - A)^{-1} x(0) for x(0) = (x0, 0, 0) has a zero at s = 0
     sv = sp.Symbol("s")
     A_sym = L.closed_loop_matrix_sym()
@@ -127,9 +158,7 @@ def simulation_claim(gains: Gains = PAPER_GAINS, m: float = 0.5, state0: Sequenc
           "max |expm - python-control initial_response| [m]": dev,
           "X(s)/x(0) for x(0) = (1, 0, 0), any gains (symbolic)": str(X_s),
           "X(0) = integral of x(t) dt": str(X0)}
-    holds = shape["overshoot_pct (nniquad.analysis.metrics)"] <= 0.1 and shape["zero crossings along the initial direction"] == 0 \
-        and shape["local extrema (oscillations)"] == 0
-    if holds:
+    if smooth_response(shape):
         return Finding(HOLDS, "no overshoot, no zero crossing, no oscillation", ev)
     period = 2 * np.pi / float(np.max(np.abs(pdmp.poles.imag))) if np.any(pdmp.poles.imag != 0) else None
     cex = {"overshoot_pct": shape["overshoot_pct (nniquad.analysis.metrics)"],
@@ -178,8 +207,8 @@ def full_model_stability(gains: Gains = PAPER_GAINS, horizon_s: float = 300.0,
 
     full = _full_run(gains, horizon_s, "full")
     reduced = _full_run(gains, horizon_s, "reduced")
-    u0 = lmi.axis_acceleration_limit(V.g, 30.0)
-    roa = lmi.region_of_attraction(V.m, gains.kp, gains.Gamma, gains.delta, u0)
+    u0 = lmi.axis_acceleration_limit(V.g, TILT_LIMIT_DEG)
+    roa = lmi.region_of_attraction(ReducedLoop.from_vehicle(V, gains), u0)
     ev = {"gains": gains.as_dict(), "full model (nniquad.sim.simulate)": full,
           "reduced model with the tilt limit, attitude instantaneous": reduced,
           "region of attraction LMI, one axis, saturated acceleration (nniquad.analysis.lmi)": {

@@ -8,8 +8,8 @@ import json
 import numpy as np
 import pytest
 
-from nniquad.certificates.certificate import (SCHEMA_VERSION, build_certificate, canonical_digest, load_certificate,
-                                verify_certificate, write_certificate)
+from nniquad.certificates import (SCHEMA_VERSION, Certificate, build_certificate, canonical_digest, load_certificate,
+                                  read_certificate, verify_certificate, write_certificate)
 from nniquad.errors import CertificateError
 from nniquad.control.gains import InnerLoopGains
 from nniquad.control.gains import Gains
@@ -21,8 +21,14 @@ INNER = InnerLoopGains(attitude_wn_rad_s=101.56, attitude_zeta=1.132, attitude_a
 
 
 @pytest.fixture(scope="module")
-def cert():
+def certificate() -> Certificate:
     return build_certificate(V, GAINS, inner=INNER, model="full")
+
+
+@pytest.fixture(scope="module")
+def cert(certificate) -> dict:
+    """The certificate's JSON document (what the tamper tests edit)."""
+    return certificate.to_json()
 
 
 def _resign(c: dict) -> dict:

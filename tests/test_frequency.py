@@ -8,12 +8,13 @@ import pytest
 import sympy as sp
 
 from nniquad.analysis.frequency import ni_check, ni_interconnection_check, residues_on_imaginary_axis
-from nniquad.analysis.linear import controller_ss, plant_ss
+from nniquad.analysis.linear import ReducedLoop
+from nniquad.control.gains import Gains
 
 
 @pytest.mark.parametrize("m, kp", [(0.5, 5.0), (2.0, 0.3)])
 def test_plant_is_ni_not_sni_with_hand_residue(m, kp):
-    r = ni_check(plant_ss(m, kp))
+    r = ni_check(ReducedLoop(m, Gains(kp=kp, Gamma=1.0, delta=1.0)).plant_ss())
     assert r.is_ni and not r.is_sni
     (w0, K0), = r.residues
     assert w0 == pytest.approx(np.sqrt(kp))
@@ -29,10 +30,10 @@ def test_plant_is_ni_not_sni_with_hand_residue(m, kp):
 
 def test_controller_is_sni_with_hand_imaginary_part():
     Gamma, delta = 160.0, 0.6
-    r = ni_check(controller_ss(Gamma, delta))
+    r = ni_check(ReducedLoop(1.0, Gains(kp=1.0, Gamma=Gamma, delta=delta)).controller_ss())
     assert r.is_ni and r.is_sni
     w = np.array([0.1, 1.0, 96.0, 1e4])
-    G = ct.frequency_response(controller_ss(Gamma, delta), w).complex
+    G = ct.frequency_response(ReducedLoop(1.0, Gains(kp=1.0, Gamma=Gamma, delta=delta)).controller_ss(), w).complex
     a = Gamma * delta
     # j(G - G*) = -2 Im G = 2 Gamma w / (w^2 + a^2) > 0
     np.testing.assert_allclose(-2 * G.imag, 2 * Gamma * w / (w**2 + a**2), rtol=1e-12)
@@ -60,7 +61,7 @@ def test_double_pole_detected_as_not_simple():
 
 
 def test_interconnection_matches_routh():
-    ok = ni_interconnection_check(plant_ss(0.5, 5.0), controller_ss(160.0, 0.6))
+    ok = ni_interconnection_check(ReducedLoop(0.5, Gains(5.0, 160.0, 0.6)).plant_ss(), ReducedLoop(0.5, Gains(5.0, 160.0, 0.6)).controller_ss())
     assert ok.dc_loop_gain == pytest.approx(1 / (0.5 * 5.0 * 0.6)) and ok.predicted_stable and ok.poles_stable
-    bad = ni_interconnection_check(plant_ss(0.5, 5.0), controller_ss(160.0, 0.3))
+    bad = ni_interconnection_check(ReducedLoop(0.5, Gains(5.0, 160.0, 0.3)).plant_ss(), ReducedLoop(0.5, Gains(5.0, 160.0, 0.3)).controller_ss())
     assert bad.dc_loop_gain > 1 and not bad.predicted_stable and not bad.poles_stable

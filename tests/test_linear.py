@@ -8,6 +8,7 @@ import sympy as sp
 
 from nniquad.errors import GainError
 from nniquad.analysis import linear as L
+from nniquad.analysis.linear import ReducedLoop
 from nniquad.control.gains import Gains, PAPER_GAINS
 
 m_, kp_, G_, d_ = (L.SYMBOLS[k] for k in ("m", "kp", "Gamma", "delta"))
@@ -49,19 +50,20 @@ def test_routh_region_is_m_kp_delta_greater_than_one():
 
 def test_numeric_matrices_poles_three_independent_routes():
     m, kp, G, d = 0.5, 5.0, 160.0, 0.6
-    A = L.closed_loop_A_axis(m, kp, G, d)
-    coeffs = L.characteristic_coefficients(m, kp, G, d)
+    loop = ReducedLoop(m, Gains(kp, G, d))
+    A = loop.closed_loop_A_axis()
+    coeffs = loop.characteristic_coefficients()
     np.testing.assert_allclose(coeffs, [1, 96, 5, 160], rtol=1e-14)
     np.testing.assert_allclose(np.poly(A), coeffs, rtol=1e-12)
     r1 = np.sort_complex(np.roots(coeffs))
-    r2 = np.sort_complex(np.asarray(L.closed_loop_ss(m, kp, G, d).poles()))
+    r2 = np.sort_complex(np.asarray(loop.closed_loop_ss().poles()))
     r3 = np.sort_complex(np.linalg.eigvals(A))
     np.testing.assert_allclose(r2, r1, rtol=1e-9)
     np.testing.assert_allclose(r3, r1, rtol=1e-9)
 
 
 def test_paper_gains_dominant_pair_is_lightly_damped():
-    pd = L.poles_and_damping(0.5, 5.0, 160.0, 0.6)
+    pd = ReducedLoop(0.5, Gains(5.0, 160.0, 0.6)).poles_and_damping()
     roots = np.roots([1, 96, 5, 160])
     pair = roots[np.abs(roots.imag) > 0][0]
     zeta_hand = -pair.real / abs(pair)
@@ -72,17 +74,17 @@ def test_paper_gains_dominant_pair_is_lightly_damped():
 
 
 def test_two_axes_with_different_gains():
-    A = L.closed_loop_A(0.5, 5.0, 160.0, 0.6, kpy=3.0)
+    A = ReducedLoop(0.5, Gains(5.0, 160.0, 0.6, kpy=3.0)).closed_loop_A()
     assert A.shape == (6, 6) and np.all(A[:3, 3:] == 0) and np.all(A[3:, :3] == 0)
-    np.testing.assert_array_equal(A[3:, 3:], L.closed_loop_A_axis(0.5, 3.0, 160.0, 0.6))
-    assert L.smallest_gamma(0.5, 5.0, 3.0, 0.6) == pytest.approx(1 / (0.5 * 3.0 * 0.6))
-    assert not L.stable(0.5, 5.0, 160.0, 0.6, kpy=3.0)  # 0.5*3*0.6 = 0.9 < 1
-    assert L.stable(0.5, 5.0, 160.0, 0.6, kpy=4.0)
+    np.testing.assert_array_equal(A[3:, 3:], ReducedLoop(0.5, Gains(3.0, 160.0, 0.6)).closed_loop_A_axis())
+    assert ReducedLoop(0.5, Gains(5.0, 160.0, 0.6, kpy=3.0)).smallest_gamma == pytest.approx(1 / (0.5 * 3.0 * 0.6))
+    assert not ReducedLoop(0.5, Gains(5.0, 160.0, 0.6, kpy=3.0)).stable  # 0.5*3*0.6 = 0.9 < 1
+    assert ReducedLoop(0.5, Gains(5.0, 160.0, 0.6, kpy=4.0)).stable
 
 
 def test_sector_bound_paper_numbers_and_equivalence_with_routh():
-    assert L.sector_delta_min(0.5, 5.0, 0.8) == pytest.approx(0.5)  # the paper's delta_min
-    assert L.smallest_gamma(0.5, 5.0, None, 0.6) == pytest.approx(2 / 3)
+    assert ReducedLoop(0.5, Gains(5.0, 160.0, 0.6)).sector_delta_min(0.8) == pytest.approx(0.5)  # the paper's delta_min
+    assert ReducedLoop(0.5, Gains(5.0, 160.0, 0.6)).smallest_gamma == pytest.approx(2 / 3)
     assert sp.simplify(L.dc_loop_gain_sym() - 1 / (m_ * kp_ * d_)) == 0
     rng = np.random.default_rng(1)
     for _ in range(200):
@@ -90,28 +92,30 @@ def test_sector_bound_paper_numbers_and_equivalence_with_routh():
         if abs(m * kp * d - 1) < 1e-6:
             continue
         # the union of the sector regions over gamma < 1 is exactly the Routh region
-        assert L.sector_bound_holds(m, kp, None, d) == L.stable(m, kp, G, d) == (np.max(np.roots(L.characteristic_coefficients(m, kp, G, d)).real) < 0)
+        loop = ReducedLoop(m, Gains(kp, G, d))
+        assert loop.sector_bound_holds == loop.stable == (np.max(np.roots(loop.characteristic_coefficients()).real) < 0)
 
 
 @pytest.mark.parametrize("eps, expected", [(1e-4, True), (-1e-4, False)])
 def test_stability_boundary_perturbation(eps, expected):
     m, kp, G = 0.5, 5.0, 160.0
     d = (1 + eps) / (m * kp)
-    assert L.stable(m, kp, G, d) is expected
-    assert L.poles_and_damping(m, kp, G, d).stable is expected
+    assert ReducedLoop(m, Gains(kp, G, d)).stable is expected
+    assert ReducedLoop(m, Gains(kp, G, d)).poles_and_damping().stable is expected
 
 
 def test_saturation_split_reassembles_the_loop():
-    A0, B, K = L.saturation_split(0.5, 5.0, 160.0, 0.6)
-    np.testing.assert_array_equal(A0 + B @ K, L.closed_loop_A_axis(0.5, 5.0, 160.0, 0.6))
+    A0, B, K = ReducedLoop(0.5, Gains(5.0, 160.0, 0.6)).saturation_split()
+    np.testing.assert_array_equal(A0 + B @ K, ReducedLoop(0.5, Gains(5.0, 160.0, 0.6)).closed_loop_A_axis())
     np.testing.assert_allclose(K, [[-5.0, 0.0, 2.0]])  # a = -kp xi + z/m
 
 
 def test_dc_gains_with_python_control():
     import control as ct
 
-    assert ct.dcgain(L.plant_ss(0.5, 5.0)) == pytest.approx(1 / (0.5 * 5.0))
-    assert ct.dcgain(L.controller_ss(160.0, 0.6)) == pytest.approx(1 / 0.6)
+    loop = ReducedLoop(0.5, Gains(5.0, 160.0, 0.6))
+    assert ct.dcgain(loop.plant_ss()) == pytest.approx(1 / (0.5 * 5.0))
+    assert ct.dcgain(loop.controller_ss()) == pytest.approx(1 / 0.6)
 
 
 @pytest.mark.parametrize("bad", [float("nan"), float("inf"), 0.0, -1.0, "x", True, None])
@@ -124,4 +128,4 @@ def test_gains_validation(bad):
 def test_paper_gains():
     assert PAPER_GAINS.axes() == (5.0, 5.0) and PAPER_GAINS.Gamma == 160.0 and PAPER_GAINS.delta == 0.6
     with pytest.raises(GainError):
-        L.closed_loop_A_axis(float("nan"), 5.0, 160.0, 0.6)
+        ReducedLoop(float("nan"), PAPER_GAINS)

@@ -10,13 +10,13 @@ import pytest
 from nniquad.analysis import lmi
 from nniquad.errors import GainError, SolverError
 from nniquad.analysis.frequency import ni_interconnection_check
-from nniquad.analysis.linear import closed_loop_A_axis, controller_matrices, controller_ss, plant_matrices, plant_ss, saturation_split, stable
+from nniquad.analysis.linear import PAPER_LOOP, ReducedLoop
 from nniquad.control.gains import Gains, PAPER_GAINS
 
 
 @pytest.mark.parametrize("m, kp", [(0.5, 5.0), (1.3, 0.7), (0.2, 40.0)])
 def test_plant_certificate_is_the_hand_derived_unique_matrix(m, kp):
-    A, B, C, D = plant_matrices(m, kp)
+    A, B, C, D = ReducedLoop(m, Gains(kp, 1.0, 1.0)).plant_matrices()
     r = lmi.ni_lemma_dissipation(A, B, C, D)
     assert r.feasible and r.status == "optimal"
     P = r.matrices["P"]
@@ -29,14 +29,14 @@ def test_plant_certificate_is_the_hand_derived_unique_matrix(m, kp):
 
 
 def test_paper_lemma_is_infeasible_on_the_plant():
-    A, B, C, _ = plant_matrices(0.5, 5.0)
+    A, B, C, _ = PAPER_LOOP.plant_matrices()
     r = lmi.ni_lemma_paper(A, B, C)
     assert not r.feasible and r.status == "infeasible"
 
 
 @pytest.mark.parametrize("Gamma, delta", [(160.0, 0.6), (2.0, 0.5)])
 def test_controller_certificates_by_hand(Gamma, delta):
-    Ac, Bc, Cc, _ = controller_matrices(Gamma, delta)
+    Ac, Bc, Cc, _ = ReducedLoop(0.5, Gains(5.0, Gamma, delta)).controller_matrices()
     paper = lmi.ni_lemma_paper(Ac, Bc, Cc)
     assert paper.feasible
     assert paper.matrices["P"][0, 0] == pytest.approx(1 / Gamma, rel=1e-7)
@@ -56,21 +56,21 @@ def test_controller_certificates_by_hand(Gamma, delta):
 
 
 def test_gamma_delta_one_makes_paper_storage_ni():
-    Ac, Bc, Cc, _ = controller_matrices(2.0, 0.5)
+    Ac, Bc, Cc, _ = ReducedLoop(0.5, Gains(5.0, 2.0, 0.5)).controller_matrices()
     assert lmi.ni_lemma_paper(Ac, Bc, Cc).residuals["ni_dissipation_max_eig"] < 1e-6
 
 
 def test_plant_is_not_sni():
-    A, B, C, D = plant_matrices(0.5, 5.0)
+    A, B, C, D = PAPER_LOOP.plant_matrices()
     r = lmi.sni_lemma(A, B, C, D)
     assert not r.feasible and r.status == "infeasible"
 
 
 def test_closed_loop_decay_matches_pole_bound():
-    r = lmi.closed_loop_decay(0.5, PAPER_GAINS)
+    r = lmi.closed_loop_decay(ReducedLoop(0.5, PAPER_GAINS))
     assert r.feasible
     sup = r.values["decay_rate_poles"]
-    A = closed_loop_A_axis(0.5, 5.0, 160.0, 0.6)
+    A = ReducedLoop(0.5, Gains(5.0, 160.0, 0.6)).closed_loop_A_axis()
     assert sup == pytest.approx(-2 * np.max(np.linalg.eigvals(A).real), rel=1e-12)
     assert (1 - 3e-3) * sup <= r.margin <= sup * (1 + 1e-6)
     P = r.matrices["P"]
@@ -81,7 +81,7 @@ def test_closed_loop_decay_matches_pole_bound():
 @pytest.mark.parametrize("eps, expected", [(1e-3, True), (-1e-3, False)])
 def test_closed_loop_lmi_at_stability_boundary(eps, expected):
     m, kp = 0.5, 5.0
-    r = lmi.closed_loop_decay(m, Gains(kp=kp, Gamma=160.0, delta=(1 + eps) / (m * kp)))
+    r = lmi.closed_loop_decay(ReducedLoop(m, Gains(kp=kp, Gamma=160.0, delta=(1 + eps) / (m * kp))))
     assert r.feasible is expected
     if not expected:
         assert r.status == "infeasible"
@@ -94,28 +94,28 @@ def test_random_gains_lmi_agrees_with_poles_and_frequency_check():
         m, kp, G, d = np.exp(rng.uniform(np.log([0.2, 1.0, 2.0, 0.1]), np.log([2.0, 30.0, 300.0, 3.0])))
         if abs(m * kp * d - 1) < 0.05:
             continue
-        g = Gains(kp=kp, Gamma=G, delta=d)
-        poles_ok = bool(np.max(np.linalg.eigvals(closed_loop_A_axis(m, kp, G, d)).real) < 0)
-        freq = ni_interconnection_check(plant_ss(m, kp), controller_ss(G, d))
-        r = lmi.closed_loop_decay(m, g, rtol=1e-2)
-        assert r.feasible == poles_ok == freq.predicted_stable == freq.poles_stable == stable(m, kp, G, d)
+        loop = ReducedLoop(m, Gains(kp=kp, Gamma=G, delta=d))
+        poles_ok = bool(np.max(np.linalg.eigvals(loop.closed_loop_A_axis()).real) < 0)
+        freq = ni_interconnection_check(loop.plant_ss(), loop.controller_ss())
+        r = lmi.closed_loop_decay(loop, rtol=1e-2)
+        assert r.feasible == poles_ok == freq.predicted_stable == freq.poles_stable == loop.stable
         seen[poles_ok] += 1
     assert seen[True] and seen[False]
 
 
 def test_robust_mass_common_p_fails_but_mass_dependent_p_certifies():
     lo, hi = 0.4, 0.6
-    common = lmi.robust_mass_decay(lo, hi, PAPER_GAINS)
+    common = lmi.robust_mass_decay(PAPER_LOOP, lo, hi)
     assert not common.feasible  # the slow pair's frequency moves with m: no common quadratic P
-    pdlf = lmi.robust_mass_decay(lo, hi, PAPER_GAINS, parameter_dependent=True)
+    pdlf = lmi.robust_mass_decay(PAPER_LOOP, lo, hi, parameter_dependent=True)
     assert pdlf.feasible
     assert 0 < pdlf.margin <= pdlf.values["decay_rate_poles_pointwise_min"] * (1 + 1e-6)
-    assert lmi.robust_mass_decay(0.499, 0.501, PAPER_GAINS).feasible
+    assert lmi.robust_mass_decay(PAPER_LOOP, 0.499, 0.501).feasible
     # below the exact Routh bound m > 1/(kp delta) = 1/3 kg nothing can be certified
     assert pdlf.values["m_min_exact"] == pytest.approx(1 / 3)
-    assert not lmi.robust_mass_decay(0.3, 0.6, PAPER_GAINS, parameter_dependent=True).feasible
+    assert not lmi.robust_mass_decay(PAPER_LOOP, 0.3, 0.6, parameter_dependent=True).feasible
     with pytest.raises(GainError):
-        lmi.robust_mass_decay(0.6, 0.4, PAPER_GAINS)
+        lmi.robust_mass_decay(PAPER_LOOP, 0.6, 0.4)
 
 
 def test_region_of_attraction_is_invariant_and_attractive_in_simulation():
@@ -125,12 +125,13 @@ def test_region_of_attraction_is_invariant_and_attractive_in_simulation():
     u0 = lmi.axis_acceleration_limit(9.81, 30.0, "inscribed")
     assert u0 == pytest.approx(9.81 * np.tan(np.radians(30)) / np.sqrt(2))
     assert lmi.axis_acceleration_limit(9.81, 30.0) == pytest.approx(9.81 * np.tan(np.radians(30)))
-    r = lmi.region_of_attraction(m, kp, G, d, u0)
+    loop = ReducedLoop(m, Gains(kp, G, d))
+    r = lmi.region_of_attraction(loop, u0)
     assert r.feasible and r.values["max_displacement_m"] > kp * 0 + u0 / kp  # beyond the linear (unsaturated) zone
     P = r.matrices["P"]
     x0 = np.array([r.margin, 0.0, 0.0])
     assert x0 @ P @ x0 == pytest.approx(1.0, abs=1e-5)
-    A0, B, K = saturation_split(m, kp, G, d)
+    A0, B, K = loop.saturation_split()
 
     def f(t, x):
         return A0 @ x + B[:, 0] * np.clip(K @ x, -u0, u0)[0]
@@ -150,15 +151,15 @@ def test_region_of_attraction_is_invariant_and_attractive_in_simulation():
 
 
 def test_nan_data_raises_solver_error():
-    A, B, C, D = plant_matrices(0.5, 5.0)
+    A, B, C, D = PAPER_LOOP.plant_matrices()
     A = A.copy()
     A[0, 0] = np.nan
     for fn in (lmi.ni_lemma_paper, lmi.ni_lemma_dissipation, lmi.ni_lemma_lanzon_petersen, lmi.sni_lemma,
                lmi.ni_dissipation_strict):
         with pytest.raises(SolverError, match="non-finite"):
             fn(A, B, C)
-    with pytest.raises(SolverError, match="non-finite"):
-        lmi.closed_loop_decay(float("nan"), PAPER_GAINS)
+    with pytest.raises(GainError):  # a NaN mass is caught earlier, by the loop itself
+        lmi.closed_loop_decay(ReducedLoop(float("nan"), PAPER_GAINS))
     with pytest.raises(GainError):  # bad gains are caught earlier, by the gain set itself
         Gains(kp=5.0, Gamma=160.0, delta=float("nan"))
 
@@ -168,7 +169,7 @@ def test_unbounded_and_crash_become_solver_error(monkeypatch):
 
     x = cp.Variable()
     with pytest.raises(SolverError, match="unbounded"):
-        lmi._solve(cp.Problem(cp.Maximize(x), [x >= 0]), "toy")
+        lmi.solver.solve(cp.Problem(cp.Maximize(x), [x >= 0]), "toy")
     prob = cp.Problem(cp.Minimize(x), [x >= 0])
 
     def boom(*a, **k):
@@ -176,18 +177,18 @@ def test_unbounded_and_crash_become_solver_error(monkeypatch):
 
     monkeypatch.setattr(prob, "solve", boom)
     with pytest.raises(SolverError, match="Clarabel failed"):
-        lmi._solve(prob, "toy")
+        lmi.solver.solve(prob, "toy")
 
 
 def test_failed_recheck_is_not_feasible(monkeypatch):
-    monkeypatch.setattr(lmi, "RTOL", -1.0)  # no answer can pass a negative tolerance
-    Ac, Bc, Cc, _ = controller_matrices(160.0, 0.6)
+    monkeypatch.setattr(lmi.checks, "RTOL", -1.0)  # no answer can pass a negative tolerance
+    Ac, Bc, Cc, _ = PAPER_LOOP.controller_matrices()
     r = lmi.ni_lemma_paper(Ac, Bc, Cc)
     assert r.status == "optimal" and not r.feasible and "re-check failed" in r.note
 
 
 def test_run_all_json():
-    results = lmi.run_all(0.5, 9.81)
+    results = lmi.run_all(ReducedLoop(0.5, PAPER_GAINS, g=9.81))
     names = [r.name for r in results]
     assert "ni_lemma_paper[plant]" in names and "region_of_attraction[x]" in names
     data = json.loads(json.dumps([r.to_json() for r in results]))
@@ -197,12 +198,14 @@ def test_run_all_json():
 
 def test_thrust_mass_model_by_hand_and_robust_certificate():
     m_hat, kp, G, d = 0.5, 5.0, 160.0, 0.6
-    np.testing.assert_array_equal(lmi._true_mass_A(m_hat, kp, PAPER_GAINS, m_hat), closed_loop_A_axis(m_hat, kp, G, d))
+    nominal = ReducedLoop(m_hat, PAPER_GAINS)
+    np.testing.assert_array_equal(nominal.with_mass(m_hat, thrust_model=True).closed_loop_A_axis(),
+                                  ReducedLoop(m_hat, Gains(kp, G, d)).closed_loop_A_axis())
     for m in (0.3, 0.8):
-        A = lmi._true_mass_A(m, kp, PAPER_GAINS, m_hat)
+        A = nominal.with_mass(m, thrust_model=True).closed_loop_A_axis()
         hand = [1, G * d, kp * m_hat / m, G * (kp * m_hat * d - 1) / m]  # worked out by hand
         np.testing.assert_allclose(np.poly(A), hand, rtol=1e-12)
-    r = lmi.robust_mass_decay(0.3, 1.0, PAPER_GAINS, parameter_dependent=True, m_nominal=m_hat)
+    r = lmi.robust_mass_decay(nominal, 0.3, 1.0, parameter_dependent=True, thrust_model=True)
     assert r.feasible and r.values["m_min_exact"] == 0.0  # stable for every true mass since m_hat kp d > 1
     assert 0 < r.margin <= r.values["decay_rate_poles_pointwise_min"] * (1 + 1e-9)
 
@@ -213,10 +216,11 @@ def test_norm_limited_region_certifies_the_2d_loop_in_simulation():
 
     m, kp, G, d = 0.5, 5.0, 160.0, 0.6
     u0 = lmi.axis_acceleration_limit(9.81, 30.0)
-    r = lmi.region_of_attraction(m, kp, G, d, u0)
+    loop = ReducedLoop(m, Gains(kp, G, d))
+    r = lmi.region_of_attraction(loop, u0)
     assert r.feasible
     P2 = np.kron(np.eye(2), r.matrices["P"])  # state [x, x', zx, y, y', zy]
-    A0, B, K = saturation_split(m, kp, G, d)
+    A0, B, K = loop.saturation_split()
 
     def f(_t, x):
         a = np.array([K @ x[:3], K @ x[3:]]).ravel()

@@ -103,4 +103,4 @@ def test_remark_robustness_variant_within_bound_holds():
     assert C.remark_robustness().verdict == HOLDS_WITH_CORRECTION
     assert C.remark_robustness(true_masses=(0.5, 0.7, 1.5)).verdict == HOLDS
     # independent: Routh boundary 1/(kp delta) = 1/3 kg
-    assert L.stable(0.34, 5.0, 160.0, 0.6) and not L.stable(0.33, 5.0, 160.0, 0.6)
+    assert L.PAPER_LOOP.with_mass(0.34).stable and not L.PAPER_LOOP.with_mass(0.33).stable

@@ -44,7 +44,7 @@ def test_residue_against_python_control():
 
     from nniquad.analysis import frequency as F
 
-    res, simple = F.residues_on_imaginary_axis(L.plant_ss(0.5, 5.0))
+    res, simple = F.residues_on_imaginary_axis(L.PAPER_LOOP.plant_ss())
     assert simple
     K0 = float(np.real(res[0][1]).ravel()[0])
     assert abs(K0 - 1 / (2 * 0.5)) < 1e-9  # closed form 1/(2m)

@@ -6,7 +6,7 @@ import json
 
 import pytest
 
-from nniquad.certificates.certificate import load_certificate, verify_certificate
+from nniquad.certificates import load_certificate, verify_certificate
 from nniquad.reporting.report import fmt
 
 

@@ -16,7 +16,7 @@ from nniquad import sim
 from nniquad.errors import GainError, SimulationError
 from nniquad.control.inner_loops import allocate
 from nniquad.control.gains import InnerLoopGains
-from nniquad.analysis.linear import closed_loop_A
+from nniquad.analysis.linear import ReducedLoop
 from nniquad.control.gains import PAPER_GAINS, Gains
 from nniquad.analysis.metrics import settling_time
 from nniquad.model.numeric import dynamics_function, mixer_function, param_vector
@@ -45,7 +45,7 @@ def _expm_xy(A6: np.ndarray, x0: np.ndarray, t: np.ndarray) -> np.ndarray:
 def test_linear_matches_matrix_exponential(gains):
     """RK4 at 1 ms against expm of the closed-loop A of nniquad.analysis.linear: within 1e-6 m over 30 s."""
     tr = simulate(V, gains, SimOptions(model="linear", horizon_s=30.0))[0]
-    A6 = closed_loop_A(V.m, gains.kp, gains.Gamma, gains.delta)
+    A6 = ReducedLoop(V.m, gains).closed_loop_A()
     ref = _expm_xy(A6, np.array([2.0, 0, 0, -1.5, 0, 0]), tr.t)
     assert np.max(np.abs(tr.xy - ref)) < 1e-6
 
@@ -267,7 +267,7 @@ def test_simulated_settling_matches_independent_fine_grid():
     """Settling from the 10 ms trajectory vs the metric on a 1 ms expm solution: within 5 ms."""
     tr = simulate(V, FAST, SimOptions(model="linear", horizon_s=20.0))[0]
     t = np.arange(0, 20.0 + 1e-9, 1e-3)
-    ref = _expm_xy(closed_loop_A(V.m, FAST.kp, FAST.Gamma, FAST.delta), np.array([2.0, 0, 0, -1.5, 0, 0]), t)
+    ref = _expm_xy(ReducedLoop(V.m, FAST).closed_loop_A(), np.array([2.0, 0, 0, -1.5, 0, 0]), t)
     ts = settling_time(t, ref)
     m = tr.metrics()
     assert ts is not None and 2.0 < ts < 15.0

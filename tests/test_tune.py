@@ -9,10 +9,11 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from nniquad.errors import GainError, NniquadError
-from nniquad.analysis.linear import smallest_gamma
+from nniquad.analysis.linear import ReducedLoop
+from nniquad.analysis.lmi import certified_reach
 from nniquad.control.gains import Gains
 from nniquad.analysis.metrics import settling_time
-from nniquad.tuning.tune import (TuneOptions, attitude_accel_headroom, certified_reach, decode, encode, search_box,
+from nniquad.tuning.tune import (TuneOptions, attitude_accel_headroom, decode, encode, search_box,
                          tune)
 from nniquad.model.vehicle import PAPER_VEHICLE as V
 
@@ -48,7 +49,7 @@ def test_coordinates_make_the_sector_bound_a_box_bound():
         for q in lo + rng.random((50, 3)) * (hi - lo):
             g, _ = decode(q, V.m, gamma_max)
             # u = q1 >= 0 is exactly gamma <= gamma_max, computed independently by nniquad.analysis.linear
-            assert smallest_gamma(V.m, g.kp, None, g.delta) == pytest.approx(gamma_max * math.exp(-q[1]), rel=1e-12)
+            assert ReducedLoop.from_vehicle(V, g).smallest_gamma == pytest.approx(gamma_max * math.exp(-q[1]), rel=1e-12)
             np.testing.assert_allclose(encode(g, V.m, gamma_max), q, rtol=1e-12, atol=1e-12)
     g, _ = decode([math.log(7.0), 0.0, math.log(3.0)], V.m, 0.8)
     assert g.delta == pytest.approx(1 / (0.8 * V.m * 7.0)) and g.Gamma * g.delta == pytest.approx(3.0)
@@ -87,7 +88,7 @@ def test_perturbed_gains_are_not_better(quick_reduced):
 def test_reach_constraint_is_honoured():
     res = tune(V, TuneOptions(model="reduced", roa_radius_m=1.0, budget="quick"))
     # independent re-solve of the region-of-attraction LMI
-    assert certified_reach(V, res.gains, 30.0) >= 1.0
+    assert certified_reach(ReducedLoop.from_vehicle(V, res.gains), 30.0) >= 1.0
     assert res.certified_reach_m >= 1.0
 
 

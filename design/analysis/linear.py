@@ -39,11 +39,20 @@ through the input matrix ``1/m`` (the inner loop's ``k_p`` is an acceleration
 gain), so a closed loop with true mass ``m`` is :func:`closed_loop_A_axis` at
 ``m``; the controller does not contain ``m`` at all (the nominal mass only enters
 the *choice* of δ through the sector bound).
+
+Numeric layer
+-------------
+:class:`ReducedLoop` holds one vehicle mass and one :class:`~nniquad.control.gains.Gains`
+block; every numeric quantity (matrices, python-control models, Routh verdict,
+sector bound, poles) is a method or property of it, evaluated by the lambdified
+symbolic expressions.  ``ReducedLoop(m, gains, m_nominal=m_hat)`` is the loop
+whose thrust is sized with a nominal mass ``m_hat`` while the true mass is ``m``
+(the model of :mod:`nniquad.sim`); :meth:`ReducedLoop.with_mass` builds
+both true-mass models from a nominal loop.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from functools import cache
 from typing import Callable
@@ -51,8 +60,9 @@ from typing import Callable
 import numpy as np
 import sympy as sp
 
+from nniquad.control.gains import PAPER_GAINS, Gains, positive_gain
 from nniquad.errors import GainError
-from nniquad.control.gains import positive_gain
+from nniquad.model.vehicle import PAPER_VEHICLE, Vehicle
 
 __all__ = [
     "SYMBOLS",
@@ -64,22 +74,9 @@ __all__ = [
     "routh_array",
     "routh_stability_region",
     "dc_loop_gain_sym",
-    "plant_matrices",
-    "controller_matrices",
-    "plant_ss",
-    "controller_ss",
-    "closed_loop_A_axis",
-    "closed_loop_A",
-    "closed_loop_ss",
-    "saturation_split",
-    "stable",
-    "stability_margin_product",
-    "dc_loop_gain",
-    "sector_delta_min",
-    "smallest_gamma",
-    "sector_bound_holds",
+    "ReducedLoop",
+    "PAPER_LOOP",
     "PolesDamping",
-    "poles_and_damping",
 ]
 
 #: Positive symbols of the reduced loop: mass m (kg), inner gain kp (1/s^2),
@@ -92,14 +89,6 @@ SYMBOLS: dict[str, sp.Symbol] = {
 }
 _S = sp.Symbol("s")
 _ARGS = (SYMBOLS["m"], SYMBOLS["kp"], SYMBOLS["Gamma"], SYMBOLS["delta"])
-
-
-# ----------------------------------------------------------------------------- gains
-
-
-
-
-
 
 
 # ----------------------------------------------------------------------------- symbolic layer
@@ -247,121 +236,7 @@ def _f(array) -> np.ndarray:
     return np.array(array, dtype=float)
 
 
-def plant_matrices(m: float, kp: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Numeric ``(A, B, C, D)`` of :func:`plant_matrices_sym`."""
-    m, kp = positive_gain("m", m), positive_gain("kp", kp)
-    return tuple(_f(M) for M in _lambdified()["plant"](m, kp, 1.0, 1.0))  # type: ignore[return-value]
-
-
-def controller_matrices(Gamma: float, delta: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Numeric ``(Ac, Bc, Cc, Dc)`` of :func:`controller_matrices_sym`."""
-    G, d = positive_gain("Gamma", Gamma), positive_gain("delta", delta)
-    return tuple(_f(M) for M in _lambdified()["controller"](1.0, 1.0, G, d))  # type: ignore[return-value]
-
-
-def plant_ss(m: float, kp: float):
-    """The reshaped plant of one axis as a :class:`control.StateSpace` (input F in N, output xi in m)."""
-    import control as ct
-
-    return ct.ss(*plant_matrices(m, kp), inputs=["F"], outputs=["xi"], states=["xi", "xi_dot"], name="plant")
-
-
-def controller_ss(Gamma: float, delta: float):
-    """The integral resonant controller of one axis as a :class:`control.StateSpace`."""
-    import control as ct
-
-    return ct.ss(*controller_matrices(Gamma, delta), inputs=["xi"], outputs=["u_c"], states=["z"], name="controller")
-
-
-def closed_loop_A_axis(m: float, kp: float, Gamma: float, delta: float) -> np.ndarray:
-    """Closed-loop A matrix of one axis, state ``[xi, xi_dot, z]`` (3x3)."""
-    args = (positive_gain("m", m), positive_gain("kp", kp), positive_gain("Gamma", Gamma), positive_gain("delta", delta))
-    return _f(_lambdified()["A_cl"](*args))
-
-
-def closed_loop_A(m: float, kpx: float, Gamma: float, delta: float, kpy: float | None = None) -> np.ndarray:
-    """Closed-loop A matrix of both axes (6x6, block diagonal).
-
-    State ``[x, x_dot, z1, y, y_dot, z2]``; ``kpy=None`` means ``kpy = kpx``.
-    """
-    Ax = closed_loop_A_axis(m, kpx, Gamma, delta)
-    Ay = closed_loop_A_axis(m, kpx if kpy is None else kpy, Gamma, delta)
-    out = np.zeros((6, 6))
-    out[:3, :3], out[3:, 3:] = Ax, Ay
-    return out
-
-
-def closed_loop_ss(m: float, kp: float, Gamma: float, delta: float):
-    """Closed loop of one axis by python-control's own interconnection (``feedback(sign=+1)``).
-
-    Input: a force disturbance added to ``F`` (N); output: xi (m).  Its poles are an
-    independent route to the eigenvalues of :func:`closed_loop_A_axis`.
-    """
-    import control as ct
-
-    return ct.feedback(plant_ss(m, kp), controller_ss(Gamma, delta), sign=+1)
-
-
-def saturation_split(m: float, kp: float, Gamma: float, delta: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Split one axis as ``x_dot = A0 x + B sat(K x)`` with ``K x`` the acceleration command.
-
-    The horizontal acceleration of the reshaped plant is
-    :math:`\\ddot\\xi = -k_p\\xi + z/m` (row ``xi_dot`` of :math:`A_{cl}`); the tilt limit
-    saturates that command.  ``K`` is that row of :func:`closed_loop_A_axis`,
-    ``B = e_2`` and ``A0 = A_cl - B K``, so ``A0 + B K = A_cl`` exactly.
-    """
-    A_cl = closed_loop_A_axis(m, kp, Gamma, delta)
-    B = np.zeros((3, 1))
-    B[1, 0] = 1.0
-    K = A_cl[1:2, :].copy()
-    return A_cl - B @ K, B, K
-
-
-def stable(m: float, kp: float, Gamma: float, delta: float, kpy: float | None = None) -> bool:
-    """Exact Routh-Hurwitz verdict for both axes (no eigenvalues computed)."""
-    f = _lambdified()["routh_lhs"]
-    positive_gain("Gamma", Gamma)
-    kps = [kp] if kpy is None else [kp, kpy]
-    return all(float(f(positive_gain("m", m), positive_gain("kp", k), Gamma, positive_gain("delta", delta))) > 0 for k in kps)
-
-
-def stability_margin_product(m: float, kp: float, delta: float) -> float:
-    """``m kp δ`` (dimensionless); the loop is stable iff it exceeds 1."""
-    return positive_gain("m", m) * positive_gain("kp", kp) * positive_gain("delta", delta)
-
-
-def characteristic_coefficients(m: float, kp: float, Gamma: float, delta: float) -> np.ndarray:
-    """Numeric coefficients ``[1, a2, a1, a0]`` of :func:`characteristic_polynomial`."""
-    args = (positive_gain("m", m), positive_gain("kp", kp), positive_gain("Gamma", Gamma), positive_gain("delta", delta))
-    return _f(_lambdified()["coeffs"](*args))
-
-
-def dc_loop_gain(m: float, kp: float, delta: float) -> float:
-    """DC loop gain ``G(0) C(0)`` of one axis (= 1/(m kp δ))."""
-    return float(_lambdified()["dc_gain"](positive_gain("m", m), positive_gain("kp", kp), 1.0, positive_gain("delta", delta)))
-
-
-def sector_delta_min(m: float, kp: float, gamma: float) -> float:
-    """Smallest δ that satisfies the paper's sector bound with a given γ.
-
-    The paper's condition ``delta^2 >= 1/(gamma^2 m^2 min kp^2)``; pass ``kp = min(kpx, kpy)``.
-    """
-    g = positive_gain("gamma", gamma)
-    return float(_lambdified()["delta_min"](positive_gain("m", m), positive_gain("kp", kp), g))
-
-
-def smallest_gamma(m: float, kpx: float, kpy: float | None, delta: float) -> float:
-    """Smallest γ with which the sector bound holds for given gains: ``1/(m min(kp) δ)``.
-
-    The sector bound holds with some admissible γ ∈ (0, 1) iff this is < 1.
-    """
-    kps = [kpx] if kpy is None else [kpx, kpy]
-    return max(dc_loop_gain(m, k, delta) for k in kps)
-
-
-def sector_bound_holds(m: float, kpx: float, kpy: float | None, delta: float) -> bool:
-    """Whether some γ ∈ (0, 1) satisfies the paper's sector bound."""
-    return smallest_gamma(m, kpx, kpy, delta) < 1.0
+_AXES = ("x", "y")
 
 
 @dataclass(frozen=True)
@@ -371,7 +246,7 @@ class PolesDamping:
     Attributes
     ----------
     poles : complex ndarray
-        Eigenvalues of :func:`closed_loop_A` (1/s).
+        Eigenvalues of :meth:`ReducedLoop.closed_loop_A` (1/s).
     wn : ndarray
         Natural frequencies (rad/s).
     zeta : ndarray
@@ -394,23 +269,309 @@ class PolesDamping:
 
     @property
     def stable(self) -> bool:
+        """Whether every pole has a negative real part."""
         return self.max_real_part < 0.0
 
 
-def poles_and_damping(m: float, kp: float, Gamma: float, delta: float, kpy: float | None = None) -> PolesDamping:
-    """Poles, natural frequencies and damping of the closed loop (python-control ``damp``)."""
-    import control as ct
+@dataclass(frozen=True)
+class ReducedLoop:
+    """The reduced horizontal closed loop of one vehicle mass and one gain set (both axes).
 
-    A = closed_loop_A(m, kp, Gamma, delta, kpy)
-    sys = ct.ss(A, np.zeros((6, 1)), np.zeros((1, 6)), 0)
-    wn, zeta, poles = sys.damp()
-    order = np.argsort(poles.real)[::-1]
-    max_re = float(np.max(poles.real))
-    return PolesDamping(
-        poles=poles[order],
-        wn=np.asarray(wn)[order],
-        zeta=np.asarray(zeta)[order],
-        max_real_part=max_re,
-        min_damping=float(np.min(zeta)),
-        decay_rate=-2.0 * max_re,
-    )
+    Parameters
+    ----------
+    m
+        The vehicle's (true) mass [kg].
+    gains
+        The NNI gain block (``kp``, ``Gamma``, ``delta`` and optionally ``kpy``).
+    m_nominal
+        ``None`` (default): the paper's reduced model, ``kp`` an exact acceleration
+        gain.  A mass [kg]: the thrust is sized with this nominal mass, so the plant
+        realises ``(m_nominal/m)`` times the commanded acceleration
+        ``a = -kp xi + z/m_nominal`` (the model of :mod:`nniquad.sim`).
+        The loop is then the paper's loop at mass ``m`` with the effective inner gain
+        ``kp m_nominal / m``.
+    g
+        Gravitational acceleration [m/s^2]; only the saturation (tilt-limit) analysis
+        uses it.  Default: the paper vehicle's.
+
+    Raises
+    ------
+    GainError
+        If ``m`` or ``m_nominal`` is not a finite positive number, or ``gains`` is not
+        a :class:`~nniquad.control.gains.Gains`.
+    """
+
+    m: float
+    gains: Gains
+    m_nominal: float | None = None
+    g: float = PAPER_VEHICLE.g
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "m", positive_gain("m", self.m))
+        if not isinstance(self.gains, Gains):
+            raise GainError(f"a reduced loop needs a Gains block, got {type(self.gains).__name__}")
+        if self.m_nominal is not None:
+            object.__setattr__(self, "m_nominal", positive_gain("m_nominal", self.m_nominal))
+        object.__setattr__(self, "g", positive_gain("g", self.g))
+
+    # ------------------------------------------------------------------ construction
+
+    @classmethod
+    def from_vehicle(cls, vehicle: Vehicle, gains: Gains) -> "ReducedLoop":
+        """The paper-model loop of ``vehicle`` (its mass and gravity) with ``gains``.
+
+        Parameters
+        ----------
+        vehicle
+            The vehicle; only ``m`` and ``g`` enter the reduced loop.
+        gains
+            The NNI gain block.
+        """
+        return cls(vehicle.m, gains, g=vehicle.g)
+
+    @property
+    def nominal_mass(self) -> float:
+        """The mass the controller is designed for (``m_nominal``, else ``m``) [kg]."""
+        return self.m if self.m_nominal is None else self.m_nominal
+
+    def with_mass(self, m_true: float, *, thrust_model: bool = False) -> "ReducedLoop":
+        """The same controller on a vehicle whose true mass is ``m_true``.
+
+        Parameters
+        ----------
+        m_true
+            True mass [kg].
+        thrust_model
+            ``False``: the paper's reduced model (only ``z/m`` sees the true mass).
+            ``True``: the thrust is sized with this loop's :attr:`nominal_mass`.
+        """
+        return ReducedLoop(m_true, self.gains, self.nominal_mass if thrust_model else None, self.g)
+
+    def with_gains(self, gains: Gains) -> "ReducedLoop":
+        """The same vehicle with another gain set.
+
+        Parameters
+        ----------
+        gains
+            The new NNI gain block.
+        """
+        return ReducedLoop(self.m, gains, self.m_nominal, self.g)
+
+    # ------------------------------------------------------------------ gains per axis
+
+    @property
+    def Gamma(self) -> float:
+        """Controller gain Γ."""
+        return self.gains.Gamma
+
+    @property
+    def delta(self) -> float:
+        """Controller parameter δ."""
+        return self.gains.delta
+
+    def kp(self, axis: str = "x") -> float:
+        """The inner gain of an axis (``'x'`` or ``'y'``) as designed [1/s^2].
+
+        Parameters
+        ----------
+        axis
+            ``'x'`` or ``'y'``.
+        """
+        if axis not in _AXES:
+            raise GainError(f"axis must be 'x' or 'y', got {axis!r}")
+        return self.gains.kp if axis == "x" else self.gains.kp_y
+
+    def _kp_eff(self, axis: str) -> float:
+        """Inner gain the plant realises: ``kp`` (paper model) or ``kp m_nominal / m``."""
+        kp = self.kp(axis)
+        return kp if self.m_nominal is None else kp * self.m_nominal / self.m
+
+    @property
+    def axes(self) -> list[tuple[str, float]]:
+        """``[('x', kpx)]`` when both axes share ``kp``, else ``[('x', kpx), ('y', kpy)]``."""
+        kpx, kpy = self.gains.axes()
+        return [("x", kpx)] if kpx == kpy else [("x", kpx), ("y", kpy)]
+
+    def _args(self, axis: str) -> tuple[float, float, float, float]:
+        return self.m, self._kp_eff(axis), self.gains.Gamma, self.gains.delta
+
+    # ------------------------------------------------------------------ matrices
+
+    def plant_matrices(self, axis: str = "x") -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Numeric ``(A, B, C, D)`` of :func:`plant_matrices_sym` for one axis.
+
+        Parameters
+        ----------
+        axis
+            ``'x'`` or ``'y'``.
+        """
+        m, kp, _, _ = self._args(axis)
+        return tuple(_f(M) for M in _lambdified()["plant"](m, kp, 1.0, 1.0))  # type: ignore[return-value]
+
+    def controller_matrices(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Numeric ``(Ac, Bc, Cc, Dc)`` of :func:`controller_matrices_sym` (the same on both axes)."""
+        return tuple(_f(M) for M in _lambdified()["controller"](1.0, 1.0, self.gains.Gamma, self.gains.delta))  # type: ignore[return-value]
+
+    def plant_ss(self, axis: str = "x"):
+        """The reshaped plant of one axis as a :class:`control.StateSpace` (input F in N, output xi in m).
+
+        Parameters
+        ----------
+        axis
+            ``'x'`` or ``'y'``.
+        """
+        import control as ct
+
+        return ct.ss(*self.plant_matrices(axis), inputs=["F"], outputs=["xi"], states=["xi", "xi_dot"], name="plant")
+
+    def controller_ss(self):
+        """The integral resonant controller of one axis as a :class:`control.StateSpace`."""
+        import control as ct
+
+        return ct.ss(*self.controller_matrices(), inputs=["xi"], outputs=["u_c"], states=["z"], name="controller")
+
+    def closed_loop_ss(self, axis: str = "x"):
+        """Closed loop of one axis by python-control's own interconnection (``feedback(sign=+1)``).
+
+        Input: a force disturbance added to ``F`` (N); output: xi (m).  Its poles are an
+        independent route to the eigenvalues of :meth:`closed_loop_A_axis`.
+
+        Parameters
+        ----------
+        axis
+            ``'x'`` or ``'y'``.
+        """
+        import control as ct
+
+        return ct.feedback(self.plant_ss(axis), self.controller_ss(), sign=+1)
+
+    def closed_loop_A_axis(self, axis: str = "x") -> np.ndarray:
+        """Closed-loop A matrix of one axis, state ``[xi, xi_dot, z]`` (3x3).
+
+        With ``m_nominal`` set it is ``A0 + B K`` of :meth:`saturation_split`
+        (the nominal command scaled by ``m_nominal/m``).
+
+        Parameters
+        ----------
+        axis
+            ``'x'`` or ``'y'``.
+        """
+        if self.m_nominal is not None:
+            A0, B, K = self.saturation_split(axis)
+            return A0 + B @ K
+        return _f(_lambdified()["A_cl"](*self._args(axis)))
+
+    def closed_loop_A(self) -> np.ndarray:
+        """Closed-loop A matrix of both axes (6x6, block diagonal), state ``[x, x_dot, z1, y, y_dot, z2]``."""
+        out = np.zeros((6, 6))
+        out[:3, :3], out[3:, 3:] = self.closed_loop_A_axis("x"), self.closed_loop_A_axis("y")
+        return out
+
+    def saturation_split(self, axis: str = "x") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Split one axis as ``x_dot = A0 x + B sat(K x)`` with ``K x`` the acceleration command.
+
+        The horizontal acceleration of the reshaped plant is
+        :math:`\\ddot\\xi = -k_p\\xi + z/m` (row ``xi_dot`` of :math:`A_{cl}`); the tilt limit
+        saturates that command.  ``K`` is that row of the nominal closed loop,
+        ``B = e_2`` and ``A0 = A_cl - B K``, so ``A0 + B K = A_cl`` exactly.  With
+        ``m_nominal`` set, ``A0, K`` are those of the nominal loop and
+        ``B = (m_nominal/m) e_2``: the plant realises the command scaled by the mass ratio.
+
+        Parameters
+        ----------
+        axis
+            ``'x'`` or ``'y'``.
+        """
+        mn = self.nominal_mass
+        A_cl = _f(_lambdified()["A_cl"](mn, self.kp(axis), self.gains.Gamma, self.gains.delta))
+        B = np.zeros((3, 1))
+        B[1, 0] = 1.0
+        K = A_cl[1:2, :].copy()
+        A0 = A_cl - B @ K
+        if self.m_nominal is not None:
+            B = (self.m_nominal / self.m) * B
+        return A0, B, K
+
+    # ------------------------------------------------------------------ verdicts
+
+    @property
+    def stable(self) -> bool:
+        """Exact Routh-Hurwitz verdict for both axes (no eigenvalues computed)."""
+        f = _lambdified()["routh_lhs"]
+        return all(float(f(*self._args(axis))) > 0 for axis, _ in self.axes)
+
+    @property
+    def margin_product(self) -> float:
+        """``m kp δ`` of the weaker axis (dimensionless); the loop is stable iff it exceeds 1."""
+        return min(self.m * self._kp_eff(axis) * self.gains.delta for axis, _ in self.axes)
+
+    def characteristic_coefficients(self, axis: str = "x") -> np.ndarray:
+        """Numeric coefficients ``[1, a2, a1, a0]`` of :func:`characteristic_polynomial`.
+
+        Parameters
+        ----------
+        axis
+            ``'x'`` or ``'y'``.
+        """
+        return _f(_lambdified()["coeffs"](*self._args(axis)))
+
+    def dc_loop_gain(self, axis: str = "x") -> float:
+        """DC loop gain ``G(0) C(0)`` of one axis (= 1/(m kp δ)).
+
+        Parameters
+        ----------
+        axis
+            ``'x'`` or ``'y'``.
+        """
+        m, kp, _, d = self._args(axis)
+        return float(_lambdified()["dc_gain"](m, kp, 1.0, d))
+
+    @property
+    def smallest_gamma(self) -> float:
+        """Smallest γ with which the sector bound holds: ``1/(m min(kp) δ)``.
+
+        The sector bound holds with some admissible γ ∈ (0, 1) iff this is < 1.
+        """
+        return max(self.dc_loop_gain(axis) for axis, _ in self.axes)
+
+    @property
+    def sector_bound_holds(self) -> bool:
+        """Whether some γ ∈ (0, 1) satisfies the paper's sector bound (γ = 1 itself is not admissible)."""
+        return self.smallest_gamma < 1.0
+
+    def sector_delta_min(self, gamma: float) -> float:
+        """Smallest δ that satisfies the paper's sector bound with a given γ.
+
+        The paper's condition ``delta^2 >= 1/(gamma^2 m^2 min kp^2)``, with the
+        smaller of the two axis gains.
+
+        Parameters
+        ----------
+        gamma
+            The sector gain γ (> 0).
+        """
+        g = positive_gain("gamma", gamma)
+        kp = min(self._kp_eff(axis) for axis, _ in self.axes)
+        return float(_lambdified()["delta_min"](self.m, kp, g))
+
+    def poles_and_damping(self) -> PolesDamping:
+        """Poles, natural frequencies and damping of the closed loop of both axes (python-control ``damp``)."""
+        import control as ct
+
+        A = self.closed_loop_A()
+        sys = ct.ss(A, np.zeros((6, 1)), np.zeros((1, 6)), 0)
+        wn, zeta, poles = sys.damp()
+        order = np.argsort(poles.real)[::-1]
+        max_re = float(np.max(poles.real))
+        return PolesDamping(
+            poles=poles[order],
+            wn=np.asarray(wn)[order],
+            zeta=np.asarray(zeta)[order],
+            max_real_part=max_re,
+            min_damping=float(np.min(zeta)),
+            decay_rate=-2.0 * max_re,
+        )
+
+
+#: The paper's loop: the paper vehicle with the paper's gains.
+PAPER_LOOP = ReducedLoop.from_vehicle(PAPER_VEHICLE, PAPER_GAINS)

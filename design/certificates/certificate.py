@@ -29,42 +29,45 @@ A certificate is one JSON document (:data:`SCHEMA`, :data:`SCHEMA_VERSION`):
     Package versions.  ``digest``: SHA-256 of the canonical JSON of everything
     else (sorted keys, no whitespace, UTF-8).
 
-:func:`verify_certificate` recomputes every matrix condition with numpy from
-the certificate's own vehicle and gains (never from stored system matrices),
-re-runs both simulations and checks the digest.  It needs neither cvxpy nor
-the tuner.
+:class:`Certificate` is the typed, immutable form of that document
+(:meth:`Certificate.from_json`, :meth:`Certificate.to_json`,
+:attr:`Certificate.digest`); :func:`load_certificate` reads and form-checks a
+file as a plain mapping (what the Monte Carlo study and ``simulate
+--certificate`` need), :func:`read_certificate` reads it as a
+:class:`Certificate`.  :func:`nniquad.certificates.verify.verify_certificate`
+recomputes every matrix condition with numpy from the certificate's own vehicle
+and gains (never from stored system matrices), re-runs both simulations and
+checks the digest.  It needs neither cvxpy nor the tuner.
 """
+
 
 from __future__ import annotations
 
 import hashlib
 import json
 import math
-import platform
-from dataclasses import dataclass, field
-from importlib import metadata
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
-from typing import Any, Callable, Mapping, Sequence
+from types import MappingProxyType
+from typing import Any, ClassVar, Mapping
 
-import numpy as np
-
+from nniquad.analysis.linear import ReducedLoop
+from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, InnerLoopGains
 from nniquad.errors import CertificateError, GainError, NniquadError, VehicleError
-from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, InnerLoopGains
 from nniquad.io import atomic_write_text
-from nniquad.analysis.linear import closed_loop_A_axis, controller_matrices, plant_matrices, poles_and_damping, saturation_split, sector_delta_min, smallest_gamma
-from nniquad.control.gains import Gains
 from nniquad.model.vehicle import Vehicle
 
 __all__ = [
     "SCHEMA",
     "SCHEMA_VERSION",
+    "DIGEST_ALGORITHM",
     "TOLERANCES",
-    "Check",
-    "Verification",
-    "build_certificate",
+    "PERFORMANCE_HORIZON_S",
+    "Certificate",
     "write_certificate",
     "load_certificate",
-    "verify_certificate",
+    "read_certificate",
+    "check_form",
     "canonical_digest",
     "certificate_gains",
     "certificate_vehicle",
@@ -73,8 +76,9 @@ __all__ = [
 
 SCHEMA = "nniquad-certificate"
 SCHEMA_VERSION = 1
+DIGEST_ALGORITHM = "sha256"
 
-#: Tolerances of :func:`verify_certificate` (stored in every certificate for the record).
+#: Tolerances of :func:`nniquad.certificates.verify.verify_certificate` (stored in every certificate for the record).
 TOLERANCES: dict[str, float] = {
     "lmi_relative": 1e-7,        # largest eigenvalue of a Lyapunov expression, relative to its scale
     "rate_relative": 1e-6,       # certified decay rate may fall short of the stated one by this fraction
@@ -88,7 +92,106 @@ TOLERANCES: dict[str, float] = {
 PERFORMANCE_HORIZON_S = 20.0
 
 
-# ----------------------------------------------------------------------------- accessors
+# ----------------------------------------------------------------------------- digest and form
+
+
+def canonical_digest(cert: Mapping[str, Any]) -> str:
+    """SHA-256 (hex) of the canonical JSON of the certificate without its ``digest``.
+
+    Every other top-level field is covered, whatever its name: the canonical JSON
+    has sorted keys, no whitespace, UTF-8 and no NaN.
+
+    Parameters
+    ----------
+    cert
+        The certificate as a JSON mapping.
+    """
+    body = {k: v for k, v in cert.items() if k != "digest"}
+    text = json.dumps(body, sort_keys=True, separators=(",", ":"), ensure_ascii=False, allow_nan=False)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def check_form(cert: Any, where: str = "certificate") -> None:
+    """Check a certificate mapping's form: a JSON object, schema, version, digest algorithm and value.
+
+    Parameters
+    ----------
+    cert
+        The decoded JSON document.
+    where
+        Name of the document in the messages (e.g. its path).
+
+    Raises
+    ------
+    CertificateError
+        One line naming the problem.
+    """
+    if not isinstance(cert, dict):
+        raise CertificateError(f"{where}: top level must be a JSON object")
+    if cert.get("schema") != SCHEMA:
+        raise CertificateError(f"{where}: schema is {cert.get('schema')!r}, expected {SCHEMA!r}")
+    if cert.get("schema_version") != SCHEMA_VERSION or isinstance(cert.get("schema_version"), bool):
+        raise CertificateError(
+            f"{where}: schema version {cert.get('schema_version')!r} is not supported (expected {SCHEMA_VERSION})"
+        )
+    digest = cert.get("digest")
+    if not isinstance(digest, dict) or not isinstance(digest.get("value"), str):
+        raise CertificateError(f"{where}: no digest")
+    if digest.get("algorithm") != DIGEST_ALGORITHM or set(digest) != {"algorithm", "value"}:
+        raise CertificateError(f"{where}: digest must be {{'algorithm': {DIGEST_ALGORITHM!r}, 'value': ...}}, "
+                               f"got algorithm {digest.get('algorithm')!r}")
+    try:
+        actual = canonical_digest(cert)
+    except (TypeError, ValueError) as exc:
+        raise CertificateError(f"{where}: content cannot be canonicalised ({exc})") from None
+    if actual != digest["value"]:
+        raise CertificateError(f"{where}: digest mismatch (content changed after signing)")
+
+
+def load_certificate(path: str | Path) -> dict[str, Any]:
+    """Read a certificate file as a plain mapping and check its form: JSON, schema, version, digest.
+
+    Only the form is checked (what ``simulate --certificate`` and the Monte Carlo
+    study need); :func:`read_certificate` also types every field.
+
+    Parameters
+    ----------
+    path
+        The certificate file.
+
+    Raises
+    ------
+    CertificateError
+        One line naming the problem (unreadable, not JSON, wrong schema or
+        version, digest mismatch).
+    """
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise CertificateError(f"cannot read certificate {p}: {getattr(exc, 'strerror', None) or exc}") from None
+    try:
+        cert = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise CertificateError(f"certificate {p} is not valid JSON ({exc.msg}, line {exc.lineno})") from None
+    except (RecursionError, ValueError) as exc:
+        raise CertificateError(f"certificate {p} cannot be decoded ({type(exc).__name__})") from None
+    check_form(cert, str(p))
+    return cert
+
+
+def read_certificate(path: str | Path) -> "Certificate":
+    """Read a certificate file as a :class:`Certificate` (form and every field checked).
+
+    Parameters
+    ----------
+    path
+        The certificate file.
+    """
+    return Certificate.from_json(load_certificate(path), where=str(path))
+
+
+# ----------------------------------------------------------------------------- accessors (mapping or Certificate)
 
 
 def _get(cert: Mapping[str, Any], key: str, kind: type = dict) -> Any:
@@ -98,8 +201,16 @@ def _get(cert: Mapping[str, Any], key: str, kind: type = dict) -> Any:
     return value
 
 
-def certificate_gains(cert: Mapping[str, Any]) -> Gains:
-    """The certified gain set."""
+def certificate_gains(cert: "Mapping[str, Any] | Certificate") -> Gains:
+    """The certified gain set, of a :class:`Certificate` or of a form-checked mapping.
+
+    Parameters
+    ----------
+    cert
+        The certificate.
+    """
+    if isinstance(cert, Certificate):
+        return cert.gains
     g = _get(cert, "gains")
     missing = [k for k in ("kp", "Gamma", "delta") if k not in g]
     if missing:
@@ -110,18 +221,34 @@ def certificate_gains(cert: Mapping[str, Any]) -> Gains:
         raise CertificateError(f"certificate gains: {exc}") from None
 
 
-def certificate_vehicle(cert: Mapping[str, Any]) -> Vehicle:
-    """The certified vehicle (validated as any vehicle file is)."""
+def certificate_vehicle(cert: "Mapping[str, Any] | Certificate") -> Vehicle:
+    """The certified vehicle (validated as any vehicle file is).
+
+    Parameters
+    ----------
+    cert
+        The certificate.
+    """
     from nniquad.model.vehicle import vehicle_from_mapping
 
+    if isinstance(cert, Certificate):
+        return cert.vehicle
     try:
         return vehicle_from_mapping(_get(cert, "vehicle"), source="certificate")
     except VehicleError as exc:
         raise CertificateError(f"certificate vehicle: {exc}") from None
 
 
-def certificate_inner_loop(cert: Mapping[str, Any]) -> InnerLoopGains:
-    """The inner-loop gains the ``full`` performance was measured with."""
+def certificate_inner_loop(cert: "Mapping[str, Any] | Certificate") -> InnerLoopGains:
+    """The inner-loop gains the ``full`` performance was measured with.
+
+    Parameters
+    ----------
+    cert
+        The certificate (a mapping without ``inner_loop`` gets the defaults).
+    """
+    if isinstance(cert, Certificate):
+        return cert.inner_loop
     data = cert.get("inner_loop", DEFAULT_INNER_LOOP_GAINS.as_dict())
     if not isinstance(data, Mapping):
         raise CertificateError("certificate 'inner_loop' must be an object")
@@ -133,406 +260,245 @@ def certificate_inner_loop(cert: Mapping[str, Any]) -> InnerLoopGains:
         raise CertificateError(f"certificate inner_loop: {exc}") from None
 
 
-def canonical_digest(cert: Mapping[str, Any]) -> str:
-    """SHA-256 (hex) of the canonical JSON of the certificate without its ``digest``."""
-    body = {k: v for k, v in cert.items() if k != "digest"}
-    text = json.dumps(body, sort_keys=True, separators=(",", ":"), ensure_ascii=False, allow_nan=False)
-    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+# ----------------------------------------------------------------------------- the typed certificate
 
 
-def load_certificate(path: str | Path) -> dict[str, Any]:
-    """Read a certificate and check its form: JSON, schema, version, digest.
+def _freeze(value: Any) -> Any:
+    """JSON data as read-only data: objects become mapping proxies, arrays tuples."""
+    if isinstance(value, Mapping):
+        return MappingProxyType({k: _freeze(v) for k, v in value.items()})
+    if isinstance(value, (list, tuple)):
+        return tuple(_freeze(v) for v in value)
+    return value
 
-    Raises
-    ------
-    CertificateError
-        One line naming the problem (unreadable, not JSON, wrong schema or
-        version, digest mismatch).
+
+def _thaw(value: Any) -> Any:
+    """The inverse of :func:`_freeze` (plain dicts and lists, JSON ready)."""
+    if isinstance(value, Mapping):
+        return {k: _thaw(v) for k, v in value.items()}
+    if isinstance(value, tuple):
+        return [_thaw(v) for v in value]
+    return value
+
+
+def _canonical(value: Any) -> str:
+    return json.dumps(value, sort_keys=True, separators=(",", ":"), ensure_ascii=False, allow_nan=False)
+
+
+@dataclass(frozen=True)
+class Certificate:
+    """A signed, immutable certificate of one gain set (the JSON document of the module docstring).
+
+    The typed fields are the vehicle, the gains and the inner loops; the
+    sections (``sector``, ``lmi``, ``performance``, ...) are read-only mappings
+    with the JSON's own keys (matrices as tuples of tuples).  ``signature`` is
+    the digest stored at signing; :attr:`digest` recomputes it from the content,
+    so an edited copy (``dataclasses.replace``) no longer verifies until
+    :meth:`signed` is called.
+
+    Attributes
+    ----------
+    model
+        The model the gains were tuned on (``'reduced'`` or ``'full'``).
+    vehicle
+        The certified vehicle.
+    gains
+        The certified gains (equal axes).
+    inner_loop
+        The inner-loop gains of the ``full`` performance run.
+    tilt_limit_deg
+        Tilt limit [deg].
+    xi0_m
+        Initial horizontal position of the reference runs [m].
+    sector, stability_margin, lmi, region_of_attraction, performance, bound, ratio_to_bound, tolerances, software
+        The sections of the document (read-only mappings).
+    start_certified
+        Whether ``xi0_m`` lies in the certified region of attraction.
+    tuning
+        How the gains were found (``None`` if not recorded).
+    signature
+        The SHA-256 digest (hex) the certificate was signed with.
     """
-    p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise CertificateError(f"cannot read certificate {p}: {exc.strerror or exc}") from None
-    try:
-        cert = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise CertificateError(f"certificate {p} is not valid JSON ({exc.msg}, line {exc.lineno})") from None
-    _check_form(cert, str(p))
-    return cert
 
+    SCHEMA: ClassVar[str] = SCHEMA
+    SCHEMA_VERSION: ClassVar[int] = SCHEMA_VERSION
 
-def _check_form(cert: Any, where: str = "certificate") -> None:
-    if not isinstance(cert, dict):
-        raise CertificateError(f"{where}: top level must be a JSON object")
-    if cert.get("schema") != SCHEMA:
-        raise CertificateError(f"{where}: schema is {cert.get('schema')!r}, expected {SCHEMA!r}")
-    if cert.get("schema_version") != SCHEMA_VERSION:
-        raise CertificateError(
-            f"{where}: schema version {cert.get('schema_version')!r} is not supported (expected {SCHEMA_VERSION})"
-        )
-    digest = cert.get("digest")
-    if not isinstance(digest, dict) or not isinstance(digest.get("value"), str):
-        raise CertificateError(f"{where}: no digest")
-    try:
-        actual = canonical_digest(cert)
-    except (TypeError, ValueError) as exc:
-        raise CertificateError(f"{where}: content cannot be canonicalised ({exc})") from None
-    if actual != digest["value"]:
-        raise CertificateError(f"{where}: digest mismatch (content changed after signing)")
-
-
-# ----------------------------------------------------------------------------- building
-
-
-def _software() -> dict[str, str]:
-    out = {"python": platform.python_version()}
-    for pkg in ("nniquad", "numpy", "scipy", "casadi", "cvxpy", "clarabel", "sympy", "control"):
-        try:
-            out[pkg] = metadata.version(pkg)
-        except metadata.PackageNotFoundError:
-            out[pkg] = "unknown"
-    return out
-
-
-def _mat(M: np.ndarray) -> list[list[float]]:
-    return np.asarray(M, dtype=float).tolist()
-
-
-def performance_runs(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, tilt_limit_deg: float = 30.0,
-                     xi0: Sequence[float] = (2.0, -1.5), horizon_s: float = PERFORMANCE_HORIZON_S,
-                     motor_lag: bool = True) -> dict[str, Any]:
-    """Settings and metrics of the two reference runs (``reduced`` and ``full``)."""
-    from nniquad.sim import SimOptions, simulate
-
-    out = {}
-    for model in ("reduced", "full"):
-        opts = SimOptions(model=model, horizon_s=horizon_s, output_dt_s=0.005, tilt_limit_deg=tilt_limit_deg,
-                          xi0=tuple(xi0), motor_lag=motor_lag and model == "full", inner=inner)
-        met = simulate(vehicle, gains, opts)[0].metrics()
-        out[model] = {"settling_s": met.settling_s, "overshoot_pct": met.overshoot_pct,
-                      "peak_tilt_deg": met.peak_tilt_deg, "diverged": met.diverged, "settings": opts.to_json()}
-    return out
-
-
-def build_certificate(vehicle: Vehicle, gains: Gains, *, inner: InnerLoopGains = DEFAULT_INNER_LOOP_GAINS,
-                      gamma_max: float = 0.8, tilt_limit_deg: float = 30.0,
-                      mass_range: tuple[float, float] | None = None, xi0: Sequence[float] = (2.0, -1.5),
-                      model: str = "reduced", tuning: Mapping[str, Any] | None = None,
-                      progress: Callable[[str], None] | None = None) -> dict[str, Any]:
-    """Solve every LMI for ``gains``, simulate, and assemble a signed certificate.
-
-    Raises
-    ------
-    CertificateError
-        The gains violate the sector bound for ``gamma_max``, or an LMI is
-        infeasible (nothing is certified, so nothing is returned).
-    """
-    from nniquad.analysis.bound import time_optimal_bound
-    from nniquad.analysis.lmi import (axis_acceleration_limit, closed_loop_decay, ni_lemma_dissipation, region_of_attraction,
-                      robust_mass_decay)
-
-    say = progress or (lambda msg: None)
-    if gains.kpy is not None and gains.kpy != gains.kp:
-        raise CertificateError("certificates cover equal axis gains only (kpy must equal kp)")
-    if not 0.0 < gamma_max < 1.0:
-        raise CertificateError(f"gamma_max must lie in (0, 1), got {gamma_max!r}")
-    m, kp = vehicle.m, gains.kp
-    gamma = smallest_gamma(m, kp, None, gains.delta)
-    if gamma > gamma_max * (1 + 1e-12):
-        raise CertificateError(
-            f"gains violate the sector bound: delta = {gains.delta:.6g} < 1/(gamma_max m kp) = "
-            f"{sector_delta_min(m, kp, gamma_max):.6g} (smallest gamma {gamma:.6g} > gamma_max {gamma_max:g})"
-        )
-    lo, hi = mass_range if mass_range is not None else (0.8 * m, 1.2 * m)
-    say("solving the LMIs")
-    A, B, C, D = plant_matrices(m, kp)
-    plant = ni_lemma_dissipation(A, B, C, D, name="ni_lemma_dissipation[plant]")
-    Ac, Bc, Cc, _ = controller_matrices(gains.Gamma, gains.delta)
-    ctrl = ni_lemma_dissipation(Ac, Bc, Cc, name="ni_lemma_dissipation[controller]")
-    cl = closed_loop_decay(m, gains)
-    rob = robust_mass_decay(lo, hi, gains, parameter_dependent=True, m_nominal=m)
-    u0 = axis_acceleration_limit(vehicle.g, tilt_limit_deg, "norm")
-    roa = region_of_attraction(m, kp, gains.Gamma, gains.delta, u0)
-    for res in (plant, ctrl, cl, rob, roa):
-        if not res.feasible:
-            raise CertificateError(f"LMI {res.name} is infeasible for these gains (solver status {res.status})")
-    pd = poles_and_damping(m, kp, gains.Gamma, gains.delta)
-    reach = float(roa.values["max_displacement_m"])
-    say("simulating the reference runs")
-    perf = performance_runs(vehicle, gains, inner, tilt_limit_deg=tilt_limit_deg, xi0=xi0)
-    bound = time_optimal_bound(vehicle, xi0=xi0, tilt_limit_deg=tilt_limit_deg)
-    ratios = {k: (None if v["settling_s"] is None else v["settling_s"] / bound.enter_band_s) for k, v in perf.items()}
-    cert: dict[str, Any] = {
-        "schema": SCHEMA,
-        "schema_version": SCHEMA_VERSION,
-        "model": model,
-        "vehicle": vehicle.as_dict(),
-        "gains": {"kp": kp, "Gamma": gains.Gamma, "delta": gains.delta},
-        "inner_loop": inner.as_dict(),
-        "tilt_limit_deg": float(tilt_limit_deg),
-        "xi0_m": [float(xi0[0]), float(xi0[1])],
-        "sector": {"gamma": gamma, "gamma_max": float(gamma_max), "delta_min": sector_delta_min(m, kp, gamma_max)},
-        "stability_margin": {
-            "routh_margin": m * kp * gains.delta - 1.0,
-            "max_real_part_1_s": float(pd.max_real_part),
-            "decay_rate_1_s": float(pd.decay_rate),
-            "min_damping": float(pd.min_damping),
-            "poles_1_s": [[float(p.real), float(p.imag)] for p in pd.poles],
-        },
-        "lmi": {
-            "plant_ni": {"P": _mat(plant.matrices["P"]), "form": "V' <= ydot' u (dissipation)"},
-            "controller_ni": {"P": _mat(ctrl.matrices["P"]), "form": "V' <= ydot' u (dissipation)"},
-            "closed_loop": {"P": _mat(cl.matrices["P"]), "decay_rate_1_s": float(cl.values["decay_rate"])},
-            "robust_mass": {"m_lo_kg": float(lo), "m_hi_kg": float(hi), "m_nominal_kg": m,
-                            "P0": _mat(rob.matrices["P0"]), "P1": _mat(rob.matrices["P1"]),
-                            "decay_rate_1_s": float(rob.values["decay_rate"])},
-            "region_of_attraction": {"P": _mat(roa.matrices["P"]), "G": _mat(roa.matrices["G"]),
-                                     "T": _mat(roa.matrices["T"]), "u0_m_s2": u0,
-                                     "max_displacement_m": reach},
-        },
-        "region_of_attraction": {"max_displacement_m": reach, "u0_m_s2": u0, "tilt_limit_deg": float(tilt_limit_deg),
-                                 "model": "norm-limited horizontal acceleration, rotation-invariant ellipsoid"},
-        "start_certified": bool(math.hypot(*xi0) <= reach),
-        "performance": perf,
-        "bound": {"enter_band_s": bound.enter_band_s, "rest_to_rest_s": bound.rest_to_rest_s,
-                  "a_max_m_s2": bound.a_max_m_s2},
-        "ratio_to_bound": ratios,
-        "tolerances": dict(TOLERANCES),
-        "tuning": dict(tuning) if tuning is not None else None,
-        "software": _software(),
-    }
-    cert["digest"] = {"algorithm": "sha256", "value": canonical_digest(cert)}
-    return cert
-
-
-def write_certificate(cert: Mapping[str, Any], path: str | Path) -> Path:
-    """Write atomically (temporary file, then rename); the certificate's form is checked first."""
-    _check_form(dict(cert))
-    return atomic_write_text(Path(path), json.dumps(cert, indent=2, allow_nan=False) + "\n")
-
-
-# ----------------------------------------------------------------------------- verification
-
-
-@dataclass
-class Check:
-    """One verification check: name, pass/fail and what was compared."""
-
-    name: str
-    ok: bool
-    detail: str
+    model: str
+    vehicle: Vehicle
+    gains: Gains
+    inner_loop: InnerLoopGains
+    tilt_limit_deg: float
+    xi0_m: tuple[float, float]
+    sector: Mapping[str, Any]
+    stability_margin: Mapping[str, Any]
+    lmi: Mapping[str, Any]
+    region_of_attraction: Mapping[str, Any]
+    start_certified: bool
+    performance: Mapping[str, Any]
+    bound: Mapping[str, Any]
+    ratio_to_bound: Mapping[str, Any]
+    tolerances: Mapping[str, Any]
+    tuning: Mapping[str, Any] | None
+    software: Mapping[str, Any]
+    signature: str = ""
 
     def __post_init__(self) -> None:
-        self.ok = bool(self.ok)  # numpy comparisons give numpy booleans, which JSON refuses
+        for f in fields(self):
+            if f.name in _SECTIONS or f.name == "tuning":
+                object.__setattr__(self, f.name, _freeze(getattr(self, f.name)))
+        object.__setattr__(self, "xi0_m", tuple(float(v) for v in self.xi0_m))
 
+    # ------------------------------------------------------------------ JSON
 
-@dataclass
-class Verification:
-    """All checks of :func:`verify_certificate`; ``ok`` only if every one passed."""
-
-    checks: list[Check] = field(default_factory=list)
-
-    @property
-    def ok(self) -> bool:
-        return bool(self.checks) and all(c.ok for c in self.checks)
-
-    @property
-    def first_failure(self) -> Check | None:
-        return next((c for c in self.checks if not c.ok), None)
-
-    def table(self) -> str:
-        w = max(len(c.name) for c in self.checks) if self.checks else 5
-        lines = [f"{'check':<{w}}  result  detail", f"{'-' * w}  ------  ------"]
-        lines += [f"{c.name:<{w}}  {'pass' if c.ok else 'FAIL':<6}  {c.detail}" for c in self.checks]
-        return "\n".join(lines)
+    def body(self) -> dict[str, Any]:
+        """The signed content: every field but the digest, as plain JSON data."""
+        return {
+            "schema": SCHEMA,
+            "schema_version": SCHEMA_VERSION,
+            "model": self.model,
+            "vehicle": self.vehicle.as_dict(),
+            "gains": {"kp": self.gains.kp, "Gamma": self.gains.Gamma, "delta": self.gains.delta},
+            "inner_loop": self.inner_loop.as_dict(),
+            "tilt_limit_deg": self.tilt_limit_deg,
+            "xi0_m": list(self.xi0_m),
+            "sector": _thaw(self.sector),
+            "stability_margin": _thaw(self.stability_margin),
+            "lmi": _thaw(self.lmi),
+            "region_of_attraction": _thaw(self.region_of_attraction),
+            "start_certified": self.start_certified,
+            "performance": _thaw(self.performance),
+            "bound": _thaw(self.bound),
+            "ratio_to_bound": _thaw(self.ratio_to_bound),
+            "tolerances": _thaw(self.tolerances),
+            "tuning": _thaw(self.tuning),
+            "software": _thaw(self.software),
+        }
 
     def to_json(self) -> dict[str, Any]:
-        return {"ok": self.ok, "checks": [{"name": c.name, "ok": c.ok, "detail": c.detail} for c in self.checks]}
+        """The JSON document: :meth:`body` plus ``digest = {'algorithm': 'sha256', 'value': signature}``."""
+        return {**self.body(), "digest": {"algorithm": DIGEST_ALGORITHM, "value": self.signature}}
+
+    @property
+    def digest(self) -> str:
+        """SHA-256 (hex) of the canonical JSON of :meth:`body`, recomputed now."""
+        return canonical_digest(self.body())
+
+    @property
+    def signature_ok(self) -> bool:
+        """Whether the stored signature matches the content."""
+        return self.signature == self.digest
+
+    def signed(self) -> "Certificate":
+        """A copy signed with its current content."""
+        return replace(self, signature=self.digest)
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any], where: str = "certificate") -> "Certificate":
+        """A certificate from its JSON mapping; the form, the digest and every field are checked.
+
+        Parameters
+        ----------
+        data
+            The decoded JSON document.
+        where
+            Name of the document in the messages.
+
+        Raises
+        ------
+        CertificateError
+            One line naming the problem: a form error (schema, version, digest),
+            a missing or wrongly typed field, or a field that does not read back
+            exactly as it was signed.
+        """
+        if isinstance(data, Certificate):
+            return data
+        data = dict(data) if isinstance(data, Mapping) else data
+        check_form(data, where)
+        missing = [k for k in _ALL_FIELDS if k not in data]
+        extra = [k for k in data if k not in _ALL_FIELDS and k not in ("schema", "schema_version", "digest")]
+        if missing or extra:
+            what = f"lacks '{missing[0]}'" if missing else f"has an unknown field '{extra[0]}'"
+            raise CertificateError(f"{where}: {what}")
+        for key in _SECTIONS:
+            _get(data, key)
+        if data["tuning"] is not None and not isinstance(data["tuning"], Mapping):
+            raise CertificateError(f"{where}: 'tuning' must be an object or null")
+        if not isinstance(data["model"], str) or not isinstance(data["start_certified"], bool):
+            raise CertificateError(f"{where}: 'model' must be a string and 'start_certified' a boolean")
+        xi0 = data["xi0_m"]
+        if not (isinstance(xi0, list) and len(xi0) == 2 and all(_is_number(v) for v in xi0)):
+            raise CertificateError(f"{where}: 'xi0_m' must be two numbers")
+        if not _is_number(data["tilt_limit_deg"]):
+            raise CertificateError(f"{where}: 'tilt_limit_deg' must be a number")
+        if not isinstance(data.get("inner_loop"), Mapping):
+            raise CertificateError(f"{where}: certificate 'inner_loop' must be an object")
+        cert = cls(
+            model=data["model"], vehicle=certificate_vehicle(data), gains=certificate_gains(data),
+            inner_loop=certificate_inner_loop(data), tilt_limit_deg=float(data["tilt_limit_deg"]),
+            xi0_m=tuple(xi0), start_certified=data["start_certified"], tuning=data["tuning"],
+            signature=data["digest"]["value"], **{k: data[k] for k in _SECTIONS},
+        )
+        # the typed fields must serialise back to exactly what was signed
+        body = cert.body()
+        for key, value in body.items():
+            if _canonical(value) != _canonical(data[key]):
+                raise CertificateError(f"{where}: field '{key}' does not read back as it was signed "
+                                       "(unexpected type or extra entries)")
+        return cert
+
+    # ------------------------------------------------------------------ derived objects
+
+    @property
+    def loop(self) -> ReducedLoop:
+        """The certified reduced loop (vehicle mass and gravity, gains)."""
+        return ReducedLoop.from_vehicle(self.vehicle, self.gains)
+
+    @property
+    def certified_reach_m(self) -> float:
+        """The certified displacement from rest [m] (``region_of_attraction.max_displacement_m``)."""
+        return float(self.region_of_attraction["max_displacement_m"])
+
+    def __repr__(self) -> str:
+        g = self.gains
+        return (f"Certificate(vehicle={self.vehicle.name!r}, kp={g.kp:.6g}, Gamma={g.Gamma:.6g}, delta={g.delta:.6g}, "
+                f"model={self.model!r}, reach={self.region_of_attraction.get('max_displacement_m')!r} m, "
+                f"digest={self.signature[:16]}...)")
 
 
-def _sym(M: np.ndarray) -> np.ndarray:
-    return 0.5 * (M + M.T)
+_SECTIONS = ("sector", "stability_margin", "lmi", "region_of_attraction", "performance", "bound", "ratio_to_bound",
+             "tolerances", "software")
+_ALL_FIELDS = ("model", "vehicle", "gains", "inner_loop", "tilt_limit_deg", "xi0_m", *_SECTIONS, "start_certified",
+               "tuning")
 
 
-def _array(cert_part: Mapping[str, Any], key: str, shape: tuple[int, int], where: str) -> np.ndarray:
-    try:
-        M = np.array(cert_part[key], dtype=float)
-    except (KeyError, TypeError, ValueError):
-        raise CertificateError(f"certificate {where}.{key} is missing or not a numeric matrix") from None
-    if M.shape != shape or not np.all(np.isfinite(M)):
-        raise CertificateError(f"certificate {where}.{key} must be a finite {shape[0]}x{shape[1]} matrix")
-    return M
+def _is_number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
 
-def _rel_max_eig(M: np.ndarray, scale: float) -> float:
-    return float(np.max(np.linalg.eigvalsh(_sym(M)))) / max(scale, 1e-300)
+def write_certificate(cert: "Certificate | Mapping[str, Any]", path: str | Path) -> Path:
+    """Write atomically (temporary file, then rename); the certificate's form is checked first.
 
-
-def _rate(A: np.ndarray, P: np.ndarray) -> float:
-    """Decay rate ``P`` certifies for ``A`` (largest eps with A'P + PA <= -eps P); -inf unless P > 0."""
-    P = _sym(P)
-    if np.min(np.linalg.eigvalsh(P)) <= 0:
-        return -math.inf
-    Li = np.linalg.inv(np.linalg.cholesky(P))
-    return -float(np.max(np.linalg.eigvalsh(_sym(Li @ (A.T @ P + P @ A) @ Li.T))))
-
-
-def _ni_check(name: str, part: Mapping[str, Any], A, B, C, tol: float) -> Check:
-    from nniquad.analysis.lmi import ni_dissipation_matrix
-
-    P = _array(part, "P", A.shape, f"lmi.{name}")
-    min_eig = float(np.min(np.linalg.eigvalsh(_sym(P))))
-    M = ni_dissipation_matrix(_sym(P), A, B, C)
-    scale = max(np.linalg.norm(P, 2) * np.linalg.norm(A, 2), np.linalg.norm(A, 2) * np.linalg.norm(C) * np.linalg.norm(B),
-                np.linalg.norm(C) * np.linalg.norm(B))
-    worst = _rel_max_eig(M, scale)
-    ok = min_eig > 0 and worst <= tol
-    return Check(f"lmi.{name}", ok, f"min eig P = {min_eig:.3e}, max eig of the dissipation matrix "
-                                    f"{worst:.2e} (relative, <= {tol:g})")
-
-
-def verify_certificate(cert: Mapping[str, Any] | str | Path, *, simulate: bool = True,
-                       progress: Callable[[str], None] | None = None) -> Verification:
-    """Recompute everything a certificate states, independently, with numpy and the simulator.
-
-    A form error (not JSON, wrong schema or version, digest mismatch, missing
-    or malformed field) raises :class:`CertificateError`; a stated number that
-    the recomputation does not reproduce is a failed :class:`Check`.
+    Parameters
+    ----------
+    cert
+        A :class:`Certificate` or its JSON mapping.
+    path
+        Destination file.
     """
-    if not isinstance(cert, Mapping):
-        cert = load_certificate(cert)
-    cert = dict(cert)
-    _check_form(cert)
-    try:
-        return _verify(cert, simulate, progress or (lambda msg: None))
-    except (TypeError, ValueError, KeyError, IndexError, np.linalg.LinAlgError) as exc:
-        # a signed document with a wrongly typed field: one line, not a traceback
-        raise CertificateError(f"certificate has a malformed field ({type(exc).__name__}: {exc})") from None
+    data = cert.to_json() if isinstance(cert, Certificate) else dict(cert)
+    check_form(data)
+    return atomic_write_text(Path(path), json.dumps(data, indent=2, allow_nan=False) + "\n")
 
 
-def _verify(cert: dict[str, Any], simulate: bool, say: Callable[[str], None]) -> Verification:
-    tol = dict(TOLERANCES)
-    checks = [Check("digest", True, f"sha256 {cert['digest']['value'][:16]}... matches the content")]
-    vehicle, gains, inner = certificate_vehicle(cert), certificate_gains(cert), certificate_inner_loop(cert)
-    m, kp, G, d = vehicle.m, gains.kp, gains.Gamma, gains.delta
+def __getattr__(name: str) -> Any:
+    # Until the callers move to ``nniquad.certificates``: the builder and the verifier
+    # live in their own modules (they import this one, so they cannot be imported here).
+    if name in ("build_certificate", "performance_runs"):
+        from nniquad.certificates import build
 
-    sec = _get(cert, "sector")
-    try:
-        gamma_stated, gamma_max = float(sec["gamma"]), float(sec["gamma_max"])
-    except (KeyError, TypeError, ValueError):
-        raise CertificateError("certificate 'sector' needs numbers 'gamma' and 'gamma_max'") from None
-    gamma = smallest_gamma(m, kp, None, d)
-    ok = abs(gamma - gamma_stated) <= tol["sector_relative"] * gamma and gamma <= gamma_max * (1 + 1e-12) < 1 + 1e-12
-    checks.append(Check("sector", ok, f"delta m kp gamma >= 1 holds with gamma = {gamma:.6g} (stated "
-                                      f"{gamma_stated:.6g}) <= gamma_max = {gamma_max:g} < 1"))
+        return getattr(build, name)
+    if name in ("verify_certificate", "Verification", "Check"):
+        from nniquad.certificates import verify
 
-    pd = poles_and_damping(m, kp, G, d)
-    margin = _get(cert, "stability_margin")
-    stated_rate = float(margin.get("decay_rate_1_s", math.nan))
-    ok = pd.stable and abs(pd.decay_rate - stated_rate) <= 1e-6 * abs(pd.decay_rate) and m * kp * d > 1
-    checks.append(Check("poles", ok, f"max Re = {pd.max_real_part:.6g} 1/s, decay {pd.decay_rate:.6g} 1/s "
-                                     f"(stated {stated_rate:.6g}), min damping {pd.min_damping:.4g}, "
-                                     f"m kp delta - 1 = {m * kp * d - 1:.4g}"))
-
-    lmi = _get(cert, "lmi")
-    A, B, C, _ = plant_matrices(m, kp)
-    checks.append(_ni_check("plant_ni", _get(lmi, "plant_ni"), A, B, C, tol["lmi_relative"]))
-    Ac, Bc, Cc, _ = controller_matrices(G, d)
-    checks.append(_ni_check("controller_ni", _get(lmi, "controller_ni"), Ac, Bc, Cc, tol["lmi_relative"]))
-
-    part = _get(lmi, "closed_loop")
-    Acl = closed_loop_A_axis(m, kp, G, d)
-    rate = _rate(Acl, _array(part, "P", (3, 3), "lmi.closed_loop"))
-    stated = float(part.get("decay_rate_1_s", math.nan))
-    ok = rate >= stated * (1 - tol["rate_relative"]) and stated > 0
-    checks.append(Check("lmi.closed_loop", ok, f"P > 0 and A'P + PA <= -eps P with eps = {rate:.6g} 1/s "
-                                               f"(stated {stated:.6g})"))
-
-    part = _get(lmi, "robust_mass")
-    P0 = _array(part, "P0", (3, 3), "lmi.robust_mass")
-    P1 = _array(part, "P1", (3, 3), "lmi.robust_mass")
-    lo, hi, mn = (float(part.get(k, math.nan)) for k in ("m_lo_kg", "m_hi_kg", "m_nominal_kg"))
-    stated = float(part.get("decay_rate_1_s", math.nan))
-    if not (0 < lo <= hi and math.isfinite(mn) and mn > 0):
-        raise CertificateError("certificate lmi.robust_mass needs 0 < m_lo_kg <= m_hi_kg and m_nominal_kg > 0")
-    A0, Bs, K = saturation_split(mn, kp, G, d)
-    worst = math.inf
-    for mt in 1.0 / np.linspace(1.0 / hi, 1.0 / lo, 201):
-        worst = min(worst, _rate(A0 + (mn / mt) * (Bs @ K), P0 + P1 / mt))
-    ok = worst >= stated * (1 - tol["rate_relative"]) and stated > 0
-    checks.append(Check("lmi.robust_mass", ok, f"P0 + P1/m > 0 and decay >= {worst:.6g} 1/s (stated {stated:.6g}) "
-                                               f"on 201 masses in [{lo:g}, {hi:g}] kg"))
-
-    checks.append(_roa_check(cert, lmi, vehicle, gains, tol["lmi_relative"]))
-
-    if simulate:
-        say("re-simulating the reference runs")
-        checks += _performance_checks(cert, vehicle, gains, inner, tol)
-    return Verification(checks)
-
-
-def _roa_check(cert: Mapping[str, Any], lmi: Mapping[str, Any], vehicle: Vehicle, gains: Gains, tol: float) -> Check:
-    from nniquad.analysis.lmi import axis_acceleration_limit
-
-    part = _get(lmi, "region_of_attraction")
-    P = _sym(_array(part, "P", (3, 3), "lmi.region_of_attraction"))
-    Gm = _array(part, "G", (1, 3), "lmi.region_of_attraction")
-    T = _array(part, "T", (1, 1), "lmi.region_of_attraction")
-    r = float(part.get("max_displacement_m", math.nan))
-    u0 = axis_acceleration_limit(vehicle.g, float(cert.get("tilt_limit_deg", 30.0)), "norm")
-    A0, B, K = saturation_split(vehicle.m, gains.kp, gains.Gamma, gains.delta)
-    Acl = A0 + B @ K
-    dec = np.block([[Acl.T @ P + P @ Acl, -P @ B + Gm.T @ T], [-B.T @ P + T @ Gm, -2 * T]])
-    dec_rel = _rel_max_eig(dec, np.linalg.norm(dec, 2))
-    W = np.linalg.inv(P) if np.min(np.linalg.eigvalsh(P)) > 0 else np.full((3, 3), np.nan)
-    incl = float(u0**2 - ((K - Gm) @ W @ (K - Gm).T)[0, 0]) / u0**2
-    level = float(r * r * P[0, 0])
-    top = cert.get("region_of_attraction", {})
-    start = cert.get("start_certified")
-    xi0 = cert.get("xi0_m", [2.0, -1.5])
-    consistent = (isinstance(top, Mapping) and top.get("max_displacement_m") == r
-                  and start == bool(math.hypot(*xi0) <= r))
-    ok = (np.min(np.linalg.eigvalsh(P)) > 0 and T[0, 0] > 0 and dec_rel < tol and incl >= -1e-6
-          and level <= 1 + 1e-6 and r >= 0 and consistent)
-    return Check("lmi.region_of_attraction", ok,
-                 f"decrease max eig {dec_rel:.2e} (relative, <= {tol:g}), inclusion margin {incl:.3g}, reach {r:.4g} m "
-                 f"at level {level:.6f} <= 1, start_certified = {start} consistent: {consistent}")
-
-
-def _performance_checks(cert: Mapping[str, Any], vehicle: Vehicle, gains: Gains, inner: InnerLoopGains,
-                        tol: Mapping[str, float]) -> list[Check]:
-    from nniquad.sim import SimOptions, simulate
-
-    perf = _get(cert, "performance")
-    out = []
-    for model in ("reduced", "full"):
-        stated = perf.get(model)
-        if not isinstance(stated, Mapping) or not isinstance(stated.get("settings"), Mapping):
-            raise CertificateError(f"certificate performance.{model} is missing or has no settings")
-        settings = dict(stated["settings"])
-        settings.pop("inner", None)
-        try:
-            opts = SimOptions(**{**settings, "xi0": tuple(settings.get("xi0", (2.0, -1.5))),
-                                 "zc0": tuple(settings.get("zc0", (0.0, 0.0))),
-                                 "wind_N": tuple(settings.get("wind_N", (0.0, 0.0))), "inner": inner})
-        except (TypeError, NniquadError) as exc:
-            raise CertificateError(f"certificate performance.{model}.settings: {exc}") from None
-        met = simulate(vehicle, gains, opts)[0].metrics()
-        diffs = []
-        ok = True
-        for key, tkey in (("settling_s", "settling_abs_s"), ("overshoot_pct", "overshoot_abs_pct"),
-                          ("peak_tilt_deg", "tilt_abs_deg")):
-            want, got = stated.get(key), getattr(met, key)
-            if want is None or got is None:
-                same = want is None and got is None
-            else:
-                same = abs(float(want) - float(got)) <= tol[tkey]
-            ok &= same
-            diffs.append(f"{key} {_f(got)} (stated {_f(want)})")
-        out.append(Check(f"performance.{model}", ok, ", ".join(diffs)))
-    return out
-
-
-def _f(x: Any) -> str:
-    return "none" if x is None else f"{float(x):.5g}"
+        return getattr(verify, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

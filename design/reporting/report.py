@@ -130,9 +130,9 @@ def build_report(vehicle: Vehicle, options: ReportOptions, progress: Progress | 
 
     from nniquad.reporting import plots
     from nniquad.analysis.bound import time_optimal_bound
-    from nniquad.certificates.certificate import build_certificate, certificate_gains, certificate_inner_loop, verify_certificate, write_certificate
+    from nniquad.certificates import build_certificate, certificate_gains, certificate_inner_loop, verify_certificate, write_certificate
     from nniquad.errors import CertificateError
-    from nniquad.analysis.linear import poles_and_damping
+    from nniquad.analysis.linear import ReducedLoop
     from nniquad.control.gains import PAPER_GAINS
     from nniquad.sim import SimOptions, paper_figure_runs
     from nniquad.tuning.tune import DEFAULT_ROA_RADIUS_M, TuneOptions, tune
@@ -159,7 +159,7 @@ def build_report(vehicle: Vehicle, options: ReportOptions, progress: Progress | 
 
     # 3. the paper's gains
     say("paper's gains on the linear, reduced and full models", 0.2)
-    pd = poles_and_damping(vehicle.m, PAPER_GAINS.kp, PAPER_GAINS.Gamma, PAPER_GAINS.delta)
+    pd = ReducedLoop.from_vehicle(vehicle, PAPER_GAINS).poles_and_damping()
     paper_runs = paper_figure_runs(vehicle, PAPER_GAINS, horizon_s=options.paper_horizon_s)
     written.append(plots.paper_figure(paper_runs, out / "paper_gains.png", title="Paper's gains (kp=5, Γ=160, δ=0.6)"))
     paper_rows = _model_rows(paper_runs)
@@ -181,7 +181,7 @@ def build_report(vehicle: Vehicle, options: ReportOptions, progress: Progress | 
     say("building the certificate", 0.75)
     cert = build_certificate(vehicle, tuned.gains, gamma_max=options.gamma_max, inner=tuned.inner,
                              tilt_limit_deg=tune_opts.tilt_limit_deg, model=options.model,
-                             tuning={"source": "nniquad report", **tuned.to_json()})
+                             tuning={"source": "nniquad report", **tuned.to_json()}).to_json()  # the JSON document
     say("verifying the certificate independently", 0.8)
     report_check = verify_certificate(cert)
     if not report_check.ok:

@@ -13,7 +13,7 @@ subject to
   ``full`` the **actual** tilt must also stay within the limit plus 1°) and the
   rotor-speed limits (modelled as saturation in ``full``);
 * optionally a certified reach: the region-of-attraction LMI under tilt
-  saturation (:func:`nniquad.analysis.lmi.region_of_attraction`) must certify every
+  saturation (:func:`nniquad.analysis.lmi.certified_reach`) must certify every
   displacement from rest up to ``roa_radius_m``;
 * optionally robustness: the worst settling time over the true masses
   ``mass_range`` (controller at the nominal mass) and/or under position noise.
@@ -70,7 +70,8 @@ from nniquad.config import DT_S, TILT_LIMIT_DEG, XI0_NORM_M
 from nniquad.analysis.bound import BoundResult, time_optimal_bound
 from nniquad.errors import GainError, NniquadError
 from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, InnerLoopGains
-from nniquad.analysis.linear import smallest_gamma
+from nniquad.analysis.linear import ReducedLoop
+from nniquad.analysis.lmi.roa import certified_reach
 from nniquad.control.gains import Gains
 from nniquad.analysis.metrics import Metrics
 from nniquad.validate import finite_number
@@ -86,7 +87,6 @@ __all__ = [
     "tune",
     "simulation_options",
     "evaluate",
-    "certified_reach",
     "attitude_accel_headroom",
     "DEFAULT_ROA_RADIUS_M",
     "BUDGETS",
@@ -343,24 +343,6 @@ def evaluate(vehicle: Vehicle, points: np.ndarray, options: TuneOptions, horizon
     return worst, nominal
 
 
-def certified_reach(vehicle: Vehicle, gains: Gains, tilt_limit_deg: float) -> float:
-    """Largest displacement from rest the saturation region-of-attraction LMI certifies [m].
-
-    0 when nothing is certified, including when the solver fails on a badly
-    conditioned instance (extreme gains): an answer the solver could not give
-    certifies nothing.
-    """
-    from nniquad.errors import SolverError
-    from nniquad.analysis.lmi import axis_acceleration_limit, region_of_attraction
-
-    u0 = axis_acceleration_limit(vehicle.g, tilt_limit_deg, "norm")
-    try:
-        res = region_of_attraction(vehicle.m, gains.kp, gains.Gamma, gains.delta, u0)
-    except SolverError:
-        return 0.0
-    return float(res.values.get("max_displacement_m", 0.0)) if res.feasible else 0.0
-
-
 # ----------------------------------------------------------------------------- search
 
 
@@ -400,7 +382,7 @@ class _Search:
         key = tuple(np.round(cand.q[:3], 9))
         if key not in self._reach:
             gains, _ = decode(cand.q, self.vehicle.m, self.options.gamma_max)
-            self._reach[key] = certified_reach(self.vehicle, gains, self.options.tilt_limit_deg)
+            self._reach[key] = certified_reach(ReducedLoop.from_vehicle(self.vehicle, gains), self.options.tilt_limit_deg)
             self.n_lmi += 1
         cand.reach_m = self._reach[key]
         return cand.reach_m >= self.options.roa_radius_m
@@ -523,7 +505,7 @@ class TuneResult:
     @property
     def gamma(self) -> float:
         """Smallest γ the gains satisfy the sector bound with."""
-        return smallest_gamma(self.vehicle.m, self.gains.kp, None, self.gains.delta)
+        return ReducedLoop.from_vehicle(self.vehicle, self.gains).smallest_gamma
 
     def rerun_spread_s(self) -> float:
         """Largest minus smallest best settling time over the seeds [s]."""
@@ -636,7 +618,7 @@ def tune(vehicle: Vehicle = PAPER_VEHICLE, options: TuneOptions | None = None,
             f"no gain set settled within the {horizon:g} s horizon on the {options.model} model "
             "(best candidate did not settle)"
         )
-    reach = best.reach_m if best.reach_m is not None else certified_reach(vehicle, gains, options.tilt_limit_deg)
+    reach = best.reach_m if best.reach_m is not None else certified_reach(ReducedLoop.from_vehicle(vehicle, gains), options.tilt_limit_deg)
     reruns = []
     for seed, cand in results:
         g, inn = decode(cand.q, vehicle.m, options.gamma_max, alpha_avail=alpha)

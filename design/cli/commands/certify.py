@@ -44,7 +44,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
-    from nniquad.certificates.certificate import build_certificate, verify_certificate, write_certificate
+    from nniquad.certificates import build_certificate, verify_certificate, write_certificate
     from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS
     from nniquad.control.gains import Gains
     from nniquad.tuning.tune import tune
@@ -79,17 +79,17 @@ def run(args: argparse.Namespace) -> int:
         bad = check.first_failure
         raise NniquadError(f"certificate failed its own verification ({bad.name}: {bad.detail}); nothing written")
     path = write_certificate(cert, out)
-    perf = cert["performance"]
+    perf = cert.performance
     print(f"certificate: {path}")
     print(f"  gains kp = {gains.kp:.6g} 1/s^2, Gamma = {gains.Gamma:.6g}, delta = {gains.delta:.6g}; "
-          f"gamma = {cert['sector']['gamma']:.4g} <= {cert['sector']['gamma_max']:g}")
+          f"gamma = {cert.sector['gamma']:.4g} <= {cert.sector['gamma_max']:g}")
     for model in ("reduced", "full"):
         s = perf[model]["settling_s"]
-        r = cert["ratio_to_bound"][model]
+        r = cert.ratio_to_bound[model]
         print(f"  {model:<7} settling {'-' if s is None else f'{s:.4g} s'}"
-              f" ({'-' if r is None else f'{r:.3g}'} x bound {cert['bound']['enter_band_s']:.4g} s), "
+              f" ({'-' if r is None else f'{r:.3g}'} x bound {cert.bound['enter_band_s']:.4g} s), "
               f"peak tilt {perf[model]['peak_tilt_deg']:.4g} deg")
-    print(f"  certified reach {cert['region_of_attraction']['max_displacement_m']:.4g} m; "
-          f"start state certified: {'yes' if cert['start_certified'] else 'no'}")
-    print(f"  digest sha256 {cert['digest']['value']}", file=sys.stdout)
+    print(f"  certified reach {cert.certified_reach_m:.4g} m; "
+          f"start state certified: {'yes' if cert.start_certified else 'no'}")
+    print(f"  digest sha256 {cert.signature}", file=sys.stdout)
     return 0

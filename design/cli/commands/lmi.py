@@ -7,6 +7,8 @@ import math
 
 import numpy as np
 
+from nniquad.config import XI0_M
+
 from .common import add_json_option, add_vehicle_option, finite_positive, vehicle_from_args, write_json_if_asked
 
 HELP = "solve the NI, SNI, closed-loop and region-of-attraction LMIs"
@@ -64,7 +66,7 @@ def _gains(args: argparse.Namespace):
 
 
 #: The paper's initial horizontal position (m), at rest (DESIGN.md conventions).
-PAPER_START = (2.0, -1.5)
+PAPER_START = XI0_M
 
 _UNITS = {
     "ni_lemma_paper": "min eig P",
@@ -80,21 +82,23 @@ _UNITS = {
 
 def run(args: argparse.Namespace) -> int:
     from nniquad.errors import GainError
-    from nniquad.analysis.linear import poles_and_damping, smallest_gamma, stability_margin_product
-    from nniquad.analysis.lmi import run_all, start_certified
+    from nniquad.analysis.linear import ReducedLoop
+    from nniquad.analysis.lmi import reach_of, run_all, start_certified
+    from nniquad.config import MASS_RANGE_FRACTION
 
     gains = _gains(args)
     vehicle = vehicle_from_args(args)
     m, g = vehicle.m, vehicle.g
     tilt = finite_positive("tilt-limit-deg", args.tilt_limit_deg)
     if args.mass_range is None:
-        mass_range = (0.8 * m, 1.2 * m)
+        mass_range = (MASS_RANGE_FRACTION[0] * m, MASS_RANGE_FRACTION[1] * m)
     else:
         lo, hi = (finite_positive("mass-range", v) for v in args.mass_range)
         if lo > hi:
             raise GainError(f"mass-range LO must not exceed HI, got {lo} > {hi}")
         mass_range = (lo, hi)
-    results = run_all(m, g, gains, mass_range=mass_range, tilt_limit_deg=tilt)
+    loop = ReducedLoop.from_vehicle(vehicle, gains)
+    results = run_all(loop, mass_range=mass_range, tilt_limit_deg=tilt)
 
     kpx, kpy = gains.axes()
     print(f"vehicle {vehicle.name}: m = {m:g} kg, g = {g:g} m/s^2")
@@ -120,20 +124,19 @@ def run(args: argparse.Namespace) -> int:
 
     # ---- independent cross-checks
     from nniquad.analysis.frequency import ni_check, ni_interconnection_check
-    from nniquad.analysis.linear import controller_ss, plant_ss
 
-    pd = poles_and_damping(m, kpx, gains.Gamma, gains.delta, kpy)
+    pd = loop.poles_and_damping()
     print()
     print("cross-checks")
-    product = min(stability_margin_product(m, k, gains.delta) for k in (kpx, kpy))
+    product = loop.margin_product
     print(f"  Routh: m kp delta = {product:.4g} (stable iff > 1); smallest sector gamma = "
-          f"{smallest_gamma(m, kpx, kpy, gains.delta):.4g} (paper needs < 1)")
+          f"{loop.smallest_gamma:.4g} (paper needs < 1)")
     slow = pd.poles[0]
     print(f"  poles (python-control): max Re = {pd.max_real_part:.4g} 1/s, min damping = {pd.min_damping:.4g}, "
           f"slowest pair {slow.real:.4g} +/- {abs(slow.imag):.4g}j; -2 max Re = {pd.decay_rate:.4g} 1/s")
     freq_json = {}
-    for label, k in ([("x", kpx)] if kpx == kpy else [("x", kpx), ("y", kpy)]):
-        ic = ni_interconnection_check(plant_ss(m, k), controller_ss(gains.Gamma, gains.delta))
+    for label, _ in loop.axes:
+        ic = ni_interconnection_check(loop.plant_ss(label), loop.controller_ss())
         res = ", ".join(f"K0({w:.4g} rad/s) = {K.real.ravel()[0]:.4g}" for w, K in ic.plant.residues)
         print(f"  frequency [{label}]: plant NI={ic.plant.is_ni} SNI={ic.plant.is_sni} ({res}); "
               f"controller NI={ic.controller.is_ni} SNI={ic.controller.is_sni}; G(0)C(0) = {ic.dc_loop_gain:.4g}; "
@@ -146,11 +149,10 @@ def run(args: argparse.Namespace) -> int:
         }
     roa = [r for r in results if r.name.startswith("region_of_attraction")]
     if roa:
-        reach = [r.values.get("max_displacement_m", 0.0) if r.feasible else 0.0 for r in roa]
         ok = start_certified(roa, PAPER_START)
         how = ("norm limit, rotation-invariant ellipsoid" if len(roa) == 1
                else "per-axis inscribed limit")
-        print(f"  region of attraction: displacement from rest up to {min(reach):.4g} m certified "
+        print(f"  region of attraction: displacement from rest up to {reach_of(roa):.4g} m certified "
               f"({how}, u0 = {roa[0].values.get('u0', float('nan')):.4g} m/s^2); the paper's start (2, -1.5) m is "
               f"{'inside' if ok else 'NOT inside'} the certified set")
 

@@ -33,9 +33,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from nniquad.certificates.certificate import load_certificate, verify_certificate
+    from nniquad.certificates import read_certificate, verify_certificate
 
-    cert = load_certificate(args.certificate)
+    cert = read_certificate(args.certificate)
     result = verify_certificate(cert, simulate=not args.no_simulate)
     print(result.table())
     write_json_if_asked(args, result.to_json())

@@ -1,0 +1,239 @@
+"""Region of attraction of the tilt-limited loop, and the certified reach computed from it.
+
+:func:`region_of_attraction` solves the generalised-sector-condition LMI of one
+axis; :func:`certified_region` chooses the saturation model for a loop (the
+norm limit when both axes share ``kp``, the inscribed per-axis limit otherwise)
+and :func:`certified_reach` turns it into the one number every caller uses: the
+largest displacement from rest certified to converge.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Sequence
+
+import numpy as np
+
+from nniquad.analysis.linear import ReducedLoop
+from nniquad.analysis.lmi import checks as K
+from nniquad.analysis.lmi.solver import LMIResult, as_data, cpsym, result_fail, solve, solved
+from nniquad.config import TILT_LIMIT_DEG, XI0_M
+from nniquad.errors import GainError, SolverError
+
+__all__ = ["axis_acceleration_limit", "region_of_attraction", "certified_region", "certified_reach", "reach_of",
+           "start_certified"]
+
+
+def axis_acceleration_limit(g: float, tilt_limit_deg: float = TILT_LIMIT_DEG, split: str = "norm") -> float:
+    """Horizontal acceleration limit ``u0`` used in the region-of-attraction LMI (m/s^2).
+
+    At tilt θ with the vertical thrust balancing gravity the horizontal
+    acceleration is ``g tan θ``; the reduced model limits the *norm* of the
+    2-D command, ``‖a_h‖ <= g tan θ``.
+
+    * ``split='norm'`` (default) returns ``g tan θ``.  When both axes have the
+      same gains the 2-D loop commutes with rotations of the horizontal plane,
+      so a rotation-invariant ellipsoid ``P1 ⊗ I2`` loses nothing; the norm
+      dead-zone ``ψ = a (1 - u0/‖a‖)_+`` satisfies ``ψ'(ψ - G x) <= 0`` whenever
+      ``‖(K - G) x‖ <= u0`` (because ``a'(a - w) <= ‖a‖ ‖a - w‖``), and with a
+      scalar multiplier every LMI reduces to the single-axis LMI with limit
+      ``u0``.  The certified set is ``{x_x' P1 x_x + x_y' P1 x_y <= 1}``; from rest
+      it contains every displacement of norm up to ``max_displacement_m``.
+    * ``split='inscribed'`` returns ``g tan θ / sqrt(2)``: clipping each axis
+      there keeps the vector inside the norm limit; used when the axes differ.
+    * ``split='box'`` returns ``g tan θ`` per axis (a different, box-limited loop).
+
+    Parameters
+    ----------
+    g
+        Gravitational acceleration [m/s^2].
+    tilt_limit_deg
+        Tilt limit [deg], in (0, 90).
+    split
+        ``'norm'``, ``'inscribed'`` or ``'box'`` (see above).
+    """
+    if not (0.0 < tilt_limit_deg < 90.0):
+        raise GainError(f"tilt limit must be in (0, 90) degrees, got {tilt_limit_deg}")
+    a = float(g) * math.tan(math.radians(tilt_limit_deg))
+    if split == "inscribed":
+        return a / math.sqrt(2.0)
+    if split in ("box", "norm"):
+        return a
+    raise GainError(f"split must be 'norm', 'inscribed' or 'box', got {split!r}")
+
+
+def _cp():
+    import cvxpy as cp
+
+    return cp
+
+
+def region_of_attraction(loop: ReducedLoop, u0: float, *, axis: str = "x", name: str = "region_of_attraction",
+                         r_cap: float = 1e4) -> LMIResult:
+    """Certified ellipsoidal region of attraction of one axis under acceleration saturation.
+
+    Model (one axis): ``x = [xi, xi_dot, z]``, ``x' = A0 x + B sat_u0(K x)`` with
+    ``K x = -kp xi + z/m`` the acceleration command (:meth:`ReducedLoop.saturation_split`).
+    With the dead zone ``psi(v) = v - sat(v)``, ``x' = A_cl x - B psi(Kx)``.  The
+    generalised sector condition (Tarbouriech, Garcia, Gomes da Silva & Queinnec,
+    *Stability and Stabilization of Linear Systems with Saturating Actuators*,
+    Springer 2011, Lemma 1.6 / Ch. 3): for x with ``|(K - G) x| <= u0``,
+    ``psi' T (psi - G x) <= 0`` for any ``T > 0`` (diagonal).  With ``W = P^{-1}``,
+    ``Z = G W``, ``S = T^{-1}`` the S-procedure gives the LMIs
+
+    * ``[[A_cl W + W A_cl', -B S + Z'], [Z - S B', -2 S]] <= -eta I``  (decrease),
+    * ``[[W, (K W - Z)'], [K W - Z, u0^2]] >= 0``  (ellipsoid inside the GSC region),
+    * ``[[W, r e1], [r e1', 1]] >= 0``  (start ``x0 = [r, 0, 0]`` inside ``x'Px <= 1``),
+
+    and ``r`` is maximised: the largest initial displacement from rest (with
+    ``z(0) = 0``) that is certified to converge.
+
+    Parameters
+    ----------
+    loop
+        The reduced loop.
+    u0
+        Acceleration limit of this axis [m/s^2] (:func:`axis_acceleration_limit`).
+    axis
+        ``'x'`` or ``'y'``.
+    name
+        Name of the result.
+    r_cap
+        Upper bound on the displacement [m] (keeps the problem bounded).
+
+    Returns
+    -------
+    LMIResult
+        ``matrices['P']`` the ellipsoid, ``values['max_displacement_m']`` = r (m),
+        ``values['u0']`` the per-axis acceleration limit (m/s^2).
+    """
+    cp = _cp()
+    A0, B, Kc = loop.saturation_split(axis)
+    A_cl = A0 + B @ Kc
+    as_data(name, A=A_cl, u0=np.array([u0]))
+    if u0 <= 0:
+        raise GainError(f"acceleration limit must be positive, got {u0}")
+    n = 3
+    e1 = np.zeros((n, 1))
+    e1[0, 0] = 1.0
+    W = cp.Variable((n, n), symmetric=True, name="W")
+    Z = cp.Variable((1, n), name="Z")
+    S = cp.Variable((1, 1), name="S")
+    r = cp.Variable(name="r")
+    eta = 1e-7
+    dec = cp.bmat([[A_cl @ W + W @ A_cl.T, -B @ S + Z.T], [Z - S @ B.T, -2 * S]])
+    inc = cp.bmat([[W, (Kc @ W - Z).T], [Kc @ W - Z, np.array([[u0**2]])]])
+    start = cp.bmat([[W, r * e1], [r * e1.T, np.ones((1, 1))]])
+    cons = [cpsym(dec) << -eta * np.eye(n + 1), cpsym(inc) >> 0, cpsym(start) >> 0, S >= eta, r >= 0, r <= r_cap]
+    status = solve(cp.Problem(cp.Maximize(r), cons), name)
+    data = {"A_cl": A_cl, "B": B, "K": Kc}
+    note = (f"generalised sector condition, saturation at u0 = {u0:.4g} m/s^2; "
+            "ellipsoid x'Px <= 1 invariant and attractive; margin = max initial displacement from rest (m)")
+    if not solved(status):
+        return result_fail(name, status, data, note + f"; solver: {status}", K.RTOL, values={"u0": u0})
+    Wv, Zv, Sv, rv = K.sym(W.value), np.asarray(Z.value), np.asarray(S.value), float(r.value)
+    Pv = K.sym(np.linalg.inv(Wv))
+    Gv = Zv @ Pv
+    # numpy re-check in the original (P, G, T) variables
+    T = np.linalg.inv(Sv)
+    dec_P = K.roa_decrease_matrix(A_cl, B, Pv, Gv, T)
+    res = {
+        "min_eig_W": K.eigmin(Wv) / K.norm(Wv),
+        "decrease_max_eig_W": K.eigmax(np.block([[A_cl @ Wv + Wv @ A_cl.T, -B @ Sv + Zv.T], [Zv - Sv @ B.T, -2 * Sv]])),
+        "decrease_max_eig_P": K.eigmax(dec_P) / K.norm(dec_P),
+        "inclusion_margin": K.roa_inclusion_margin(Kc, Gv, Wv, u0),
+        "x0_level": K.ellipsoid_level(Pv, rv * e1),
+    }
+    ok = (res["min_eig_W"] > 0 and res["decrease_max_eig_W"] < 0 and res["decrease_max_eig_P"] < 0
+          and res["inclusion_margin"] >= -K.RTOL and res["x0_level"] <= 1 + 1e-5 and T[0, 0] > 0)
+    if rv >= 0.999 * r_cap:
+        note += "; displacement hit its cap"
+    if not ok:
+        note += "; solver reported a solution but the numpy re-check failed"
+    values = {"max_displacement_m": rv, "u0": u0}
+    return LMIResult(name, ok, status, {"P": Pv, "W": Wv, "G": Gv, "T": T, **data}, res, rv, K.RTOL, note, values)
+
+
+def certified_region(loop: ReducedLoop, tilt_limit_deg: float = TILT_LIMIT_DEG) -> list[LMIResult]:
+    """The region-of-attraction LMIs of a loop under its tilt limit: one result, or one per axis.
+
+    Equal axis gains: one result ``region_of_attraction[x]`` with the norm limit
+    ``g tan(tilt)`` (rotation-invariant ellipsoid, see
+    :func:`axis_acceleration_limit`).  Different axis gains: one result per axis
+    with the inscribed limit ``g tan(tilt)/sqrt(2)``.  Each result's ``values``
+    also hold ``tilt_limit_deg`` and ``norm_model`` (1.0 or 0.0).
+
+    Parameters
+    ----------
+    loop
+        The reduced loop (its ``g`` sets the acceleration limit).
+    tilt_limit_deg
+        Tilt limit [deg].
+
+    Raises
+    ------
+    SolverError
+        If the solver fails (see :func:`certified_reach` for the tolerant form).
+    """
+    axes = loop.axes
+    u0 = axis_acceleration_limit(loop.g, tilt_limit_deg, "norm" if len(axes) == 1 else "inscribed")
+    out = []
+    for label, _ in axes:
+        roa = region_of_attraction(loop, u0, axis=label, name=f"region_of_attraction[{label}]")
+        roa.values["tilt_limit_deg"] = tilt_limit_deg
+        roa.values["norm_model"] = float(len(axes) == 1)
+        out.append(roa)
+    return out
+
+
+def _reach(results: Sequence[LMIResult]) -> list[float]:
+    return [float(r.values.get("max_displacement_m", 0.0)) if r.feasible else 0.0 for r in results]
+
+
+def start_certified(roa_results: Sequence[LMIResult], xi0: Sequence[float] = XI0_M) -> bool:
+    """Whether the displacement ``xi0`` (m, from rest, controller state 0) lies in the certified region.
+
+    One result (equal axis gains, norm model): ``‖xi0‖ <= max_displacement_m``.
+    Two results (per-axis, inscribed box model): each coordinate within its axis's reach.
+
+    Parameters
+    ----------
+    roa_results
+        The results of :func:`certified_region`.
+    xi0
+        Initial horizontal position [m].
+    """
+    reach = _reach(roa_results)
+    if not reach:
+        return False
+    if len(reach) == 1:
+        return math.hypot(*xi0) <= reach[0]
+    return all(abs(v) <= rr for v, rr in zip(xi0, reach))
+
+
+def reach_of(roa_results: Sequence[LMIResult]) -> float:
+    """The certified reach [m] of :func:`certified_region`'s results: the smallest axis reach, 0 if none."""
+    reach = _reach(roa_results)
+    return min(reach) if reach else 0.0
+
+
+def certified_reach(loop: ReducedLoop, tilt_limit_deg: float = TILT_LIMIT_DEG) -> float:
+    """Largest displacement from rest that the saturation region-of-attraction LMI certifies [m].
+
+    The one definition of the certified reach (the tuner, the certificate, the
+    ``lmi`` command and the notebooks use it): :func:`reach_of` of
+    :func:`certified_region`.  0 when nothing is certified, including when the
+    solver fails on a badly conditioned instance (extreme gains): an answer the
+    solver could not give certifies nothing.
+
+    Parameters
+    ----------
+    loop
+        The reduced loop.
+    tilt_limit_deg
+        Tilt limit [deg].
+    """
+    try:
+        return reach_of(certified_region(loop, tilt_limit_deg))
+    except SolverError:
+        return 0.0

@@ -1,0 +1,175 @@
+"""Building a certificate: solve every LMI for a gain set, simulate the reference runs, sign."""
+
+from __future__ import annotations
+
+import math
+import platform
+from importlib import metadata
+from typing import Any, Callable, Mapping, Sequence
+
+import numpy as np
+
+from nniquad.analysis.linear import ReducedLoop
+from nniquad.certificates.certificate import PERFORMANCE_HORIZON_S, TOLERANCES, Certificate
+from nniquad.config import GAMMA_MAX, MASS_RANGE_FRACTION, TILT_LIMIT_DEG, XI0_M
+from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, InnerLoopGains
+from nniquad.errors import CertificateError
+from nniquad.model.vehicle import Vehicle
+
+__all__ = ["build_certificate", "performance_runs"]
+
+
+def _software() -> dict[str, str]:
+    out = {"python": platform.python_version()}
+    for pkg in ("nniquad", "numpy", "scipy", "casadi", "cvxpy", "clarabel", "sympy", "control"):
+        try:
+            out[pkg] = metadata.version(pkg)
+        except metadata.PackageNotFoundError:
+            out[pkg] = "unknown"
+    return out
+
+
+def _mat(M: np.ndarray) -> list[list[float]]:
+    return np.asarray(M, dtype=float).tolist()
+
+
+def performance_runs(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, tilt_limit_deg: float = TILT_LIMIT_DEG,
+                     xi0: Sequence[float] = XI0_M, horizon_s: float = PERFORMANCE_HORIZON_S,
+                     motor_lag: bool = True) -> dict[str, Any]:
+    """Settings and metrics of the two reference runs (``reduced`` and ``full``).
+
+    Parameters
+    ----------
+    vehicle, gains, inner
+        What is simulated.
+    tilt_limit_deg
+        Tilt limit [deg].
+    xi0
+        Initial horizontal position [m].
+    horizon_s
+        Simulated time [s].
+    motor_lag
+        Motor lag on in the ``full`` run.
+    """
+    from nniquad.sim import SimOptions, simulate
+
+    out = {}
+    for model in ("reduced", "full"):
+        opts = SimOptions(model=model, horizon_s=horizon_s, output_dt_s=0.005, tilt_limit_deg=tilt_limit_deg,
+                          xi0=tuple(xi0), motor_lag=motor_lag and model == "full", inner=inner)
+        met = simulate(vehicle, gains, opts)[0].metrics()
+        out[model] = {"settling_s": met.settling_s, "overshoot_pct": met.overshoot_pct,
+                      "peak_tilt_deg": met.peak_tilt_deg, "diverged": met.diverged, "settings": opts.to_json()}
+    return out
+
+
+def build_certificate(vehicle: Vehicle, gains: Gains, *, inner: InnerLoopGains = DEFAULT_INNER_LOOP_GAINS,
+                      gamma_max: float = GAMMA_MAX, tilt_limit_deg: float = TILT_LIMIT_DEG,
+                      mass_range: tuple[float, float] | None = None, xi0: Sequence[float] = XI0_M,
+                      model: str = "reduced", tuning: Mapping[str, Any] | None = None,
+                      progress: Callable[[str], None] | None = None) -> Certificate:
+    """Solve every LMI for ``gains``, simulate, and assemble a signed certificate.
+
+    Parameters
+    ----------
+    vehicle
+        The vehicle.
+    gains
+        The gain set (equal axes).
+    inner
+        Inner-loop gains of the ``full`` run.
+    gamma_max
+        Largest admissible sector gain, in (0, 1).
+    tilt_limit_deg
+        Tilt limit [deg].
+    mass_range
+        True-mass interval of the robust LMI [kg] (default 0.8 m to 1.2 m).
+    xi0
+        Initial position of the reference runs [m].
+    model
+        The model the gains were tuned on (recorded).
+    tuning
+        How the gains were found (recorded).
+    progress
+        Called with a short message before each long step.
+
+    Raises
+    ------
+    CertificateError
+        The gains violate the sector bound for ``gamma_max``, or an LMI is
+        infeasible (nothing is certified, so nothing is returned).
+    """
+    from nniquad.analysis.bound import time_optimal_bound
+    from nniquad.analysis.lmi import certified_region, closed_loop_decay, ni_lemma_dissipation, reach_of, robust_mass_decay
+
+    say = progress or (lambda msg: None)
+    if gains.kpy is not None and gains.kpy != gains.kp:
+        raise CertificateError("certificates cover equal axis gains only (kpy must equal kp)")
+    if not 0.0 < gamma_max < 1.0:
+        raise CertificateError(f"gamma_max must lie in (0, 1), got {gamma_max!r}")
+    loop = ReducedLoop.from_vehicle(vehicle, gains)
+    m, kp = vehicle.m, gains.kp
+    gamma = loop.smallest_gamma
+    if gamma > gamma_max * (1 + 1e-12):
+        raise CertificateError(
+            f"gains violate the sector bound: delta = {gains.delta:.6g} < 1/(gamma_max m kp) = "
+            f"{loop.sector_delta_min(gamma_max):.6g} (smallest gamma {gamma:.6g} > gamma_max {gamma_max:g})"
+        )
+    lo, hi = mass_range if mass_range is not None else (MASS_RANGE_FRACTION[0] * m, MASS_RANGE_FRACTION[1] * m)
+    say("solving the LMIs")
+    A, B, C, D = loop.plant_matrices()
+    plant = ni_lemma_dissipation(A, B, C, D, name="ni_lemma_dissipation[plant]")
+    Ac, Bc, Cc, _ = loop.controller_matrices()
+    ctrl = ni_lemma_dissipation(Ac, Bc, Cc, name="ni_lemma_dissipation[controller]")
+    cl = closed_loop_decay(loop)
+    rob = robust_mass_decay(loop, lo, hi, parameter_dependent=True, thrust_model=True)
+    region = certified_region(loop, tilt_limit_deg)
+    (roa,) = region
+    for res in (plant, ctrl, cl, rob, roa):
+        if not res.feasible:
+            raise CertificateError(f"LMI {res.name} is infeasible for these gains (solver status {res.status})")
+    pd = loop.poles_and_damping()
+    reach = reach_of(region)
+    u0 = float(roa.values["u0"])
+    say("simulating the reference runs")
+    perf = performance_runs(vehicle, gains, inner, tilt_limit_deg=tilt_limit_deg, xi0=xi0)
+    bound = time_optimal_bound(vehicle, xi0=xi0, tilt_limit_deg=tilt_limit_deg)
+    ratios = {k: (None if v["settling_s"] is None else v["settling_s"] / bound.enter_band_s) for k, v in perf.items()}
+    cert = Certificate(
+        model=model,
+        vehicle=vehicle,
+        gains=Gains(kp=kp, Gamma=gains.Gamma, delta=gains.delta),
+        inner_loop=inner,
+        tilt_limit_deg=float(tilt_limit_deg),
+        xi0_m=(float(xi0[0]), float(xi0[1])),
+        sector={"gamma": gamma, "gamma_max": float(gamma_max), "delta_min": loop.sector_delta_min(gamma_max)},
+        stability_margin={
+            "routh_margin": m * kp * gains.delta - 1.0,
+            "max_real_part_1_s": float(pd.max_real_part),
+            "decay_rate_1_s": float(pd.decay_rate),
+            "min_damping": float(pd.min_damping),
+            "poles_1_s": [[float(p.real), float(p.imag)] for p in pd.poles],
+        },
+        lmi={
+            "plant_ni": {"P": _mat(plant.matrices["P"]), "form": "V' <= ydot' u (dissipation)"},
+            "controller_ni": {"P": _mat(ctrl.matrices["P"]), "form": "V' <= ydot' u (dissipation)"},
+            "closed_loop": {"P": _mat(cl.matrices["P"]), "decay_rate_1_s": float(cl.values["decay_rate"])},
+            "robust_mass": {"m_lo_kg": float(lo), "m_hi_kg": float(hi), "m_nominal_kg": m,
+                            "P0": _mat(rob.matrices["P0"]), "P1": _mat(rob.matrices["P1"]),
+                            "decay_rate_1_s": float(rob.values["decay_rate"])},
+            "region_of_attraction": {"P": _mat(roa.matrices["P"]), "G": _mat(roa.matrices["G"]),
+                                     "T": _mat(roa.matrices["T"]), "u0_m_s2": u0,
+                                     "max_displacement_m": reach},
+        },
+        region_of_attraction={"max_displacement_m": reach, "u0_m_s2": u0, "tilt_limit_deg": float(tilt_limit_deg),
+                              "model": "norm-limited horizontal acceleration, rotation-invariant ellipsoid"},
+        start_certified=bool(math.hypot(*xi0) <= reach),
+        performance=perf,
+        bound={"enter_band_s": bound.enter_band_s, "rest_to_rest_s": bound.rest_to_rest_s,
+               "a_max_m_s2": bound.a_max_m_s2},
+        ratio_to_bound=ratios,
+        tolerances=dict(TOLERANCES),
+        tuning=dict(tuning) if tuning is not None else None,
+        software=_software(),
+    )
+    return cert.signed()
