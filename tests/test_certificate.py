@@ -155,3 +155,134 @@ def test_signed_but_malformed_field_is_one_line(cert, tmp_path, run_cli):
     path.write_text(json.dumps(_resign(c)))
     code, _, err = run_cli("verify", str(path))
     assert code == 2 and "malformed" in err and "Traceback" not in err
+
+
+# ------------------------------------------------------------------------------ checks that can fail
+
+
+@pytest.mark.parametrize("which", ["plant_ni", "controller_ni"])
+@pytest.mark.parametrize("scale", [2.0, 0.5])
+def test_resigned_scaled_ni_storage_fails(cert, which, scale):
+    """A scaled P stays positive definite but is no NI storage (the plant's and the controller's are unique up to
+    nothing: P = diag(m kp, m) and P = delta); a check of P > 0 alone would pass it."""
+    c = copy.deepcopy(cert)
+    P = np.array(c["lmi"][which]["P"]) * scale
+    assert np.linalg.eigvalsh(P)[0] > 0
+    c["lmi"][which]["P"] = P.tolist()
+    res = verify_certificate(_resign(c), simulate=False)
+    assert {chk.name for chk in res.checks if not chk.ok} == {f"lmi.{which}"}
+
+
+def _edit(value):
+    """A small edit of a JSON value that keeps its type."""
+    if isinstance(value, bool):
+        return not value
+    if isinstance(value, (int, float)):
+        return value + 1
+    if isinstance(value, str):
+        return value + "x"
+    if isinstance(value, list):
+        return value + [0]
+    if isinstance(value, dict):
+        return {**value, "edited": 1}
+    return {"edited": 1}  # None
+
+
+def test_every_top_level_field_is_covered_by_the_digest(cert, tmp_path):
+    """Editing any one top-level field without re-signing is refused, by the loader and by verify."""
+    assert {"schema", "schema_version", "vehicle", "gains", "lmi", "tuning", "software", "digest"} <= set(cert)
+    for key in cert:
+        c = copy.deepcopy(cert)
+        if key == "digest":
+            c["digest"]["value"] = c["digest"]["value"][::-1]
+        else:
+            c[key] = _edit(c[key])
+        path = tmp_path / f"{key}.json"
+        path.write_text(json.dumps(c))
+        with pytest.raises(CertificateError):
+            load_certificate(path)
+        with pytest.raises(CertificateError):
+            verify_certificate(c, simulate=False)
+        with pytest.raises(CertificateError):
+            Certificate.from_json(c)
+    for extra in ({**cert, "added": 1}, {k: v for k, v in cert.items() if k != "bound"}):
+        with pytest.raises(CertificateError, match="digest mismatch"):
+            verify_certificate(extra, simulate=False)
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda c: c["digest"].__setitem__("algorithm", "md5"), "digest must be"),
+    (lambda c: c["digest"].__setitem__("extra", 1), "digest must be"),
+    (lambda c: c.__setitem__("schema_version", True), "schema version"),
+])
+def test_digest_and_version_form(cert, edit, message):
+    c = copy.deepcopy(cert)
+    edit(c)
+    c["digest"]["value"] = canonical_digest(c)
+    with pytest.raises(CertificateError, match=message):
+        Certificate.from_json(c)
+
+
+def test_typed_certificate_round_trip_and_immutability(certificate, cert, tmp_path):
+    import dataclasses
+
+    assert certificate.signature == certificate.digest == cert["digest"]["value"]
+    again = Certificate.from_json(json.loads(json.dumps(cert)))
+    assert again == certificate and again.to_json() == cert
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        certificate.gains = GAINS
+    with pytest.raises(TypeError):
+        certificate.lmi["closed_loop"]["decay_rate_1_s"] = 1.0
+    # an edited copy keeps the old signature and is refused until it is signed again
+    edited = dataclasses.replace(certificate, tilt_limit_deg=25.0)
+    assert not edited.signature_ok
+    with pytest.raises(CertificateError, match="digest mismatch"):
+        verify_certificate(edited, simulate=False)
+    resigned = edited.signed()
+    assert resigned.signature_ok
+    failed = {c.name for c in verify_certificate(resigned, simulate=False).checks if not c.ok}
+    assert "lmi.region_of_attraction" in failed  # u0 and the stated tilt no longer agree
+    path = write_certificate(certificate, tmp_path / "t.json")
+    assert read_certificate(path) == certificate
+
+
+def test_committed_certificate_still_loads_and_verifies():
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "notebooks" / "data" / "full_model_certificate.json"
+    c = read_certificate(path)
+    assert c.signature == c.digest == json.loads(path.read_text())["digest"]["value"]
+    assert verify_certificate(c, simulate=False).ok
+
+
+@pytest.mark.parametrize("section, key, factor", [
+    ("stability_margin", "min_damping", 1.01),
+    ("stability_margin", "routh_margin", 1.01),
+    ("stability_margin", "max_real_part_1_s", 1.01),
+    ("sector", "delta_min", 1.01),
+    ("region_of_attraction", "u0_m_s2", 1.01),
+])
+def test_resigned_secondary_numbers_fail(cert, section, key, factor):
+    """Every stated number is recomputed, not only the headline ones."""
+    c = copy.deepcopy(cert)
+    c[section][key] *= factor
+    res = verify_certificate(_resign(c), simulate=False)
+    assert not res.ok
+
+
+def test_resigned_pole_list_and_bound_fail(cert):
+    c = copy.deepcopy(cert)
+    c["stability_margin"]["poles_1_s"][0][1] += 0.1
+    assert "poles" in {chk.name for chk in verify_certificate(_resign(c), simulate=False).checks if not chk.ok}
+    c = copy.deepcopy(cert)
+    c["bound"]["enter_band_s"] *= 0.9
+    c["ratio_to_bound"] = {k: v / 0.9 for k, v in c["ratio_to_bound"].items()}
+    failed = {chk.name for chk in verify_certificate(_resign(c)).checks if not chk.ok}
+    assert {"performance.reduced", "performance.full"} <= failed
+
+
+def test_sector_check_refuses_gamma_max_one(cert):
+    c = copy.deepcopy(cert)
+    c["sector"]["gamma_max"] = 1.0
+    res = verify_certificate(_resign(c), simulate=False)
+    assert "sector" in {chk.name for chk in res.checks if not chk.ok}

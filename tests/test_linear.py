@@ -129,3 +129,51 @@ def test_paper_gains():
     assert PAPER_GAINS.axes() == (5.0, 5.0) and PAPER_GAINS.Gamma == 160.0 and PAPER_GAINS.delta == 0.6
     with pytest.raises(GainError):
         ReducedLoop(float("nan"), PAPER_GAINS)
+
+
+def test_sector_bound_and_routh_exactly_on_the_boundary():
+    """m kp delta = 1 exactly (m = 0.5, kp = 4, delta = 0.5): gamma = 1 is not admissible and the loop is not
+    asymptotically stable (a pole at the origin); one ulp of delta inside, both hold."""
+    on = ReducedLoop(0.5, Gains(4.0, 160.0, 0.5))
+    assert 0.5 * 4.0 * 0.5 == 1.0  # exact in binary floating point
+    assert on.smallest_gamma == 1.0 and on.margin_product == 1.0
+    assert not on.sector_bound_holds
+    assert not on.stable
+    # independent: a0 = G (kp d - 1/m) = 160 (2 - 2) = 0, so s = 0 is a pole
+    np.testing.assert_allclose(on.characteristic_coefficients(), [1.0, 80.0, 4.0, 0.0], atol=1e-12)
+    inside = ReducedLoop(0.5, Gains(4.0, 160.0, np.nextafter(0.5, 1.0)))
+    assert inside.smallest_gamma < 1.0 and inside.sector_bound_holds and inside.stable
+    outside = ReducedLoop(0.5, Gains(4.0, 160.0, np.nextafter(0.5, 0.0)))
+    assert not outside.sector_bound_holds and not outside.stable
+
+
+def test_sector_delta_min_gives_gamma_back():
+    loop = ReducedLoop(0.5, Gains(4.0, 160.0, 0.5))
+    for gamma in (0.3, 0.8, 0.999):
+        d = loop.sector_delta_min(gamma)
+        assert d == pytest.approx(1.0 / (gamma * 0.5 * 4.0), rel=1e-14)
+        assert loop.with_gains(Gains(4.0, 160.0, d)).smallest_gamma == pytest.approx(gamma, rel=1e-14)
+
+
+def test_thrust_model_loop_is_the_paper_loop_with_effective_gain():
+    """Thrust sized with m_hat on a vehicle of mass m: kp_eff = kp m_hat / m (characteristic polynomial by hand)."""
+    nominal = ReducedLoop(0.5, PAPER_GAINS)
+    for m in (0.3, 0.5, 0.9):
+        true = nominal.with_mass(m, thrust_model=True)
+        assert true.m == m and true.m_nominal == 0.5 and true.nominal_mass == 0.5
+        hand = [1.0, 160.0 * 0.6, 5.0 * 0.5 / m, 160.0 * (5.0 * 0.5 * 0.6 - 1.0) / m]
+        np.testing.assert_allclose(np.poly(true.closed_loop_A_axis()), hand, rtol=1e-12)
+        np.testing.assert_allclose(true.characteristic_coefficients(), hand, rtol=1e-12)
+        assert true.stable  # m_hat kp delta = 1.5 > 1 whatever the true mass
+        A0, B, K = true.saturation_split()
+        np.testing.assert_allclose(B[:, 0], [0.0, 0.5 / m, 0.0], rtol=1e-15)
+    assert not nominal.with_mass(0.3).stable  # the paper model: 0.3 * 5 * 0.6 = 0.9 < 1
+
+
+def test_reduced_loop_rejects_bad_input():
+    with pytest.raises(GainError, match="m must be positive"):
+        ReducedLoop(-1.0, PAPER_GAINS)
+    with pytest.raises(GainError, match="Gains block"):
+        ReducedLoop(0.5, (5.0, 160.0, 0.6))
+    with pytest.raises(GainError, match="axis"):
+        ReducedLoop(0.5, PAPER_GAINS).plant_matrices("z")

@@ -243,3 +243,83 @@ def test_norm_limited_region_certifies_the_2d_loop_in_simulation():
     # the start at the certified radius really drives the norm limit (not a vacuous check)
     a0 = np.array([K @ starts[0][:3], K @ starts[0][3:]]).ravel()
     assert np.linalg.norm(a0) > 2 * u0
+
+
+# ------------------------------------------------------------------------------ every re-check can fail
+#
+# A solver's "optimal" proves nothing by itself: each LMI function must re-check the returned matrices with
+# numpy.  These tests hand every function a wrong answer labelled "optimal" and demand feasible=False; an
+# LMI function that skipped (part of) its re-check would report the wrong answer as certified.
+
+def _lmi_cases():
+    from nniquad.analysis.lmi import decay, ni, roa
+
+    A, B, C, D = PAPER_LOOP.plant_matrices()
+    Ac, Bc, Cc, _ = PAPER_LOOP.controller_matrices()
+    u0 = lmi.axis_acceleration_limit(PAPER_LOOP.g)
+    return {
+        "ni_lemma_paper[controller]": (ni, lambda: lmi.ni_lemma_paper(Ac, Bc, Cc)),
+        "ni_lemma_dissipation[plant]": (ni, lambda: lmi.ni_lemma_dissipation(A, B, C, D)),
+        "ni_lemma_dissipation[controller]": (ni, lambda: lmi.ni_lemma_dissipation(Ac, Bc, Cc)),
+        "ni_lemma_lanzon_petersen[plant]": (ni, lambda: lmi.ni_lemma_lanzon_petersen(A, B, C, D)),
+        "ni_lemma_lanzon_petersen[controller]": (ni, lambda: lmi.ni_lemma_lanzon_petersen(Ac, Bc, Cc)),
+        "sni_lemma[controller]": (ni, lambda: lmi.sni_lemma(Ac, Bc, Cc)),
+        "ni_dissipation_strict[controller]": (ni, lambda: lmi.ni_dissipation_strict(Ac, Bc, Cc)),
+        "closed_loop_decay": (decay, lambda: lmi.closed_loop_decay(PAPER_LOOP, rtol=1e-1)),
+        "robust_mass_decay[common_P]": (decay, lambda: lmi.robust_mass_decay(PAPER_LOOP, 0.499, 0.501, rtol=1e-1)),
+        "robust_mass_decay[pdlf]": (decay, lambda: lmi.robust_mass_decay(PAPER_LOOP, 0.45, 0.55, rtol=1e-1,
+                                                                         parameter_dependent=True)),
+        "robust_mass_decay[pdlf,thrust_model]": (decay, lambda: lmi.robust_mass_decay(
+            PAPER_LOOP, 0.4, 0.6, rtol=1e-1, parameter_dependent=True, thrust_model=True)),
+        "region_of_attraction": (roa, lambda: lmi.region_of_attraction(PAPER_LOOP, u0)),
+    }
+
+
+def _lying_solver(corrupt):
+    """A ``solve`` that solves for real, then replaces the answer by ``corrupt(value)`` and says 'optimal'."""
+    import cvxpy as cp
+
+    def solve(problem, name):
+        lmi.solver.solve(problem, name)
+        for v in problem.variables():
+            value = -np.ones(v.shape) if v.value is None else np.asarray(v.value, dtype=float)
+            v.value = corrupt(value)
+        return cp.OPTIMAL
+
+    return solve
+
+
+def _negate(value):
+    return -value
+
+
+def _congruence(value):
+    """``D V D`` with ``D = diag(2, 3, ...)``: keeps a positive definite matrix positive definite, breaks the rest."""
+    if value.ndim == 2 and value.shape[0] == value.shape[1]:
+        d = np.diag(np.arange(2.0, value.shape[0] + 2.0))
+        return d @ value @ d
+    return 4.0 * value
+
+
+@pytest.mark.parametrize("case", list(_lmi_cases()))
+def test_every_lmi_rejects_a_negated_answer(monkeypatch, case):
+    module, run = _lmi_cases()[case]
+    if case != "ni_dissipation_strict[controller]":  # strict dissipation is infeasible for any P (see its docstring)
+        assert run().feasible, "the honest answer must certify, or the test below proves nothing"
+    monkeypatch.setattr(module, "solve", _lying_solver(_negate))
+    r = run()
+    assert r.status == "optimal" and not r.feasible
+
+
+@pytest.mark.parametrize("case", ["ni_lemma_paper[controller]", "ni_lemma_dissipation[plant]",
+                                  "ni_lemma_dissipation[controller]", "ni_lemma_lanzon_petersen[plant]",
+                                  "ni_lemma_lanzon_petersen[controller]", "sni_lemma[controller]"])
+def test_ni_lemmas_reject_a_positive_but_wrong_storage(monkeypatch, case):
+    """P (or Y) stays positive definite but violates the lemma's equality or dissipation: a re-check of P > 0
+    alone would pass it."""
+    module, run = _lmi_cases()[case]
+    monkeypatch.setattr(module, "solve", _lying_solver(_congruence))
+    r = run()
+    M = r.matrices.get("P", r.matrices.get("Y"))
+    assert np.linalg.eigvalsh(M)[0] > 0
+    assert r.status == "optimal" and not r.feasible

@@ -104,3 +104,21 @@ def test_remark_robustness_variant_within_bound_holds():
     assert C.remark_robustness(true_masses=(0.5, 0.7, 1.5)).verdict == HOLDS
     # independent: Routh boundary 1/(kp delta) = 1/3 kg
     assert L.PAPER_LOOP.with_mass(0.34).stable and not L.PAPER_LOOP.with_mass(0.33).stable
+
+
+def test_closed_loop_claim_needs_its_symbolic_routh_check():
+    """A loop whose poles are stable at the paper's gains but which the constraint does not make stable.
+
+    The coupling 1.2/m instead of 1/m gives a0 = Gamma (kp delta - 1.2/m): stable iff m kp delta > 1.2.  The
+    paper's gains (m kp delta = 1.5) pass the numeric pole check; gains on the constraint with gamma close to 1
+    (m kp delta = 1/gamma ~ 1.05) do not, and only the symbolic Routh check under the constraint sees it.
+    """
+    m_, kp_, G_, d_ = (L.SYMBOLS[k] for k in ("m", "kp", "Gamma", "delta"))
+    variant = sp.Matrix([[0, 1, 0], [-kp_, 0, sp.Rational(6, 5) / m_], [G_, 0, -G_ * d_]])
+    at_paper = np.array(variant.subs({m_: 0.5, kp_: 5.0, G_: 160.0, d_: 0.6}), dtype=float)
+    assert np.max(np.linalg.eigvals(at_paper).real) < 0  # the numeric route alone would accept it
+    near_edge = np.array(variant.subs({m_: 0.5, kp_: 5.0, G_: 160.0, d_: 1.05 / 2.5}), dtype=float)
+    assert np.max(np.linalg.eigvals(near_edge).real) > 0  # yet it is unstable inside the constraint
+    r = C.closed_loop_stability(closed_loop=variant)
+    assert r.verdict == FAILS
+    assert C.closed_loop_stability(closed_loop=C._closed_loop_sym(+1)).verdict == HOLDS

@@ -55,3 +55,26 @@ def test_full_model_paper_gains():
     assert r.verdict == HOLDS_WITH_CORRECTION
     win = r.evidence["full model (nniquad.sim.simulate)"]["max distance per 60 s window [m]"]
     assert win[-1] > win[0] > 2.5  # growing oscillation
+
+
+def _shape_of(p):
+    t = np.linspace(0.0, 10.0, 2001)
+    xy = np.outer(p(t), [0.8, -0.6])  # along the start direction of (2, -1.5)
+    return SIM._shape(t, xy)
+
+
+def test_smooth_response_needs_all_three_conditions():
+    """The claim's words are 'smooth, no oscillations or overshoot': each condition alone is not enough."""
+    smooth = _shape_of(lambda t: np.exp(-t))
+    assert SIM.smooth_response(smooth)
+    # wiggles without ever passing the origin: no overshoot, no zero crossing, but local extrema
+    wiggle = _shape_of(lambda t: np.exp(-t) * (1.0 + 0.5 * np.sin(6.0 * t)))
+    assert wiggle["overshoot_pct (nniquad.analysis.metrics)"] <= 0.1
+    assert wiggle["zero crossings along the initial direction"] == 0
+    assert wiggle["local extrema (oscillations)"] > 0
+    assert not SIM.smooth_response(wiggle)
+    # dips 0.05 % past the origin and comes back: overshoot within 0.1 %, but a zero crossing
+    dip = _shape_of(lambda t: np.exp(-t) - 0.0005 * (1 - np.exp(-t)) * np.exp(-(t - 10.0) ** 2 / 20.0))
+    assert dip["overshoot_pct (nniquad.analysis.metrics)"] <= 0.1
+    assert dip["zero crossings along the initial direction"] > 0
+    assert not SIM.smooth_response(dip)

@@ -187,12 +187,24 @@ def _verify(cert: Certificate, simulate: bool, say: Callable[[str], None]) -> Ve
         raise CertificateError("certificate 'sector' needs numbers 'gamma' and 'gamma_max'") from None
     gamma = loop.smallest_gamma
     ok = abs(gamma - gamma_stated) <= tol["sector_relative"] * gamma and gamma <= gamma_max * (1 + 1e-12) < 1 + 1e-12
+    delta_min = loop.sector_delta_min(gamma_max) if 0 < gamma_max < 1 else math.nan
+    ok = ok and _close(sec.get("delta_min"), delta_min, tol["sector_relative"])
     checks.append(Check("sector", ok, f"delta m kp gamma >= 1 holds with gamma = {gamma:.6g} (stated "
-                                      f"{gamma_stated:.6g}) <= gamma_max = {gamma_max:g} < 1"))
+                                      f"{gamma_stated:.6g}) <= gamma_max = {gamma_max:g} < 1; delta_min "
+                                      f"{delta_min:.6g} (stated {_f(sec.get('delta_min'))})"))
 
     pd = loop.poles_and_damping()
-    stated_rate = float(cert.stability_margin.get("decay_rate_1_s", math.nan))
+    margin = cert.stability_margin
+    stated_rate = float(margin.get("decay_rate_1_s", math.nan))
     ok = pd.stable and abs(pd.decay_rate - stated_rate) <= 1e-6 * abs(pd.decay_rate) and loop.stable
+    # every other stated number of the section too: a wrong damping or pole list must not pass
+    poles = np.array([[p.real, p.imag] for p in pd.poles])
+    stated_poles = np.array(margin.get("poles_1_s", ()), dtype=float)
+    ok = (ok and _close(margin.get("routh_margin"), m * kp * d - 1.0, 1e-12)
+          and _close(margin.get("max_real_part_1_s"), pd.max_real_part, 1e-6)
+          and _close(margin.get("min_damping"), pd.min_damping, 1e-6)
+          and stated_poles.shape == poles.shape
+          and bool(np.all(np.abs(stated_poles - poles) <= 1e-6 * np.max(np.abs(pd.poles)))))
     checks.append(Check("poles", ok, f"max Re = {pd.max_real_part:.6g} 1/s, decay {pd.decay_rate:.6g} 1/s "
                                      f"(stated {stated_rate:.6g}), min damping {pd.min_damping:.4g}, "
                                      f"m kp delta - 1 = {m * kp * d - 1:.4g}"))
@@ -253,7 +265,9 @@ def _roa_check(cert: Certificate, tol: float) -> Check:
     level = K.ellipsoid_level(P, [r, 0.0, 0.0])
     top = cert.region_of_attraction
     start = cert.start_certified
-    consistent = (top.get("max_displacement_m") == r and start == bool(math.hypot(*cert.xi0_m) <= r))
+    consistent = (top.get("max_displacement_m") == r and start == bool(math.hypot(*cert.xi0_m) <= r)
+                  and _close(part.get("u0_m_s2"), u0, 1e-12) and _close(top.get("u0_m_s2"), u0, 1e-12)
+                  and top.get("tilt_limit_deg") == cert.tilt_limit_deg)
     ok = (positive and T[0, 0] > 0 and dec_rel < tol and incl >= -1e-6 and level <= 1 + 1e-6 and r >= 0
           and consistent)
     return Check("lmi.region_of_attraction", ok,
@@ -264,6 +278,11 @@ def _roa_check(cert: Certificate, tol: float) -> Check:
 def _performance_checks(cert: Certificate, tol: Mapping[str, float]) -> list[Check]:
     from nniquad.sim import SimOptions, simulate
 
+    from nniquad.analysis.bound import time_optimal_bound
+
+    bound = time_optimal_bound(cert.vehicle, xi0=cert.xi0_m, tilt_limit_deg=cert.tilt_limit_deg)
+    bound_ok = all(_close(cert.bound.get(k), getattr(bound, k), 1e-9)
+                   for k in ("enter_band_s", "rest_to_rest_s", "a_max_m_s2"))
     out = []
     for model in ("reduced", "full"):
         stated = cert.performance.get(model)
@@ -289,8 +308,23 @@ def _performance_checks(cert: Certificate, tol: Mapping[str, float]) -> list[Che
                 same = abs(float(want) - float(got)) <= tol[tkey]
             ok &= same
             diffs.append(f"{key} {_f(got)} (stated {_f(want)})")
+        # the ratio to the time-optimal bound, from the stated settling time and the recomputed bound
+        want = stated.get("settling_s")
+        ratio = None if want is None else float(want) / bound.enter_band_s
+        stated_ratio = cert.ratio_to_bound.get(model)
+        same = (ratio is None and stated_ratio is None) or (ratio is not None and _close(stated_ratio, ratio, 1e-9))
+        ok = ok and same and bound_ok
+        diffs.append(f"ratio to bound {_f(ratio)} (stated {_f(stated_ratio)}), bound {bound.enter_band_s:.5g} s "
+                     f"(stated {_f(cert.bound.get('enter_band_s'))})")
         out.append(Check(f"performance.{model}", ok, ", ".join(diffs)))
     return out
+
+
+def _close(stated: Any, computed: float, rtol: float) -> bool:
+    """Whether a stated number (any JSON value) equals a recomputed one within ``rtol`` (relative, and absolute near 0)."""
+    if isinstance(stated, bool) or not isinstance(stated, (int, float)):
+        return False
+    return math.isfinite(stated) and abs(float(stated) - computed) <= rtol * max(abs(computed), 1e-300) + 1e-300
 
 
 def _f(x: Any) -> str:
