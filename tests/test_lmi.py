@@ -323,3 +323,18 @@ def test_ni_lemmas_reject_a_positive_but_wrong_storage(monkeypatch, case):
     M = r.matrices.get("P", r.matrices.get("Y"))
     assert np.linalg.eigvalsh(M)[0] > 0
     assert r.status == "optimal" and not r.feasible
+
+
+def _identity(value):
+    return np.eye(value.shape[0]) if value.ndim == 2 and value.shape[0] == value.shape[1] else value
+
+
+@pytest.mark.parametrize("case", ["closed_loop_decay", "robust_mass_decay[common_P]"])
+def test_decay_lmis_reject_a_positive_matrix_that_certifies_no_decay(monkeypatch, case):
+    """The solver 'returns' P = I in the scaled state (P >= I holds).  In those coordinates A + A' has a zero
+    2x2 block (position, velocity) coupled to the controller state, so it is indefinite: I certifies no decay.
+    A re-check of P >= I without the rate the matrix really certifies would accept it."""
+    module, run = _lmi_cases()[case]
+    monkeypatch.setattr(module, "solve", _lying_solver(_identity))
+    r = run()
+    assert r.status == "optimal" and not r.feasible
