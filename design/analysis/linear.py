@@ -70,7 +70,6 @@ __all__ = [
     "controller_matrices_sym",
     "closed_loop_matrix_sym",
     "characteristic_polynomial",
-    "characteristic_coefficients",
     "routh_array",
     "routh_stability_region",
     "dc_loop_gain_sym",
