@@ -35,6 +35,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "verify": ("verify", "independently re-check a certificate"),
     "montecarlo": ("montecarlo", "Monte Carlo robustness study of a certificate"),
     "report": ("report", "the main job: audit, certificate, figures and report.md"),
+    "export": ("export", "write the certified controller as state-space JSON or C99 code"),
 }
 
 

@@ -1,0 +1,171 @@
+"""The NNI horizontal law in discrete time: a reference implementation and its CasADi step function.
+
+At the control rate ``f_s = 1/T`` the position ``ξ_k`` (both axes) is sampled
+and the law runs once per sample (exact ZOH equivalent of
+``C(s) = Γ/(s + Γδ)``, :mod:`nniquad.analysis.sampled`):
+
+.. math:: z_{k+1} = a z_k + b \\xi_k,\\quad a = e^{-\\Gamma\\delta T},\\ b = (1 - a)/\\delta,
+          \\qquad a_k = -k_p \\xi_k + z_k/\\hat m,
+
+per axis (``k_p^x``, ``k_p^y``), and the command ``a_k`` is held until the next
+sample.  The output stage is the simulator's (:mod:`nniquad.control.inner_loops`):
+the norm limit ``‖a‖ <= g_z tan(T_lim)`` with ``g_z = max(g - a_z, 0.2 g)``
+(``a_z`` the altitude loop's vertical command, NED) and the tilt setpoints
+``φ_d, θ_d`` at yaw ``ψ``.  The controller state integrates the measurement
+whatever the limit does (as in the simulator).
+
+:class:`DiscreteNNI` holds the matrices and steps in numpy (the reference);
+:meth:`DiscreteNNI.casadi_step` is the same step as a CasADi function, which
+``nniquad export`` turns into C99 source.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from nniquad.control import inner_loops as IL
+from nniquad.control.gains import Gains
+from nniquad.errors import GainError
+
+__all__ = ["DiscreteNNI", "STEP_INPUTS", "STEP_OUTPUTS"]
+
+#: Inputs of one step: (name, size, unit, meaning).
+STEP_INPUTS: tuple[tuple[str, int, str, str], ...] = (
+    ("z", 2, "N", "controller state z_k (x, y), zero at start-up"),
+    ("xi", 2, "m", "measured horizontal position xi_k (north, east) relative to the setpoint"),
+    ("psi", 1, "rad", "measured yaw angle"),
+    ("a_z", 1, "m/s^2", "vertical acceleration command of the altitude loop (NED, 0 at hover)"),
+)
+#: Outputs of one step.
+STEP_OUTPUTS: tuple[tuple[str, int, str, str], ...] = (
+    ("z_next", 2, "N", "controller state z_{k+1}"),
+    ("a_h", 2, "m/s^2", "horizontal acceleration command (north, east) after the tilt limit, held until the next sample"),
+    ("tilt_sp", 2, "rad", "roll and pitch setpoints (phi_d, theta_d) that realise a_h"),
+)
+
+
+@dataclass(frozen=True)
+class DiscreteNNI:
+    """The discrete-time NNI controller of both axes, ``z_{k+1} = A z_k + B ξ_k``, ``a_k = C z_k + D ξ_k``.
+
+    Attributes
+    ----------
+    A, B, C, D : ndarray (2, 2)
+        State-space matrices (state z [N], input ξ [m], output a_h [m/s²]).
+    T
+        Sample period [s].
+    g
+        Gravity the controller assumes [m/s²].
+    tilt_limit_rad
+        Tilt limit [rad].
+    """
+
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    D: np.ndarray
+    T: float
+    g: float
+    tilt_limit_rad: float
+
+    @classmethod
+    def from_gains(cls, gains: Gains, m_nom: float, g: float, rate_hz: float, tilt_limit_deg: float) -> "DiscreteNNI":
+        """Exact ZOH discretisation at ``rate_hz`` (closed form of the module docstring).
+
+        Raises
+        ------
+        GainError
+            Non-positive or non-finite rate, mass, gravity or tilt limit.
+        """
+        for name, v in (("rate", rate_hz), ("nominal mass", m_nom), ("gravity", g)):
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
+                raise GainError(f"{name} must be a finite positive number, got {v!r}")
+        if not (isinstance(tilt_limit_deg, (int, float)) and 0 < tilt_limit_deg < 90):
+            raise GainError(f"tilt limit must be in (0, 90) deg, got {tilt_limit_deg!r}")
+        T = 1.0 / float(rate_hz)
+        a = math.exp(-gains.Gamma * gains.delta * T)
+        b = -math.expm1(-gains.Gamma * gains.delta * T) / gains.delta
+        kp = np.diag(gains.axes())
+        return cls(A=a * np.eye(2), B=b * np.eye(2), C=np.eye(2) / m_nom, D=-kp, T=T, g=float(g),
+                   tilt_limit_rad=math.radians(tilt_limit_deg))
+
+    @property
+    def rate_hz(self) -> float:
+        return 1.0 / self.T
+
+    # ------------------------------------------------------------------ numpy reference
+    def step(self, z: np.ndarray, xi: np.ndarray, psi: float = 0.0, a_z: float = 0.0
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """One step in numpy: ``(z_next, a_h, (φ_d, θ_d))`` (see :data:`STEP_OUTPUTS`)."""
+        z, xi = np.asarray(z, float), np.asarray(xi, float)
+        a = self.C @ z + self.D @ xi
+        g_z = max(self.g - a_z, IL.G_Z_MIN_FRACTION * self.g)
+        limit = g_z * math.tan(self.tilt_limit_rad)
+        norm = float(np.hypot(a[0], a[1]))
+        a = a * (limit / max(norm, limit))
+        # tilt setpoints: thrust direction parallel to (a_x, a_y, -g_z) in the yaw frame
+        c, s = math.cos(psi), math.sin(psi)
+        bx, by = c * a[0] + s * a[1], -s * a[0] + c * a[1]
+        theta_d = math.atan2(-bx, g_z)
+        phi_d = math.atan(by * math.cos(theta_d) / g_z)
+        return self.A @ z + self.B @ xi, a, np.array([phi_d, theta_d])
+
+    def run(self, xi: np.ndarray, psi: np.ndarray | None = None, a_z: np.ndarray | None = None,
+            z0: np.ndarray | None = None) -> dict[str, np.ndarray]:
+        """Step through a recorded measurement sequence ``xi`` of shape ``(N, 2)``.
+
+        Returns
+        -------
+        dict
+            ``z`` (N+1, 2), ``a_h`` (N, 2), ``tilt_sp`` (N, 2).
+        """
+        xi = np.asarray(xi, float)
+        n = xi.shape[0]
+        psi = np.zeros(n) if psi is None else np.asarray(psi, float)
+        a_z = np.zeros(n) if a_z is None else np.asarray(a_z, float)
+        z = np.zeros((n + 1, 2))
+        z[0] = 0.0 if z0 is None else z0
+        ah, sp = np.zeros((n, 2)), np.zeros((n, 2))
+        for k in range(n):
+            z[k + 1], ah[k], sp[k] = self.step(z[k], xi[k], psi[k], a_z[k])
+        return {"z": z, "a_h": ah, "tilt_sp": sp}
+
+    # ------------------------------------------------------------------ CasADi / C
+    def casadi_step(self, name: str = "nniquad_nni_step") -> ca.Function:
+        """The step as a CasADi function (inputs :data:`STEP_INPUTS`, outputs :data:`STEP_OUTPUTS`).
+
+        Built from the same matrices and the simulator's own output stage
+        (:func:`nniquad.control.inner_loops.limit_norm`, :func:`~nniquad.control.inner_loops.tilt_setpoints`).
+        """
+        z, xi, psi, a_z = (ca.SX.sym(n, k) for n, k, _, _ in STEP_INPUTS)
+        a = ca.mtimes(ca.DM(self.C), z) + ca.mtimes(ca.DM(self.D), xi)
+        g_z = ca.fmax(self.g - a_z, IL.G_Z_MIN_FRACTION * self.g)
+        a = IL.limit_norm(a, g_z * math.tan(self.tilt_limit_rad))
+        phi_d, theta_d, _ = IL.tilt_setpoints(a, g_z, psi)
+        z_next = ca.mtimes(ca.DM(self.A), z) + ca.mtimes(ca.DM(self.B), xi)
+        return ca.Function(name, [z, xi, psi, a_z], [z_next, a, ca.vertcat(phi_d, theta_d)],
+                           [n for n, *_ in STEP_INPUTS], [n for n, *_ in STEP_OUTPUTS])
+
+    def to_json(self) -> dict[str, Any]:
+        """Matrices with units and the discretisation, for a flight stack."""
+        return {
+            "form": "z[k+1] = A z[k] + B xi[k];  a_h[k] = C z[k] + D xi[k]  (then the tilt limit)",
+            "discretisation": "exact zero-order hold of C(s) = Gamma/(s + Gamma delta): "
+                              "A = exp(-Gamma delta T) I, B = (1 - exp(-Gamma delta T))/delta I",
+            "sample_period_s": self.T,
+            "rate_hz": self.rate_hz,
+            "A": self.A.tolist(), "B": self.B.tolist(), "C": self.C.tolist(), "D": self.D.tolist(),
+            "units": {"state z": "N", "input xi": "m", "output a_h": "m/s^2",
+                      "A": "-", "B": "N/m", "C": "1/kg", "D": "1/s^2"},
+            "state_names": ["z_x", "z_y"], "input_names": ["xi_x", "xi_y"], "output_names": ["a_x", "a_y"],
+            "g_m_s2": self.g,
+            "tilt_limit_deg": math.degrees(self.tilt_limit_rad),
+            "output_stage": "a_h scaled to norm <= g_z tan(tilt_limit), g_z = max(g - a_z, "
+                            f"{IL.G_Z_MIN_FRACTION:g} g); theta_d = atan2(-b_x, g_z), "
+                            "phi_d = atan(b_y cos(theta_d)/g_z), b = Rz(-psi) a_h",
+        }

@@ -1,0 +1,126 @@
+"""The linearised cascade against finite differences of the nonlinear simulator and the reduced loop."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.linalg as sla
+
+from nniquad.analysis.cascade import linearise_cascade
+from nniquad.analysis.linear import poles_and_damping
+from nniquad.control.gains import PAPER_GAINS, Gains, InnerLoopGains
+from nniquad.model.numeric import mixer_function, param_vector
+from nniquad.model.vehicle import PAPER_VEHICLE
+from nniquad.sim.simulate import STATE_NAMES, SimOptions, SimParams, initial_state, rhs_function, step_function
+
+GAINS = Gains(kp=13.148341568334407, Gamma=25.27258951977003, delta=0.19046572101699574)
+INNER = InnerLoopGains(attitude_wn_rad_s=101.56021438245625, attitude_zeta=1.1320049751084362,
+                       attitude_accel_limit_rad_s2=31.13986455385077)
+
+
+@pytest.fixture(scope="module")
+def cascade():
+    return linearise_cascade(PAPER_VEHICLE, GAINS, INNER)
+
+
+def _params(motor_lag: bool, inner=INNER, gains=GAINS) -> np.ndarray:
+    opts = SimOptions(model="full", motor_lag=motor_lag, sample_hold=False, inner=inner)
+    return SimParams.from_options(PAPER_VEHICLE, gains, opts)
+
+
+def _fd_jacobian(fun, x0: np.ndarray, idx: list[int], h: float = 1e-6) -> np.ndarray:
+    """Central finite differences of fun (numpy in, numpy out) over the states idx."""
+    cols = []
+    for i in idx:
+        d = np.zeros_like(x0)
+        d[i] = h
+        cols.append((fun(x0 + d) - fun(x0 - d)) / (2 * h))
+    return np.array(cols).T
+
+
+def _kept(cascade, motor_lag=True):
+    names = STATE_NAMES["full"]
+    return [names.index(n) for n in cascade.closed_loop_states]
+
+
+def test_hover_is_an_equilibrium_of_the_nonlinear_loop(cascade):
+    p = _params(True)
+    x0 = initial_state("full", p, (0.0, 0.0))
+    f = np.asarray(rhs_function("full")(x0, np.zeros(5), p.vector())).ravel()
+    assert np.max(np.abs(f)) == 0.0
+    assert cascade.lin.residual == 0.0
+    # one RK4 step leaves it unchanged too
+    xn = np.asarray(step_function("full")(x0, np.array([0, 0, 1.0, 0, 0]), p.vector())).ravel()
+    assert np.max(np.abs(xn - x0)) < 1e-12
+
+
+def test_closed_loop_matrix_matches_finite_differences_of_the_rhs(cascade):
+    # continuous measurement (sample_hold off): a second path through the simulator than the split
+    p = _params(True)
+    x0 = initial_state("full", p, (0.0, 0.0))
+    f = rhs_function("full")
+    idx = _kept(cascade)
+    fun = lambda x: np.asarray(f(x, np.zeros(5), p.vector())).ravel()[idx]  # noqa: E731
+    J_fd = _fd_jacobian(fun, x0, idx)
+    A = cascade.A
+    scale = np.maximum(np.abs(A), 1.0)
+    assert np.max(np.abs(A - J_fd) / scale) < 1e-5
+
+
+def test_one_rk4_step_matches_the_matrix_exponential(cascade):
+    p = _params(True)
+    x0 = initial_state("full", p, (0.0, 0.0))
+    step = step_function("full")
+    idx = _kept(cascade)
+    e = np.zeros(5)  # no sample flag: held states unused with sample_hold off
+    fun = lambda x: np.asarray(step(x, e, p.vector())).ravel()[idx]  # noqa: E731
+    Phi_fd = _fd_jacobian(fun, x0, idx)
+    Phi = sla.expm(cascade.A * p.dt)
+    assert np.max(np.abs(Phi - Phi_fd) / np.maximum(np.abs(Phi), 1.0)) < 1e-5
+
+
+def test_controller_blocks_are_the_closed_form_law(cascade):
+    g, m = GAINS, PAPER_VEHICLE.m
+    np.testing.assert_allclose(cascade.A_k, -g.Gamma * g.delta * np.eye(2), rtol=1e-12)
+    np.testing.assert_allclose(cascade.B_k, g.Gamma * np.eye(2), rtol=1e-12)
+    np.testing.assert_allclose(cascade.C_k, np.eye(2) / m, rtol=1e-10)
+    np.testing.assert_allclose(cascade.D_k, -g.kp * np.eye(2), rtol=1e-10)
+
+
+def test_plant_without_motor_lag_matches_the_lag_free_simulator():
+    cas = linearise_cascade(PAPER_VEHICLE, GAINS, INNER, motor_lag=False)
+    p = _params(False)
+    x0 = initial_state("full", p, (0.0, 0.0))
+    f = rhs_function("full")
+    idx = _kept(cas)
+    fun = lambda x: np.asarray(f(x, np.zeros(5), p.vector())).ravel()[idx]  # noqa: E731
+    J_fd = _fd_jacobian(fun, x0, idx)
+    assert np.max(np.abs(cas.A - J_fd) / np.maximum(np.abs(cas.A), 1.0)) < 1e-5
+
+
+def test_allocation_jacobian_inverts_the_mixer(cascade):
+    import casadi as ca
+
+    w = ca.SX.sym("w", 4)
+    u, _ = mixer_function()(w, param_vector(PAPER_VEHICLE))
+    J = ca.Function("J", [w], [ca.jacobian(u, w)])
+    w_hover = cascade.lin.x_eq[[STATE_NAMES["full"].index(f"w{i}") for i in range(1, 5)]]
+    np.testing.assert_allclose(np.asarray(J(w_hover)) @ cascade.M_alloc, np.eye(4), atol=1e-9)
+
+
+@pytest.mark.parametrize("gains", [GAINS, PAPER_GAINS])
+def test_fast_attitude_loop_without_lag_recovers_the_reduced_poles(gains):
+    red = poles_and_damping(PAPER_VEHICLE.m, gains.kp, gains.Gamma, gains.delta).poles
+    errors = []
+    for wn in (300.0, 3000.0):
+        cas = linearise_cascade(PAPER_VEHICLE, gains, InnerLoopGains(attitude_wn_rad_s=wn), motor_lag=False)
+        ev = np.linalg.eigvals(cas.A)
+        # each reduced pole is matched by the nearest cascade eigenvalue (distinct ones, greedy)
+        free = list(ev)
+        err = 0.0
+        for lam in red:
+            j = int(np.argmin([abs(mu - lam) for mu in free]))
+            err = max(err, abs(free.pop(j) - lam) / abs(lam))
+        errors.append(err)
+    assert errors[1] < 2e-3
+    assert errors[1] < errors[0] / 5  # the gap closes as the attitude loop gets faster (~1/wn)

@@ -1,0 +1,93 @@
+"""``nniquad export``: the generated C step, compiled with gcc, against the numpy controller."""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from nniquad.analysis.sampled import nni_zoh_closed_form
+from nniquad.certificates.certificate import certificate_gains, certificate_vehicle, load_certificate
+from nniquad.certificates.export import STEP_NAME, controller_from_certificate
+from nniquad.sim.simulate import SimOptions, simulate
+
+CERT = Path(__file__).resolve().parents[1] / "notebooks" / "data" / "full_model_certificate.json"
+
+DRIVER = r"""
+#include <stdio.h>
+#include "nniquad_nni_step.h"
+int main(void) {
+    double z[2] = {0.0, 0.0}, xi[2], psi, a_z, z_next[2], a_h[2], tilt[2];
+    const double *arg[nniquad_nni_step_SZ_ARG] = {z, xi, &psi, &a_z};
+    double *res[nniquad_nni_step_SZ_RES] = {z_next, a_h, tilt};
+    while (scanf("%lf %lf %lf %lf", &xi[0], &xi[1], &psi, &a_z) == 4) {
+        if (nniquad_nni_step(arg, res, 0, 0, 0) != 0) return 1;
+        printf("%.17g %.17g %.17g %.17g %.17g %.17g\n", z_next[0], z_next[1], a_h[0], a_h[1], tilt[0], tilt[1]);
+        z[0] = z_next[0]; z[1] = z_next[1];
+    }
+    return 0;
+}
+"""
+
+
+@pytest.mark.skipif(shutil.which("gcc") is None, reason="needs the system C compiler")
+def test_generated_c_matches_the_python_controller(tmp_path, run_cli):
+    code, out, err = run_cli("export", str(CERT), "--format", "c", "--out", str(tmp_path))
+    assert code == 0, err
+    (tmp_path / "driver.c").write_text(DRIVER)
+    exe = tmp_path / "driver"
+    subprocess.run(["gcc", "-std=c99", "-O2", "-o", str(exe), str(tmp_path / "driver.c"),
+                    str(tmp_path / f"{STEP_NAME}.c"), "-lm"], check=True, capture_output=True)
+    # a recorded run: the reduced model sampled at 100 Hz from the paper's start (saturates first)
+    cert = load_certificate(CERT)
+    tr = simulate(certificate_vehicle(cert), certificate_gains(cert),
+                  SimOptions(model="reduced", horizon_s=3.0, output_dt_s=0.01, sample_hold=True))
+    xi = tr.xy
+    rng = np.random.default_rng(3)
+    psi = rng.uniform(-math.pi, math.pi, len(xi))      # exercise the yaw rotation
+    a_z = rng.uniform(-3.0, 3.0, len(xi))              # and the altitude command in g_z
+    text = "\n".join(f"{a:.17g} {b:.17g} {c:.17g} {d:.17g}" for (a, b), c, d in zip(xi, psi, a_z)) + "\n"
+    got = np.loadtxt(subprocess.run([str(exe)], input=text, capture_output=True, text=True, check=True)
+                     .stdout.splitlines())
+    ref = controller_from_certificate(cert, 100.0).run(xi, psi, a_z)
+    np.testing.assert_allclose(got[:, 0:2], ref["z"][1:], rtol=0, atol=1e-12 * max(1.0, np.max(np.abs(ref["z"]))))
+    np.testing.assert_allclose(got[:, 2:4], ref["a_h"], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(got[:, 4:6], ref["tilt_sp"], rtol=0, atol=1e-12)
+    assert np.any(np.hypot(*ref["a_h"].T) < np.max(np.hypot(*ref["a_h"].T)) * 0.99)  # limit both on and off
+
+
+def test_json_export_states_the_exact_discretisation(tmp_path, run_cli):
+    code, _, err = run_cli("export", str(CERT), "--format", "json", "--out", str(tmp_path), "--rate", "250")
+    assert code == 0, err
+    doc = json.loads((tmp_path / "nniquad_controller.json").read_text())
+    g = certificate_gains(load_certificate(CERT))
+    a, b = nni_zoh_closed_form(g.Gamma, g.delta, 1 / 250)
+    np.testing.assert_allclose(doc["A"], a * np.eye(2), rtol=1e-15)
+    np.testing.assert_allclose(doc["B"], b * np.eye(2), rtol=1e-15)
+    np.testing.assert_allclose(doc["D"], -g.kp * np.eye(2), rtol=1e-15)
+    assert doc["rate_hz"] == 250 and doc["units"]["B"] == "N/m"
+    assert doc["sampled_cascade"]["stable"] and doc["sampled_cascade"]["spectral_radius"] < 1
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--rate", "0"], "rate must be a finite positive"),
+    (["--rate", "nan"], "rate must be a finite positive"),
+    (["--out", "/proc/nniquad-cannot"], "cannot write to"),
+])
+def test_bad_input_gets_one_line(tmp_path, run_cli, args, message):
+    argv = ["export", str(CERT), "--out", str(tmp_path / "o"), *args]
+    code, out, err = run_cli(*argv)
+    assert code == 2 and message in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "o" / "nniquad_controller.json").exists()
+
+
+def test_bad_certificate_gets_one_line(tmp_path, run_cli):
+    bad = tmp_path / "bad.json"
+    bad.write_text(CERT.read_text().replace('"kp": 13.', '"kp": 14.'))
+    code, _, err = run_cli("export", str(bad), "--out", str(tmp_path / "o"))
+    assert code == 2 and "digest mismatch" in err and len(err.strip().splitlines()) == 1
