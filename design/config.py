@@ -19,6 +19,9 @@ __all__ = [
     "DT_S",
     "OUTPUT_DT_S",
     "MASS_RANGE_FRACTION",
+    "CONTROL_RATE_HZ",
+    "REQUIRED_GM_DB",
+    "REQUIRED_PM_DEG",
 ]
 
 #: Initial horizontal position of the paper's run, north/east [m], at rest (DESIGN.md).
@@ -41,3 +44,9 @@ DT_S: float = 1e-3
 OUTPUT_DT_S: float = 0.01
 #: Default true-mass interval of the robust LMIs and certificates, as fractions of the nominal mass.
 MASS_RANGE_FRACTION: tuple[float, float] = (0.8, 1.2)
+#: Control rate = position sample rate [Hz] of the sampled-data loop and of the exported controller (issue 15).
+CONTROL_RATE_HZ: float = 100.0
+#: Required gain margin [dB], both ways (gain increase and reduction); flight-control practice (MIL-F-9490D).
+REQUIRED_GM_DB: float = 6.0
+#: Required phase margin [deg]; flight-control practice (MIL-F-9490D).
+REQUIRED_PM_DEG: float = 45.0

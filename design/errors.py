@@ -15,6 +15,8 @@ __all__ = [
     "CertificateError",
     "SimulationError",
     "MonteCarloError",
+    "CascadeError",
+    "ExportError",
 ]
 
 
@@ -44,3 +46,13 @@ class SimulationError(NniquadError):
 
 class MonteCarloError(NniquadError):
     """A Monte Carlo option is invalid, or the cluster cannot be reached or failed."""
+
+
+class CascadeError(NniquadError):
+    """The linearised cascade cannot be built or analysed as asked (no hover equilibrium, an inexact
+    plant/controller split, an unknown break point or controller variant, a non-positive sample rate)."""
+
+
+class ExportError(NniquadError):
+    """A controller cannot be exported as asked (bad rate or format, unwritable folder, sampled loop
+    unstable at the rate)."""

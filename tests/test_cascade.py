@@ -6,12 +6,13 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 
-from nniquad.analysis.cascade import linearise_cascade
-from nniquad.analysis.linear import poles_and_damping
-from nniquad.control.gains import PAPER_GAINS, Gains, InnerLoopGains
+from nniquad.analysis.cascade import linearise, linearise_cascade
+from nniquad.analysis.linear import ReducedLoop
+from nniquad.control.gains import PAPER_GAINS, Gains, InnerLoopGains, PDGains
+from nniquad.errors import CascadeError, NniquadError
 from nniquad.model.numeric import mixer_function, param_vector
 from nniquad.model.vehicle import PAPER_VEHICLE
-from nniquad.sim.simulate import STATE_NAMES, SimOptions, SimParams, initial_state, rhs_function, step_function
+from nniquad.sim import EXO_FIELDS, STATE_NAMES, SimOptions, SimParams, initial_state, rhs_function, step_function
 
 GAINS = Gains(kp=13.148341568334407, Gamma=25.27258951977003, delta=0.19046572101699574)
 INNER = InnerLoopGains(attitude_wn_rad_s=101.56021438245625, attitude_zeta=1.1320049751084362,
@@ -23,7 +24,10 @@ def cascade():
     return linearise_cascade(PAPER_VEHICLE, GAINS, INNER)
 
 
-def _params(motor_lag: bool, inner=INNER, gains=GAINS) -> np.ndarray:
+NO_EXO = np.zeros(len(EXO_FIELDS))
+
+
+def _params(motor_lag: bool, inner=INNER, gains=GAINS) -> SimParams:
     opts = SimOptions(model="full", motor_lag=motor_lag, sample_hold=False, inner=inner)
     return SimParams.from_options(PAPER_VEHICLE, gains, opts)
 
@@ -46,11 +50,13 @@ def _kept(cascade, motor_lag=True):
 def test_hover_is_an_equilibrium_of_the_nonlinear_loop(cascade):
     p = _params(True)
     x0 = initial_state("full", p, (0.0, 0.0))
-    f = np.asarray(rhs_function("full")(x0, np.zeros(5), p.vector())).ravel()
+    f = np.asarray(rhs_function("full")(x0, NO_EXO, p.vector())).ravel()
     assert np.max(np.abs(f)) == 0.0
     assert cascade.lin.residual == 0.0
     # one RK4 step leaves it unchanged too
-    xn = np.asarray(step_function("full")(x0, np.array([0, 0, 1.0, 0, 0]), p.vector())).ravel()
+    sample = NO_EXO.copy()
+    sample[EXO_FIELDS.index("sample_flag")] = 1.0
+    xn = np.asarray(step_function("full")(x0, sample, p.vector())).ravel()
     assert np.max(np.abs(xn - x0)) < 1e-12
 
 
@@ -60,7 +66,7 @@ def test_closed_loop_matrix_matches_finite_differences_of_the_rhs(cascade):
     x0 = initial_state("full", p, (0.0, 0.0))
     f = rhs_function("full")
     idx = _kept(cascade)
-    fun = lambda x: np.asarray(f(x, np.zeros(5), p.vector())).ravel()[idx]  # noqa: E731
+    fun = lambda x: np.asarray(f(x, NO_EXO, p.vector())).ravel()[idx]  # noqa: E731
     J_fd = _fd_jacobian(fun, x0, idx)
     A = cascade.A
     scale = np.maximum(np.abs(A), 1.0)
@@ -72,10 +78,10 @@ def test_one_rk4_step_matches_the_matrix_exponential(cascade):
     x0 = initial_state("full", p, (0.0, 0.0))
     step = step_function("full")
     idx = _kept(cascade)
-    e = np.zeros(5)  # no sample flag: held states unused with sample_hold off
+    e = NO_EXO  # no sample flag: held states unused with sample_hold off
     fun = lambda x: np.asarray(step(x, e, p.vector())).ravel()[idx]  # noqa: E731
     Phi_fd = _fd_jacobian(fun, x0, idx)
-    Phi = sla.expm(cascade.A * p.dt)
+    Phi = sla.expm(cascade.A * p.run.dt)
     assert np.max(np.abs(Phi - Phi_fd) / np.maximum(np.abs(Phi), 1.0)) < 1e-5
 
 
@@ -93,7 +99,7 @@ def test_plant_without_motor_lag_matches_the_lag_free_simulator():
     x0 = initial_state("full", p, (0.0, 0.0))
     f = rhs_function("full")
     idx = _kept(cas)
-    fun = lambda x: np.asarray(f(x, np.zeros(5), p.vector())).ravel()[idx]  # noqa: E731
+    fun = lambda x: np.asarray(f(x, NO_EXO, p.vector())).ravel()[idx]  # noqa: E731
     J_fd = _fd_jacobian(fun, x0, idx)
     assert np.max(np.abs(cas.A - J_fd) / np.maximum(np.abs(cas.A), 1.0)) < 1e-5
 
@@ -110,7 +116,7 @@ def test_allocation_jacobian_inverts_the_mixer(cascade):
 
 @pytest.mark.parametrize("gains", [GAINS, PAPER_GAINS])
 def test_fast_attitude_loop_without_lag_recovers_the_reduced_poles(gains):
-    red = poles_and_damping(PAPER_VEHICLE.m, gains.kp, gains.Gamma, gains.delta).poles
+    red = ReducedLoop(PAPER_VEHICLE.m, gains).poles_and_damping().poles
     errors = []
     for wn in (300.0, 3000.0):
         cas = linearise_cascade(PAPER_VEHICLE, gains, InnerLoopGains(attitude_wn_rad_s=wn), motor_lag=False)
@@ -124,3 +130,26 @@ def test_fast_attitude_loop_without_lag_recovers_the_reduced_poles(gains):
         errors.append(err)
     assert errors[1] < 2e-3
     assert errors[1] < errors[0] / 5  # the gap closes as the attitude loop gets faster (~1/wn)
+
+
+def test_bad_requests_raise_the_cascade_error(cascade):
+    # errors by kind: every refusal of the cascade is a CascadeError, hence a one-line NniquadError in the CLI
+    assert issubclass(CascadeError, NniquadError)
+    with pytest.raises(CascadeError, match="finite positive"):
+        cascade.closed_loop(0.0)
+    with pytest.raises(CascadeError, match="controller variant"):
+        cascade.closed_loop(100.0, controller="analogue")
+    with pytest.raises(CascadeError, match="break point"):
+        cascade.closed_loop(None).loop("yaw")
+    with pytest.raises(CascadeError, match="'linear' or 'full'"):
+        linearise("reduced", _params(True))
+    pd = SimParams.from_options(PAPER_VEHICLE, PDGains(kp=4.0, kd=3.0), SimOptions(model="full"))
+    with pytest.raises(CascadeError, match="NNI controller"):
+        linearise("full", pd)
+
+
+def test_a_mass_error_is_not_an_equilibrium():
+    # the plant heavier than the controller's model: hover thrust is short, so f(x_hover) != 0
+    p = _params(True).with_(plant={"m": 1.1 * PAPER_VEHICLE.m})
+    with pytest.raises(CascadeError, match="not an equilibrium"):
+        linearise("full", p)

@@ -12,9 +12,11 @@ import numpy as np
 import pytest
 
 from nniquad.analysis.sampled import nni_zoh_closed_form
-from nniquad.certificates.certificate import certificate_gains, certificate_vehicle, load_certificate
-from nniquad.certificates.export import STEP_NAME, controller_from_certificate
-from nniquad.sim.simulate import SimOptions, simulate
+from nniquad.certificates.certificate import certificate_gains, certificate_vehicle, load_certificate, \
+    read_certificate
+from nniquad.certificates.export import STEP_NAME, controller_from_certificate, export_controller
+from nniquad.errors import ExportError, NniquadError
+from nniquad.sim import SimOptions, simulate
 
 CERT = Path(__file__).resolve().parents[1] / "notebooks" / "data" / "full_model_certificate.json"
 
@@ -46,7 +48,7 @@ def test_generated_c_matches_the_python_controller(tmp_path, run_cli):
     # a recorded run: the reduced model sampled at 100 Hz from the paper's start (saturates first)
     cert = load_certificate(CERT)
     tr = simulate(certificate_vehicle(cert), certificate_gains(cert),
-                  SimOptions(model="reduced", horizon_s=3.0, output_dt_s=0.01, sample_hold=True))
+                  SimOptions(model="reduced", horizon_s=3.0, output_dt_s=0.01, sample_hold=True))[0]
     xi = tr.xy
     rng = np.random.default_rng(3)
     psi = rng.uniform(-math.pi, math.pi, len(xi))      # exercise the yaw rotation
@@ -91,3 +93,18 @@ def test_bad_certificate_gets_one_line(tmp_path, run_cli):
     bad.write_text(CERT.read_text().replace('"kp": 13.', '"kp": 14.'))
     code, _, err = run_cli("export", str(bad), "--out", str(tmp_path / "o"))
     assert code == 2 and "digest mismatch" in err and len(err.strip().splitlines()) == 1
+
+
+def test_typed_and_mapping_certificates_give_one_controller():
+    typed, mapping = read_certificate(CERT), load_certificate(CERT)
+    a, b = controller_from_certificate(typed, 100.0), controller_from_certificate(mapping, 100.0)
+    for name in ("A", "B", "C", "D"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+    assert a.tilt_limit_rad == b.tilt_limit_rad == math.radians(mapping["tilt_limit_deg"])
+
+
+def test_export_errors_are_project_errors(tmp_path):
+    assert issubclass(ExportError, NniquadError)
+    with pytest.raises(ExportError, match="unknown format"):
+        export_controller(read_certificate(CERT), tmp_path, fmt="rust")
+    assert not any(tmp_path.iterdir())

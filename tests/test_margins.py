@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from nniquad.analysis.cascade import linearise_cascade
-from nniquad.analysis.margins import REQUIRED_GM_DB, REQUIRED_PM_DEG, cascade_margins, frequency_grid, \
-    frequency_response, loop_margins
+from nniquad.analysis.margins import cascade_margins, frequency_grid, frequency_response, loop_margins
 from nniquad.analysis.sampled import sampled_gain_interval
+from nniquad.config import REQUIRED_GM_DB, REQUIRED_PM_DEG
 from nniquad.control.gains import Gains, InnerLoopGains
 from nniquad.model.vehicle import PAPER_VEHICLE
 
@@ -36,6 +36,21 @@ def test_third_order_loop_closed_form():
     dm, _, dpm = ct.disk_margins(L, w, skew=0.0)
     assert m.disk_alpha == pytest.approx(dm, rel=1e-9)
     assert m.disk_pm_deg == pytest.approx(dpm, rel=1e-9)
+
+
+@pytest.mark.parametrize("k, stable", [(5.9, True), (6.1, False)])
+def test_disk_margin_applies_only_to_a_stable_loop(k, stable):
+    # L = k/(s (s+1)(s+2)): 1 + L = 0 is s^3 + 3 s^2 + 2 s + k, stable iff 0 < k < 6 (Routh)
+    m = loop_margins(ct.ss(ct.tf([k], [1, 3, 2, 0])), "test", "continuous", None)
+    assert m.stable is stable
+    d = json.loads(json.dumps(m.to_json(), allow_nan=False))
+    if stable:
+        assert 0 < m.disk_alpha < 2 and m.disk_gm_db > 0 and m.disk_pm_deg > 0
+        assert "disk alpha" in str(m)
+    else:
+        assert (m.disk_alpha, m.disk_gm_db, m.disk_pm_deg) == (None, None, None)
+        assert (d["disk_alpha"], d["disk_gm_db"], d["disk_pm_deg"]) == (None, None, None)
+        assert "n/a" in str(m) and not m.meets_requirement
 
 
 def test_frequency_response_matches_python_control():

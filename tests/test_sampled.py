@@ -15,7 +15,7 @@ from nniquad.control.discrete import DiscreteNNI
 from nniquad.control.gains import Gains, InnerLoopGains
 from nniquad.errors import SolverError
 from nniquad.model.vehicle import PAPER_VEHICLE
-from nniquad.sim.simulate import SimOptions, simulate
+from nniquad.sim import SimOptions, simulate
 
 GAINS = Gains(kp=13.148341568334407, Gamma=25.27258951977003, delta=0.19046572101699574)
 INNER = InnerLoopGains(attitude_wn_rad_s=101.56021438245625, attitude_zeta=1.1320049751084362,
@@ -50,7 +50,7 @@ def test_held_sampled_cascade_matches_the_nonlinear_simulator(cascade):
     xi0 = (2e-4, -1.5e-4)
     opts = SimOptions(model="full", horizon_s=1.0, output_dt_s=0.01, motor_lag=True, sample_hold=True,
                       noise_rate_hz=100.0, xi0=xi0, inner=INNER)
-    tr = simulate(PAPER_VEHICLE, GAINS, opts)
+    tr = simulate(PAPER_VEHICLE, GAINS, opts)[0]
     sd = sampled_cascade(cascade, 100.0, controller="held")
     x = np.zeros(len(sd.state_names))
     x[sd.state_names.index("x")], x[sd.state_names.index("y")] = xi0
@@ -85,9 +85,9 @@ def test_lmi_certifies_the_sampled_loops(which, cascade):
 
 
 def test_reduced_sampled_loop_tends_to_the_continuous_loop():
-    from nniquad.analysis.linear import poles_and_damping
+    from nniquad.analysis.linear import ReducedLoop
 
-    cont = poles_and_damping(PAPER_VEHICLE.m, GAINS.kp, GAINS.Gamma, GAINS.delta)
+    cont = ReducedLoop.from_vehicle(PAPER_VEHICLE, GAINS).poles_and_damping()
     fast = sampled_reduced_loop(PAPER_VEHICLE, GAINS, 1e4)
     assert fast.decay_rate == pytest.approx(-cont.max_real_part, rel=1e-3)
 

@@ -2,7 +2,7 @@
 
 What is linearised
 ------------------
-The closed-loop right-hand side :func:`nniquad.sim.simulate.rhs_function` of the
+The closed-loop right-hand side :func:`nniquad.sim.rhs_function` of the
 simulator (itself generated from the sympy model of :mod:`nniquad.model.symbolic`
 and the inner loops of :mod:`nniquad.control.inner_loops`) is differentiated
 with CasADi at hover.  Nothing is retyped: every matrix below is a block of
@@ -68,23 +68,24 @@ from typing import Literal
 import casadi as ca
 import numpy as np
 
+from nniquad.config import TILT_LIMIT_DEG
 from nniquad.control import inner_loops as IL
 from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, InnerLoopGains
-from nniquad.errors import NniquadError
+from nniquad.errors import CascadeError
 from nniquad.model.vehicle import Vehicle
-from nniquad.sim.simulate import (
+from nniquad.sim import (
     EXO_FIELDS,
     OUTPUT_NAMES,
     STATE_NAMES,
     SimOptions,
     SimParams,
     initial_state,
+    n_params,
     output_function,
     rhs_function,
 )
 
 __all__ = [
-    "CascadeError",
     "LINEARISATION_OFFSET_M",
     "EQUILIBRIUM_TOL",
     "SPLIT_TOL",
@@ -111,10 +112,6 @@ BREAK_POINTS: tuple[str, ...] = ("horizontal", "attitude")
 CONTROLLER_VARIANTS: tuple[str, ...] = ("discrete", "held")
 
 
-class CascadeError(NniquadError):
-    """The cascade cannot be linearised as stated (no equilibrium, inexact split, bad option)."""
-
-
 # =============================================================================== raw Jacobians
 
 
@@ -127,7 +124,7 @@ class Linearisation:
     model
         Simulator model (``"linear"`` or ``"full"``).
     state_names
-        Names of the simulator states (:data:`nniquad.sim.simulate.STATE_NAMES`).
+        Names of the simulator states (:data:`nniquad.sim.STATE_NAMES`).
     x_eq : ndarray
         The hover state (position 0, at rest, rotors at the nominal hover speed).
     residual
@@ -157,7 +154,7 @@ class Linearisation:
 def _jacobian_function(model: str) -> ca.Function:
     n = len(STATE_NAMES[model])
     X = ca.SX.sym("x", n)
-    p = ca.SX.sym("p", len(SimParams.__dataclass_fields__))
+    p = ca.SX.sym("p", n_params("nni"))
     e = ca.DM.zeros(len(EXO_FIELDS))
     f = rhs_function(model)(X, e, p)
     out = OUTPUT_NAMES[model]
@@ -173,8 +170,8 @@ def linearise(model: str, params: SimParams, *, offset: float = LINEARISATION_OF
     model
         ``"linear"`` or ``"full"`` (``"reduced"`` equals ``"linear"`` near hover).
     params
-        Parameter vector (:class:`nniquad.sim.simulate.SimParams`); its
-        ``sample_hold`` is set to 1 here.
+        Parameter set (:class:`nniquad.sim.SimParams`, NNI gains); its
+        ``run.sample_hold`` is set to 1 here.
     offset
         Symmetric offset of the held measurement [m] (module docstring).
 
@@ -190,7 +187,9 @@ def linearise(model: str, params: SimParams, *, offset: float = LINEARISATION_OF
     """
     if model not in ("linear", "full"):
         raise CascadeError(f"the cascade is linearised on the 'linear' or 'full' model, not {model!r}")
-    p = params.with_(sample_hold=1.0)
+    if not isinstance(params, SimParams) or params.controller != "nni":
+        raise CascadeError("the cascade is linearised with a SimParams of the NNI controller")
+    p = params.with_(run={"sample_hold": 1.0})
     names = STATE_NAMES[model]
     x_eq = initial_state(model, p, (0.0, 0.0))
     fn = _jacobian_function(model)
@@ -456,7 +455,8 @@ def allocation_jacobian(params: SimParams) -> np.ndarray:
     Parameters
     ----------
     params
-        Parameter vector; the controller's nominal ``m, g, l, b, d`` and ``ω_max`` are read.
+        Parameter set; the controller's nominal ``m, g, l, b, d`` and the plant's ``ω_max``
+        (the limit the simulator's allocation uses) are read.
 
     Returns
     -------
@@ -464,9 +464,10 @@ def allocation_jacobian(params: SimParams) -> np.ndarray:
         Columns: collective thrust [N], roll, pitch, yaw torque [N m].
     """
     u = ca.SX.sym("u", 4)
-    w, _ = IL.allocate(u[0], u[1:4], params.l_nom, params.b_nom, params.d_nom, params.omega_max)
+    nom = params.nominal
+    w, _ = IL.allocate(u[0], u[1:4], nom.l, nom.b, nom.d, params.plant.omega_max)
     jac = ca.Function("alloc_jac", [u], [ca.jacobian(w, u)])
-    hover = np.array([params.m_nom * params.g_nom, 0.0, 0.0, 0.0])
+    hover = np.array([nom.m * nom.g, 0.0, 0.0, 0.0])
     return np.asarray(jac(hover), float)
 
 
@@ -505,8 +506,6 @@ def linearise_cascade(
     CascadeError
         No equilibrium at hover, or the plant/controller split is not exact.
     """
-    from nniquad.config import TILT_LIMIT_DEG
-
     params = _hover_params(vehicle, gains, inner, TILT_LIMIT_DEG if tilt_limit_deg is None else tilt_limit_deg,
                            tau_motor_s)
     lin = linearise("full", params)
@@ -535,7 +534,7 @@ def linearise_cascade(
     B_r, B_w = B_full[:nr], B_full[nr:]
     if _split_residual(B_r, 0 * B_r) > SPLIT_TOL:
         raise CascadeError("a_h reaches the rigid body other than through the rotors")
-    tau_m = params.tau_motor
+    tau_m = params.plant.tau_motor
     A_rr, A_rw = J[np.ix_(ir, ir)], J[np.ix_(ir, iw)]
     A_wr, A_ww = J[np.ix_(iw, ir)], J[np.ix_(iw, iw)]
     if _split_residual(A_ww * tau_m, -np.eye(4)) > SPLIT_TOL:

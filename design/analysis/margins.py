@@ -26,7 +26,13 @@ exact LTI loop transfer function), so it uses ``"pade"``; its gain interval is
 also checked exactly by :func:`nniquad.analysis.sampled.sampled_gain_interval`.
 
 Requirement (flight-control practice, e.g. MIL-F-9490D): gain margin at least
-:data:`REQUIRED_GM_DB` both ways and phase margin at least :data:`REQUIRED_PM_DEG`.
+:data:`nniquad.config.REQUIRED_GM_DB` both ways and phase margin at least
+:data:`nniquad.config.REQUIRED_PM_DEG`.
+
+The disk margin measures how far the loop is from *losing* stability, so it
+needs a stable closed loop at unit gain: for an unstable loop the formula still
+returns a number (``2/max|(1 - L)/(1 + L)|``), but it guarantees nothing, and
+:class:`Margins` reports the disk margin as not applicable (``None``).
 """
 
 from __future__ import annotations
@@ -37,11 +43,10 @@ from typing import Any
 
 import numpy as np
 
-from nniquad.analysis.cascade import BREAK_POINTS, CascadeError, LinearCascade
+from nniquad.analysis.cascade import BREAK_POINTS, LinearCascade
+from nniquad.config import CONTROL_RATE_HZ, REQUIRED_GM_DB, REQUIRED_PM_DEG
 
 __all__ = [
-    "REQUIRED_GM_DB",
-    "REQUIRED_PM_DEG",
     "Margins",
     "loop_margins",
     "gain_interval",
@@ -50,11 +55,6 @@ __all__ = [
     "disk_margin",
     "cascade_margins",
 ]
-
-#: Required gain margin [dB], both ways (gain increase and reduction).
-REQUIRED_GM_DB = 6.0
-#: Required phase margin [deg].
-REQUIRED_PM_DEG = 45.0
 
 
 def _db(k: float) -> float:
@@ -130,9 +130,11 @@ class Margins:
     w_pc_rad_s
         Phase crossover frequency of python-control's gain margin [rad/s].
     disk_alpha
-        Balanced disk margin α (skew 0).
+        Balanced disk margin α (skew 0); ``None`` (not applicable) when the
+        closed loop is unstable at unit gain (module docstring).
     disk_gm_db, disk_pm_deg
-        Gain [dB] and phase [deg] margins guaranteed jointly by the disk.
+        Gain [dB] and phase [deg] margins guaranteed jointly by the disk
+        (``None`` with :attr:`disk_alpha`).
     stable
         Whether the closed loop is stable at unit gain.
     """
@@ -145,19 +147,21 @@ class Margins:
     pm_deg: float
     w_gc_rad_s: float
     w_pc_rad_s: float
-    disk_alpha: float
-    disk_gm_db: float
-    disk_pm_deg: float
+    disk_alpha: float | None
+    disk_gm_db: float | None
+    disk_pm_deg: float | None
     stable: bool
 
     @property
     def meets_requirement(self) -> bool:
-        """``GM >= 6 dB`` both ways and ``PM >= 45 deg`` on a stable loop."""
+        """Gain margin >= ``REQUIRED_GM_DB`` both ways and phase margin >= ``REQUIRED_PM_DEG``
+        (:mod:`nniquad.config`) on a stable loop."""
         return bool(self.stable and self.gm_db >= REQUIRED_GM_DB and self.gm_lower_db <= -REQUIRED_GM_DB
                     and self.pm_deg >= REQUIRED_PM_DEG)
 
     def to_json(self) -> dict[str, Any]:
-        """Plain dictionary with units in the keys; non-finite numbers as strings ("inf", "nan")."""
+        """Plain dictionary with units in the keys; non-finite numbers as strings ("inf", "nan"),
+        a disk margin that does not apply as ``None`` (JSON ``null``)."""
         d = asdict(self)
         for k, v in d.items():
             if isinstance(v, float) and not math.isfinite(v):
@@ -169,10 +173,11 @@ class Margins:
     def __str__(self) -> str:
         rate = "continuous" if self.rate_hz is None else f"{self.rate_hz:g} Hz"
         verdict = "meets" if self.meets_requirement else "FAILS"
+        disk = ("disk margin n/a (unstable loop)" if self.disk_alpha is None else
+                f"disk alpha {self.disk_alpha:.3g} ({self.disk_gm_db:.2f} dB, {self.disk_pm_deg:.2f} deg)")
         return (f"{self.break_point:10s} ({self.method}, {rate}): GM +{self.gm_db:.2f}/{self.gm_lower_db:.2f} dB, "
-                f"PM {self.pm_deg:.2f} deg at {self.w_gc_rad_s:.3g} rad/s, disk alpha {self.disk_alpha:.3g} "
-                f"({self.disk_gm_db:.2f} dB, {self.disk_pm_deg:.2f} deg) -- {verdict} GM >= {REQUIRED_GM_DB:g} dB, "
-                f"PM >= {REQUIRED_PM_DEG:g} deg")
+                f"PM {self.pm_deg:.2f} deg at {self.w_gc_rad_s:.3g} rad/s, {disk} -- {verdict} "
+                f"GM >= {REQUIRED_GM_DB:g} dB, PM >= {REQUIRED_PM_DEG:g} deg")
 
 
 def frequency_grid(L, n: int = 3000) -> np.ndarray:
@@ -254,16 +259,17 @@ def loop_margins(L, break_point: str, method: str, rate_hz: float | None,
         w_pc = float(wpc[j])
     else:
         w_pc = math.nan
-    alpha, dgm, dpm = disk_margin(resp)
+    # the disk margin presumes a stable nominal loop; for an unstable one it does not apply
+    alpha, dgm, dpm = disk_margin(resp) if stable else (None, None, None)
     return Margins(
         break_point=break_point, method=method, rate_hz=rate_hz,
         gm_db=_db(k_hi) if stable else math.nan, gm_lower_db=_db(k_lo) if stable else math.nan,
         pm_deg=pm_deg, w_gc_rad_s=w_gc, w_pc_rad_s=w_pc,
-        disk_alpha=alpha, disk_gm_db=_db(dgm), disk_pm_deg=dpm, stable=stable,
+        disk_alpha=alpha, disk_gm_db=None if dgm is None else _db(dgm), disk_pm_deg=dpm, stable=stable,
     )
 
 
-def cascade_margins(cascade: LinearCascade, rate_hz: float | None = 100.0, *, controller: str = "discrete",
+def cascade_margins(cascade: LinearCascade, rate_hz: float | None = CONTROL_RATE_HZ, *, controller: str = "discrete",
                     pade_order: int = 2) -> dict[str, Margins]:
     """Margins at both break points, plus the exact discrete-time horizontal margins when sampled.
 

@@ -48,11 +48,11 @@ from typing import Any
 import numpy as np
 import scipy.linalg as sla
 
-from nniquad.analysis.cascade import CONTROLLER_VARIANTS, CascadeError, LinearCascade
-from nniquad.errors import SolverError
+from nniquad.analysis.cascade import CONTROLLER_VARIANTS, LinearCascade
+from nniquad.config import CONTROL_RATE_HZ
+from nniquad.errors import CascadeError, SolverError
 
 __all__ = [
-    "DEFAULT_RATE_HZ",
     "zoh",
     "nni_zoh_closed_form",
     "SampledLoop",
@@ -64,9 +64,6 @@ __all__ = [
     "DiscreteDecay",
     "discrete_lyapunov_decay",
 ]
-
-#: Default control rate [Hz] of the sampled loop (issue 15: ``--rate``, default 100 Hz).
-DEFAULT_RATE_HZ = 100.0
 
 
 def _period(rate_hz: float) -> float:
@@ -170,7 +167,7 @@ def _plant_with_torque_gain(cascade: LinearCascade, k: float) -> tuple[np.ndarra
     return cascade.A_p + (k - 1.0) * np.outer(b, t_p), cascade.B_p + (k - 1.0) * np.outer(b, t_a)
 
 
-def sampled_cascade(cascade: LinearCascade, rate_hz: float = DEFAULT_RATE_HZ, *, controller: str = "discrete",
+def sampled_cascade(cascade: LinearCascade, rate_hz: float = CONTROL_RATE_HZ, *, controller: str = "discrete",
                     torque_gain: float = 1.0) -> SampledLoop:
     """The exact sampled-data cascade at the sample instants.
 
@@ -236,7 +233,7 @@ def sampled_loop_from_blocks(A_p: np.ndarray, B_p: np.ndarray, C_p: np.ndarray, 
     return SampledLoop(A_d, T, tuple(names), controller, breaks)
 
 
-def sampled_reduced_loop(vehicle, gains, rate_hz: float = DEFAULT_RATE_HZ, *, controller: str = "discrete") -> SampledLoop:
+def sampled_reduced_loop(vehicle, gains, rate_hz: float = CONTROL_RATE_HZ, *, controller: str = "discrete") -> SampledLoop:
     """The paper's reduced loop (``ξ'' = a_h``, both axes) sampled at ``rate_hz``, from the ``linear`` model.
 
     The plant and the controller are the Jacobian blocks of the simulator's
@@ -244,7 +241,7 @@ def sampled_reduced_loop(vehicle, gains, rate_hz: float = DEFAULT_RATE_HZ, *, co
     the cascade; the sampling is as in :func:`sampled_cascade`.
     """
     from nniquad.analysis.cascade import linearise
-    from nniquad.sim.simulate import SimOptions, SimParams
+    from nniquad.sim import SimOptions, SimParams
 
     p = SimParams.from_options(vehicle, gains, SimOptions(model="linear", sample_hold=True))
     lin = linearise("linear", p)
@@ -260,7 +257,7 @@ def sampled_reduced_loop(vehicle, gains, rate_hz: float = DEFAULT_RATE_HZ, *, co
                                     rate_hz, controller)
 
 
-def sampled_gain_interval(cascade: LinearCascade, rate_hz: float = DEFAULT_RATE_HZ, *, controller: str = "discrete",
+def sampled_gain_interval(cascade: LinearCascade, rate_hz: float = CONTROL_RATE_HZ, *, controller: str = "discrete",
                           k_max: float = 1e5, rtol: float = 1e-6) -> tuple[float, float]:
     """Exact gain interval of the continuous roll-torque command inside the sampled-data loop.
 

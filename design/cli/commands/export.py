@@ -20,21 +20,21 @@ valid or the sampled cascade is unstable at the rate."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from nniquad.analysis.sampled import DEFAULT_RATE_HZ
     from nniquad.certificates.export import FORMATS
+    from nniquad.config import CONTROL_RATE_HZ
 
     parser.add_argument("certificate", metavar="CERT.json", help="certificate file written by 'nniquad certify'")
     parser.add_argument("--format", choices=FORMATS, default="json", help="output format (default json)")
     parser.add_argument("--out", metavar="DIR", required=True, help="output folder (created if missing)")
-    parser.add_argument("--rate", metavar="HZ", type=float, default=DEFAULT_RATE_HZ,
-                        help=f"control rate = position sample rate in Hz (default {DEFAULT_RATE_HZ:g})")
+    parser.add_argument("--rate", metavar="HZ", type=float, default=CONTROL_RATE_HZ,
+                        help=f"control rate = position sample rate in Hz (default {CONTROL_RATE_HZ:g})")
 
 
 def run(args: argparse.Namespace) -> int:
-    from nniquad.certificates.certificate import load_certificate
+    from nniquad.certificates.certificate import read_certificate
     from nniquad.certificates.export import export_controller
 
-    cert = load_certificate(args.certificate)
+    cert = read_certificate(args.certificate)
     for path in export_controller(cert, args.out, args.format, args.rate):
         print(f"wrote {path}")
     return 0
