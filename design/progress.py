@@ -1,0 +1,111 @@
+"""One progress mechanism for every long run (command line, report, notebooks), built on tqdm.
+
+Library functions take a plain callback ``progress(fraction, message="")``:
+``fraction`` in [0, 1] (or ``None`` when only the message changed).  A
+:class:`Progress` is such a callback: on a terminal it draws a tqdm bar on
+stderr; elsewhere (CI logs, pipes) it prints a plain line at most every
+``every_s`` seconds, so logs stay readable.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from typing import IO, Callable, Optional
+
+__all__ = ["Progress", "ProgressCallback", "silent"]
+
+#: Signature of the callback every long-running library function accepts.
+ProgressCallback = Callable[..., None]
+
+
+def silent(fraction: Optional[float] = None, message: str = "") -> None:
+    """A progress callback that shows nothing."""
+
+
+class Progress:
+    """Progress on stderr for one labelled job.
+
+    Parameters
+    ----------
+    label
+        What is running, e.g. ``"tune"`` or ``"montecarlo"``.
+    stream
+        Where to write (default ``sys.stderr``).
+    every_s
+        Minimum time between plain lines when the stream is not a terminal [s].
+    enabled
+        ``False`` shows nothing; ``None`` (default) shows progress.
+
+    Examples
+    --------
+    >>> p = Progress("simulate", enabled=False)
+    >>> p(0.5, "half way")
+    >>> p.close()
+    """
+
+    def __init__(self, label: str, stream: IO[str] | None = None, every_s: float = 5.0,
+                 enabled: bool | None = None) -> None:
+        self.label = label
+        self.stream = sys.stderr if stream is None else stream
+        self.every_s = every_s
+        self.enabled = enabled is not False
+        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
+        self.t0 = time.perf_counter()
+        self._last = -float("inf")
+        self._fraction = 0.0
+        self._message = ""
+        self._bar = None
+        if self.enabled and self.tty:
+            from tqdm import tqdm
+
+            self._bar = tqdm(total=1000, desc=label, file=self.stream, leave=True, dynamic_ncols=True,
+                             bar_format="{desc}: {percentage:3.0f}%|{bar}| [{elapsed}<{remaining}] {postfix}")
+
+    @property
+    def elapsed_s(self) -> float:
+        """Seconds since the job started."""
+        return time.perf_counter() - self.t0
+
+    def __call__(self, fraction: Optional[float] = None, message: str = "") -> None:
+        """Report progress: the completed ``fraction`` (or ``None``) and a short status ``message``."""
+        if not self.enabled:
+            return
+        changed_message = bool(message) and message != self._message
+        if fraction is not None:
+            self._fraction = min(max(float(fraction), 0.0), 1.0)
+        if message:
+            self._message = message
+        if self._bar is not None:
+            self._bar.n = int(round(1000 * self._fraction))
+            self._bar.set_postfix_str(self._message, refresh=False)
+            self._bar.refresh()
+            return
+        now = self.elapsed_s
+        if now - self._last >= self.every_s or (changed_message and now - self._last >= 1.0) or self._fraction >= 1.0:
+            self._last = now
+            self.stream.write(f"[{self.label} {now:7.1f} s] {100 * self._fraction:3.0f} %  {self._message}\n")
+            self.stream.flush()
+
+    def note(self, message: str) -> None:
+        """Print one line now (a stage change), whatever the rate limit."""
+        if not self.enabled:
+            return
+        line = f"[{self.label} {self.elapsed_s:7.1f} s] {message}"
+        if self._bar is not None:
+            self._bar.write(line, file=self.stream)
+        else:
+            self.stream.write(line + "\n")
+            self.stream.flush()
+        self._message = message
+        self._last = self.elapsed_s
+
+    def close(self, message: str = "done") -> None:
+        """End the job with a closing line (``"done"``, ``"interrupted"``, ...)."""
+        if not self.enabled:
+            return
+        if self._bar is not None:
+            self._bar.close()
+            self._bar = None
+        self.stream.write(f"[{self.label}] {message} in {self.elapsed_s:.1f} s\n")
+        self.stream.flush()
