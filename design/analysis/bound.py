@@ -40,6 +40,7 @@ from typing import Any, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
+from nniquad.config import TILT_LIMIT_DEG, XI0_M
 from nniquad.errors import SimulationError, SolverError
 from nniquad.analysis.metrics import DEFAULT_BAND_FRACTION
 from nniquad.model.vehicle import PAPER_VEHICLE, Vehicle
@@ -57,10 +58,10 @@ __all__ = [
     "DEFAULT_N_INTERVALS",
 ]
 
-#: Paper's initial horizontal position [m] (DESIGN.md).
-DEFAULT_XI0: tuple[float, float] = (2.0, -1.5)
-#: Default tilt limit [deg] (DESIGN.md).
-DEFAULT_TILT_LIMIT_DEG = 30.0
+#: Paper's initial horizontal position [m] (:data:`nniquad.config.XI0_M`).
+DEFAULT_XI0: tuple[float, float] = XI0_M
+#: Default tilt limit [deg] (:data:`nniquad.config.TILT_LIMIT_DEG`).
+DEFAULT_TILT_LIMIT_DEG = TILT_LIMIT_DEG
 #: Control intervals of the transcription; the discrete optimum is above the
 #: continuous one by O(h²), about 1e-5 relative at 200 intervals.
 DEFAULT_N_INTERVALS = 200
@@ -226,6 +227,11 @@ class BoundResult:
     def enter_band_rel_error(self) -> float:
         """``(IPOPT - closed form) / closed form`` for the enter-band case."""
         return (self.enter_band_s - self.enter_band_closed_form_s) / self.enter_band_closed_form_s
+
+    def __repr__(self) -> str:
+        return (f"BoundResult(enter_band_s={self.enter_band_s:.4g} s, rest_to_rest_s={self.rest_to_rest_s:.4g} s, "
+                f"a_max={self.a_max_m_s2:.4g} m/s^2 at tilt {self.effective_tilt_limit_deg:.4g} deg, "
+                f"|xi0|={self.distance_m:.4g} m, vehicle={self.vehicle_name!r})")
 
     def ratio(self, settling_s: float | None) -> float | None:
         """A settling time as a multiple of ``enter_band_s`` (``None`` if not settled)."""

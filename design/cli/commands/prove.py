@@ -6,7 +6,6 @@ import argparse
 import sys
 from pathlib import Path
 
-from nniquad.errors import NniquadError
 
 HELP = "audit every claim of the paper: verdict, evidence, correction"
 DESCRIPTION = """Audit the claims of Ghallab & Petersen's paper, one check per claim.
@@ -35,35 +34,27 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--strict", action="store_true", help="exit 1 when any claim is not 'holds'")
 
 
-def _parse_only(text: str | None, known: list[str]) -> list[str] | None:
-    if text is None:
-        return None
-    ids = [p.strip() for p in text.split(",") if p.strip()]
-    if not ids:
-        raise NniquadError("--only needs at least one claim id")
-    for i in ids:
-        if i not in known:
-            raise NniquadError(f"unknown claim id {i!r} (known: {', '.join(known)})")
-    return ids
+def _ids(text: str | None) -> list[str] | None:
+    """Claim ids of ``--only`` (validated by :func:`nniquad.proofs.audit.audit`)."""
+    return None if text is None else [p.strip() for p in text.split(",") if p.strip()]
 
 
 def run(args: argparse.Namespace) -> int:
-    from nniquad.proofs.claims import HOLDS, audit_table, audit_to_json, audit_to_markdown, claim_ids, run_audit
+    from nniquad.proofs.audit import audit
+    from nniquad.proofs.claims import HOLDS, claim_ids
 
     from nniquad.io import atomic_write_json, atomic_write_text
 
-    known = claim_ids()
     if args.list:
-        print("\n".join(known))
+        print("\n".join(claim_ids()))
         return 0
-    only = _parse_only(args.only, known)
-    results = run_audit(only)
-    print(audit_table(results))
+    results = audit(_ids(args.only))
+    print(results.table())
     if args.json:
-        atomic_write_json(args.json, audit_to_json(results))
+        atomic_write_json(args.json, results.to_json())
         print(f"wrote {Path(args.json)}", file=sys.stderr)
     if args.markdown:
-        atomic_write_text(args.markdown, audit_to_markdown(results))
+        atomic_write_text(args.markdown, results.markdown())
         print(f"wrote {Path(args.markdown)}", file=sys.stderr)
     if args.strict and any(r.verdict != HOLDS for r in results):
         return 1
