@@ -142,7 +142,7 @@ def test_cli_prints_table_and_writes_json(run_cli, tmp_path):
 
 def test_cli_options_change_the_bound(run_cli, tmp_path):
     path = tmp_path / "b.json"
-    code, _, err = run_cli("bound", "--tilt-limit-deg", "45", "--xi0", "3", "4", "--json", str(path))
+    code, _, err = run_cli("bound", "--tilt-limit", "45", "--xi0", "3", "4", "--json", str(path))
     assert code == 0, err
     data = json.loads(path.read_text())
     assert data["a_max_m_s2"] == pytest.approx(9.81, rel=1e-12)  # tan 45° = 1
@@ -152,10 +152,10 @@ def test_cli_options_change_the_bound(run_cli, tmp_path):
 @pytest.mark.parametrize(
     "argv",
     [
-        ("--tilt-limit-deg", "0"),
-        ("--tilt-limit-deg", "90"),
-        ("--tilt-limit-deg", "-5"),
-        ("--tilt-limit-deg", "nan"),
+        ("--tilt-limit", "0"),
+        ("--tilt-limit", "90"),
+        ("--tilt-limit", "-5"),
+        ("--tilt-limit", "nan"),
         ("--xi0", "0", "0"),
         ("--xi0", "inf", "1"),
     ],

@@ -42,7 +42,7 @@ def test_lmi_two_axes_and_mass_range(run_cli):
         (["--delta", "abc"], "delta"),
         (["--kpy", "0"], "kpy"),
         (["--mass-range", "1.0", "0.5"], "mass-range"),
-        (["--tilt-limit-deg", "inf"], "tilt"),
+        (["--tilt-limit", "inf"], "tilt"),
     ],
 )
 def test_bad_gains_exit_2_one_line(run_cli, argv, word):

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import argparse
 
-from nniquad.analysis.bound import DEFAULT_TILT_LIMIT_DEG, DEFAULT_XI0, time_optimal_bound
-from .common import add_json_option, add_vehicle_option, vehicle_from_args, write_json_if_asked
+from nniquad.analysis.bound import time_optimal_bound
+from .common import add_json_option, add_tilt_limit_option, add_xi0_option, add_vehicle_option, vehicle_from_args, write_json_if_asked
 
 __all__ = ["HELP", "DESCRIPTION", "add_arguments", "run"]
 
@@ -30,27 +30,14 @@ physical limit)."""
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_vehicle_option(parser)
-    parser.add_argument(
-        "--tilt-limit-deg",
-        type=float,
-        default=DEFAULT_TILT_LIMIT_DEG,
-        metavar="DEG",
-        help=f"tilt limit in degrees, strictly between 0 and 90 (default {DEFAULT_TILT_LIMIT_DEG:g})",
-    )
-    parser.add_argument(
-        "--xi0",
-        type=float,
-        nargs=2,
-        default=list(DEFAULT_XI0),
-        metavar=("X", "Y"),
-        help=f"initial horizontal position in m, at rest (default {DEFAULT_XI0[0]:g} {DEFAULT_XI0[1]:g})",
-    )
+    add_tilt_limit_option(parser)
+    add_xi0_option(parser)
     add_json_option(parser, "bounds, closed forms, solver statistics and optimal trajectories")
 
 
 def run(args: argparse.Namespace) -> int:
     vehicle = vehicle_from_args(args)
-    res = time_optimal_bound(vehicle, xi0=tuple(args.xi0), tilt_limit_deg=args.tilt_limit_deg)
+    res = time_optimal_bound(vehicle, xi0=tuple(args.xi0), tilt_limit_deg=args.tilt_limit)
     print(f"vehicle: {vehicle.name}")
     rows = [
         ("initial distance |xi0|", res.distance_m, "m"),

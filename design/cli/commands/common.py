@@ -13,7 +13,7 @@ from nniquad.io import atomic_write_json
 from nniquad.validate import finite_number
 from nniquad.model.vehicle import Vehicle, load_vehicle
 
-__all__ = ["add_vehicle_option", "vehicle_from_args", "add_json_option", "write_json_if_asked", "finite_positive"]
+__all__ = ["add_tilt_limit_option", "add_xi0_option", "add_vehicle_option", "vehicle_from_args", "add_json_option", "write_json_if_asked", "finite_positive"]
 
 
 def add_vehicle_option(parser: argparse.ArgumentParser) -> None:
@@ -29,6 +29,22 @@ def add_vehicle_option(parser: argparse.ArgumentParser) -> None:
 def vehicle_from_args(args: argparse.Namespace) -> Vehicle:
     """The vehicle named by ``--vehicle`` (validated)."""
     return load_vehicle(getattr(args, "vehicle", None))
+
+
+def add_tilt_limit_option(parser: argparse.ArgumentParser) -> None:
+    """Add ``--tilt-limit DEG`` (default :data:`nniquad.config.TILT_LIMIT_DEG`), the one spelling of the tilt limit."""
+    from nniquad.config import TILT_LIMIT_DEG
+
+    parser.add_argument("--tilt-limit", type=float, default=TILT_LIMIT_DEG, metavar="DEG",
+                        help=f"tilt limit in degrees, strictly between 0 and 90 (default {TILT_LIMIT_DEG:g})")
+
+
+def add_xi0_option(parser: argparse.ArgumentParser) -> None:
+    """Add ``--xi0 X Y`` (default :data:`nniquad.config.XI0_M`), the initial horizontal position at rest."""
+    from nniquad.config import XI0_M
+
+    parser.add_argument("--xi0", type=float, nargs=2, default=list(XI0_M), metavar=("X", "Y"),
+                        help=f"initial horizontal position in m, at rest (default {XI0_M[0]:g} {XI0_M[1]:g})")
 
 
 def add_json_option(parser: argparse.ArgumentParser, what: str = "results") -> None:
