@@ -1,10 +1,20 @@
 """One progress mechanism for every long run (command line, report, notebooks), built on tqdm.
 
-Library functions take a plain callback ``progress(fraction, message="")``:
-``fraction`` in [0, 1] (or ``None`` when only the message changed).  A
-:class:`Progress` is such a callback: on a terminal it draws a tqdm bar on
-stderr; elsewhere (CI logs, pipes) it prints a plain line at most every
-``every_s`` seconds, so logs stay readable.
+A :class:`Progress` shows one job on stderr: on a terminal a tqdm bar, elsewhere
+(CI logs, pipes) a plain line at most every ``every_s`` seconds, so logs stay
+readable.  Library functions report progress through a plain callback, and
+the callback conventions of the jobs are adapters of the same object:
+
+``progress(fraction, message="")``
+    the general form (``fraction`` in [0, 1], or ``None`` when only the message changed);
+``progress.fraction(f)``
+    a simulation's completed fraction (:func:`nniquad.sim.simulate`);
+``progress.message(text)``
+    a status line (:func:`nniquad.tune`, :func:`nniquad.certify`);
+``progress.count(done, total)``
+    finished units of work (:func:`nniquad.montecarlo`);
+``progress.stage(stage, fraction, detail="")``
+    a stage of a pipeline (:func:`nniquad.report`).
 """
 
 from __future__ import annotations
@@ -86,6 +96,27 @@ class Progress:
             self._last = now
             self.stream.write(f"[{self.label} {now:7.1f} s] {100 * self._fraction:3.0f} %  {self._message}\n")
             self.stream.flush()
+
+    def fraction(self, fraction: float) -> None:
+        """Callback for a completed fraction in [0, 1]."""
+        self(fraction)
+
+    def message(self, text: str) -> None:
+        """Callback for a status line (no fraction)."""
+        self(None, text)
+
+    def count(self, done: int, total: int) -> None:
+        """Callback for ``done`` of ``total`` units of work finished."""
+        self(done / max(total, 1), f"{done}/{total}")
+
+    def stage(self, stage: str, fraction: float, detail: str = "") -> None:
+        """Callback for a pipeline: a new ``stage`` is printed at once, a ``detail`` at the usual rate."""
+        if stage != getattr(self, "_stage", None):
+            self._stage = stage
+            self._fraction = min(max(float(fraction), 0.0), 1.0)
+            self.note(f"{100 * self._fraction:3.0f} %  {stage}")
+        elif detail:
+            self(fraction, detail)
 
     def note(self, message: str) -> None:
         """Print one line now (a stage change), whatever the rate limit."""

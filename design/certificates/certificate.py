@@ -458,6 +458,27 @@ class Certificate:
         """The certified displacement from rest [m] (``region_of_attraction.max_displacement_m``)."""
         return float(self.region_of_attraction["max_displacement_m"])
 
+    def write(self, path: str | Path) -> Path:
+        """Write the certificate atomically to ``path`` (JSON); returns the path.
+
+        Parameters
+        ----------
+        path
+            Destination file (its folder is created if needed).
+        """
+        return write_certificate(self, path)
+
+    @classmethod
+    def read(cls, path: str | Path) -> "Certificate":
+        """Read and form-check a certificate file (:func:`read_certificate`).
+
+        Parameters
+        ----------
+        path
+            A certificate written by :meth:`write` or ``nniquad certify``.
+        """
+        return read_certificate(path)
+
     def __repr__(self) -> str:
         g = self.gains
         return (f"Certificate(vehicle={self.vehicle.name!r}, kp={g.kp:.6g}, Gamma={g.Gamma:.6g}, delta={g.delta:.6g}, "

@@ -7,14 +7,13 @@ import math
 import os
 import shlex
 import sys
-import time
 from pathlib import Path
 from typing import Any
 
 from nniquad.errors import NniquadError
 from nniquad.io import atomic_write_json
 
-__all__ = ["HELP", "DESCRIPTION", "add_arguments", "run", "partial_path", "Progress"]
+__all__ = ["HELP", "DESCRIPTION", "add_arguments", "run", "partial_path"]
 
 HELP = "Monte Carlo robustness study of a certificate"
 DESCRIPTION = """Draw N perturbed scenarios of a certificate's gain set and simulate each on
@@ -125,40 +124,6 @@ def partial_path(json_path: str | None, seed: int) -> Path:
     return Path(f"montecarlo-seed{seed}.partial.json")
 
 
-class Progress:
-    """Progress on stderr: a bar on a terminal, else a line every 10 % (at most one per 2 s)."""
-
-    def __init__(self, total: int, label: str, stream=None) -> None:
-        self.total = total
-        self.stream = sys.stderr if stream is None else stream
-        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
-        self.t0 = time.perf_counter()
-        self.last_t = self.t0
-        self.last_frac = 0.0
-        self.drawn = False
-        print(f"[montecarlo] {label} ...", file=self.stream, flush=True)
-
-    def __call__(self, done: int, total: int) -> None:
-        now = time.perf_counter()
-        frac = done / max(total, 1)
-        elapsed = now - self.t0
-        eta = elapsed * (1 - frac) / max(frac, 1e-9)
-        text = f"{done}/{total} scenarios ({100 * frac:.0f} %), {elapsed:.1f} s, eta {eta:.0f} s"
-        if self.tty:
-            n = int(30 * frac)
-            self.stream.write(f"\r[montecarlo] [{'#' * n}{'.' * (30 - n)}] {text}   ")
-            self.stream.flush()
-            self.drawn = True
-        elif done == total or (frac - self.last_frac >= 0.1 and now - self.last_t >= 2.0) or now - self.last_t >= 30:
-            print(f"[montecarlo] {text}", file=self.stream, flush=True)
-            self.last_t, self.last_frac = now, frac
-
-    def done(self, note: str = "done") -> None:
-        if self.drawn:
-            self.stream.write("\n")
-        print(f"[montecarlo] {note} in {time.perf_counter() - self.t0:.1f} s", file=self.stream, flush=True)
-
-
 def _worker_threads(client: Any) -> dict[str, int]:
     try:
         return {str(k): int(v) for k, v in client.nthreads().items()}
@@ -208,8 +173,7 @@ def _rerun(args: argparse.Namespace, setup, ranges) -> int:
 
 def run(args: argparse.Namespace) -> int:
     from nniquad.certificates.certificate import load_certificate
-    from nniquad.study import (MonteCarloError, close_client, cluster_threads, connect_scheduler, draw_scenarios,
-                              run_study, study_setup, summarize)
+    from nniquad.study import MonteCarloError, close_client, cluster_threads, connect_scheduler, study_setup
 
     if args.rerun is None:
         _positive("--samples", args.samples)
@@ -231,11 +195,13 @@ def run(args: argparse.Namespace) -> int:
     if args.rerun is not None:
         return _rerun(args, setup, ranges)
 
+    from nniquad.progress import Progress
+    from nniquad.study.job import montecarlo
+
     client = None
     if args.scheduler:
         client = connect_scheduler(args.scheduler)
     try:
-        scenarios = draw_scenarios(args.samples, args.seed, ranges, setup)
         if client is not None:
             threads = cluster_threads(client)
             where = f"Dask scheduler {args.scheduler} ({threads} worker thread(s))"
@@ -246,34 +212,27 @@ def run(args: argparse.Namespace) -> int:
                       "time whatever its threads; start workers with --nworkers N --nthreads 1", file=sys.stderr)
         else:
             where = f"{args.workers or os.cpu_count() or 1} local worker(s)"
-        progress = Progress(args.samples, f"{args.samples} scenarios of {setup.horizon_s:g} s on {where}")
-        study = run_study(scenarios, workers=args.workers, client=client, batch_size=args.batch_size,
-                          progress=progress)
+        progress = Progress("montecarlo")
+        progress.note(f"{args.samples} scenarios of {setup.horizon_s:g} s on {where}")
+        result = montecarlo(setup, args.samples, args.seed, ranges=ranges, workers=args.workers, client=client,
+                            batch_size=args.batch_size, n_worst=args.worst, progress=progress.count)
     finally:
         if client is not None:
             close_client(client)
-    progress.done("interrupted" if study.partial else "done")
+    study = result.run
+    progress.close("interrupted" if study.partial else "done")
     hint = _rerun_hint(args)
-    data: dict[str, Any] = {
-        "partial": study.partial,
-        "completed": len(study.results),
-        "requested": study.n_requested,
-        "study": _study_json(args, setup, ranges),
-        "run": {"executor": study.executor, "workers": study.workers, "batch_size": study.batch_size,
-                "elapsed_s": study.elapsed_s, "scenarios_per_s": study.scenarios_per_s},
-        "rerun": hint,
-    }
-    summary = summarize(study.results, n_worst=args.worst, partial=study.partial) if study.results else None
-    if summary is not None:
+    data: dict[str, Any] = result.to_json()
+    data["study"] = {"certificate": str(args.certificate), **data["study"]}
+    data["rerun"] = hint
+    if result.summary is not None:
         print(f"certificate: {args.certificate}  {setup.label}")
         g = setup.base.gains
         print(f"gains: kp={g.kp:g} kpy={g.kp_y:g} Gamma={g.Gamma:g} delta={g.delta:g}   horizon {setup.horizon_s:g} s, "
               f"displacement up to {setup.region_m:.3g} m, settling band {setup.band_m:.3g} m")
-        print(summary.table(rerun_hint=hint))
+        print(result.table(rerun_hint=hint))
         print(f"{study.executor}, {study.workers} worker(s), batches of {study.batch_size}: "
               f"{study.scenarios_per_s:.2f} scenarios/s")
-    data["summary"] = None if summary is None else summary.to_json()
-    data["results"] = [r.to_json() for r in study.results]
     if study.partial:
         target = partial_path(args.json, args.seed)
         atomic_write_json(target, data)

@@ -1,0 +1,109 @@
+"""The jobs ``certify`` and ``verify``: issue a certified gain set, and check one independently."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Callable, Mapping
+
+from nniquad.certificates.build import build_certificate
+from nniquad.certificates.certificate import Certificate
+from nniquad.certificates.verify import Verification, verify_certificate
+from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, InnerLoopGains
+from nniquad.errors import CertificateError, NniquadError
+from nniquad.model.vehicle import PAPER_VEHICLE, Vehicle
+
+__all__ = ["certify", "verify"]
+
+
+def certify(vehicle: Vehicle | None = None, gains: Gains | None = None, *, inner: InnerLoopGains | None = None,
+            options: Any = None, progress: Callable[[str], None] | None = None) -> Certificate:
+    """Tune (unless gains are given), solve every LMI, simulate the reference runs and sign.
+
+    The certificate is verified independently (:func:`verify`) before it is
+    returned, so a certificate this function returns always verifies.
+
+    Parameters
+    ----------
+    vehicle
+        The vehicle; default the paper's.
+    gains
+        Gains to certify; ``None`` tunes them first with ``options``.
+    inner
+        Inner-loop gains of the ``full`` reference run (with given ``gains``;
+        default :data:`nniquad.control.gains.DEFAULT_INNER_LOOP_GAINS`).  When the
+        gains are tuned, the inner loops are tuned with them.
+    options
+        A :class:`nniquad.tuning.tune.TuneOptions`: the model, ``gamma_max``, the
+        tilt limit and the mass interval of the certificate, and how to tune.
+    progress
+        Called with one-line status messages.
+
+    Returns
+    -------
+    Certificate
+        Signed (SHA-256 digest of the canonical content); write it with
+        :meth:`Certificate.write` or :func:`nniquad.certificates.write_certificate`.
+
+    Raises
+    ------
+    CertificateError
+        The gains violate the sector bound, an LMI is infeasible, or the
+        certificate fails its own verification: nothing is certified.
+    """
+    from nniquad.tuning.tune import TuneOptions, tune
+
+    vehicle = PAPER_VEHICLE if vehicle is None else vehicle
+    options = TuneOptions() if options is None else options
+    if not isinstance(options, TuneOptions):
+        raise NniquadError("options must be a TuneOptions")
+    say = progress or (lambda msg: None)
+    tuning: dict[str, Any]
+    if gains is None:
+        if inner is not None:
+            raise NniquadError("the inner loops are tuned with the gains: give gains to certify given inner loops")
+        res = tune(vehicle, options, progress=progress)
+        gains, inner = res.gains, res.inner
+        tuning = {"source": "nniquad tune", **res.to_json()}
+    else:
+        if not isinstance(gains, Gains):
+            raise NniquadError("gains must be a Gains (kp, Gamma, delta)")
+        inner = DEFAULT_INNER_LOOP_GAINS if inner is None else inner
+        tuning = {"source": "given gains"}
+    cert = build_certificate(vehicle, gains, inner=inner, gamma_max=options.gamma_max,
+                             tilt_limit_deg=options.tilt_limit_deg, mass_range=options.mass_range,
+                             model=options.model, tuning=tuning, progress=progress)
+    say("verifying before writing")
+    check = verify_certificate(cert)
+    if not check.ok:
+        bad = check.first_failure
+        raise CertificateError(f"certificate failed its own verification ({bad.name}: {bad.detail}); "
+                               "nothing certified")
+    return cert
+
+
+def verify(certificate: Certificate | Mapping[str, Any] | str | Path, *, simulate: bool = True,
+           progress: Callable[[str], None] | None = None) -> Verification:
+    """Recompute everything a certificate states, independently, with numpy and the simulator.
+
+    Parameters
+    ----------
+    certificate
+        A :class:`Certificate`, its JSON content, or the path of a certificate file.
+    simulate
+        Also re-simulate the reference runs (default); ``False`` checks the
+        digest and every matrix condition only.
+    progress
+        Called with one-line status messages.
+
+    Returns
+    -------
+    Verification
+        One check per statement; ``ok`` only if every check passed.
+
+    Raises
+    ------
+    CertificateError
+        The document is not a certificate (unreadable, wrong schema or version,
+        digest mismatch, malformed field).
+    """
+    return verify_certificate(certificate, simulate=simulate, progress=progress)
