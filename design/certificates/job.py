@@ -15,7 +15,7 @@ from nniquad.model.vehicle import PAPER_VEHICLE, Vehicle
 __all__ = ["certify", "verify"]
 
 
-def certify(vehicle: Vehicle | None = None, gains: Gains | None = None, *, inner: InnerLoopGains | None = None,
+def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLoopGains | None = None,
             options: Any = None, progress: Callable[[str], None] | None = None) -> Certificate:
     """Tune (unless gains are given), solve every LMI, simulate the reference runs and sign.
 
@@ -27,7 +27,10 @@ def certify(vehicle: Vehicle | None = None, gains: Gains | None = None, *, inner
     vehicle
         The vehicle; default the paper's.
     gains
-        Gains to certify; ``None`` tunes them first with ``options``.
+        Gains to certify (:class:`nniquad.control.gains.Gains`); a
+        :class:`nniquad.tuning.tune.TuneResult` (its gains and inner loops, and
+        the record of how they were found); or ``None``, which tunes them first
+        with ``options``.
     inner
         Inner-loop gains of the ``full`` reference run (with given ``gains``;
         default :data:`nniquad.control.gains.DEFAULT_INNER_LOOP_GAINS`).  When the
@@ -50,7 +53,7 @@ def certify(vehicle: Vehicle | None = None, gains: Gains | None = None, *, inner
         The gains violate the sector bound, an LMI is infeasible, or the
         certificate fails its own verification: nothing is certified.
     """
-    from nniquad.tuning.tune import TuneOptions, tune
+    from nniquad.tuning.tune import TuneOptions, TuneResult, tune
 
     vehicle = PAPER_VEHICLE if vehicle is None else vehicle
     options = TuneOptions() if options is None else options
@@ -58,10 +61,10 @@ def certify(vehicle: Vehicle | None = None, gains: Gains | None = None, *, inner
         raise NniquadError("options must be a TuneOptions")
     say = progress or (lambda msg: None)
     tuning: dict[str, Any]
-    if gains is None:
+    if gains is None or isinstance(gains, TuneResult):
         if inner is not None:
             raise NniquadError("the inner loops are tuned with the gains: give gains to certify given inner loops")
-        res = tune(vehicle, options, progress=progress)
+        res = tune(vehicle, options, progress=progress) if gains is None else gains
         gains, inner = res.gains, res.inner
         tuning = {"source": "nniquad tune", **res.to_json()}
     else:

@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 from nniquad.errors import NniquadError
-from .tune import Progress, add_tuning_options, print_tune_result, tune_options_from_args
+from nniquad.format import fmt
+
+from .tune import add_tuning_options, print_tune_result, tune_options_from_args
 
 __all__ = ["HELP", "DESCRIPTION", "add_arguments", "run"]
 
@@ -44,9 +45,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
-    from nniquad.certificates import build_certificate, verify_certificate, write_certificate
-    from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS
-    from nniquad.control.gains import Gains
+    from nniquad.certificates.job import certify
+    from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains
+    from nniquad.progress import Progress
     from nniquad.tuning.tune import tune
     from .common import finite_positive, vehicle_from_args
 
@@ -56,40 +57,29 @@ def run(args: argparse.Namespace) -> int:
     vehicle = vehicle_from_args(args)
     options = tune_options_from_args(args)
     given = [args.kp, args.Gamma, args.delta]
+    progress = Progress("certify")
     if any(v is not None for v in given):
         if any(v is None for v in given):
             raise NniquadError("give all of --kp, --Gamma and --delta to certify given gains")
         gains = Gains(*(finite_positive(n, v) for n, v in zip(("kp", "Gamma", "delta"), given)))
         changes = {k: v for k, v in (("attitude_wn_rad_s", args.attitude_wn), ("attitude_zeta", args.attitude_zeta),
                                      ("attitude_accel_limit_rad_s2", args.attitude_accel)) if v is not None}
-        inner = replace(DEFAULT_INNER_LOOP_GAINS, **changes)
-        tuning = {"source": "given gains"}
+        cert = certify(vehicle, gains, inner=replace(DEFAULT_INNER_LOOP_GAINS, **changes), options=options,
+                       progress=progress.message)
     else:
-        res = tune(vehicle, options, progress=Progress("tune"))
-        print_tune_result(res)
-        gains, inner = res.gains, res.inner
-        tuning = {"source": "nniquad tune", **res.to_json()}
-    progress = Progress("certify", every_s=0.0)
-    cert = build_certificate(vehicle, gains, inner=inner, gamma_max=options.gamma_max,
-                             tilt_limit_deg=options.tilt_limit_deg, mass_range=options.mass_range,
-                             model=options.model, tuning=tuning, progress=progress)
-    progress("verifying before writing")
-    check = verify_certificate(cert)
-    if not check.ok:
-        bad = check.first_failure
-        raise NniquadError(f"certificate failed its own verification ({bad.name}: {bad.detail}); nothing written")
-    path = write_certificate(cert, out)
-    perf = cert.performance
+        tuned = tune(vehicle, options, progress=progress.message)
+        print_tune_result(tuned)
+        cert = certify(vehicle, tuned, options=options, progress=progress.message)
+    progress.close()
+    path = cert.write(out)
+    gains, perf = cert.gains, cert.performance
     print(f"certificate: {path}")
-    print(f"  gains kp = {gains.kp:.6g} 1/s^2, Gamma = {gains.Gamma:.6g}, delta = {gains.delta:.6g}; "
-          f"gamma = {cert.sector['gamma']:.4g} <= {cert.sector['gamma_max']:g}")
+    print(f"  gains kp = {fmt(gains.kp, '1/s^2', 6)}, Gamma = {fmt(gains.Gamma, digits=6)}, "
+          f"delta = {fmt(gains.delta, digits=6)}; gamma = {fmt(cert.sector['gamma'])} <= {cert.sector['gamma_max']:g}")
     for model in ("reduced", "full"):
-        s = perf[model]["settling_s"]
-        r = cert.ratio_to_bound[model]
-        print(f"  {model:<7} settling {'-' if s is None else f'{s:.4g} s'}"
-              f" ({'-' if r is None else f'{r:.3g}'} x bound {cert.bound['enter_band_s']:.4g} s), "
-              f"peak tilt {perf[model]['peak_tilt_deg']:.4g} deg")
-    print(f"  certified reach {cert.certified_reach_m:.4g} m; "
-          f"start state certified: {'yes' if cert.start_certified else 'no'}")
-    print(f"  digest sha256 {cert.signature}", file=sys.stdout)
+        print(f"  {model:<7} settling {fmt(perf[model]['settling_s'], 's')} "
+              f"({fmt(cert.ratio_to_bound[model], digits=3)} x bound {fmt(cert.bound['enter_band_s'], 's')}), "
+              f"peak tilt {fmt(perf[model]['peak_tilt_deg'], 'deg')}")
+    print(f"  certified reach {fmt(cert.certified_reach_m, 'm')}; start state certified: {fmt(cert.start_certified)}")
+    print(f"  digest sha256 {cert.signature}")
     return 0

@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import sys
-import time
 from pathlib import Path
+
+from nniquad.progress import Progress
 
 from .common import add_vehicle_option, finite_positive, vehicle_from_args
 
@@ -38,28 +38,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="extra tuner seeds for the grid-artefact check (default 1)")
 
 
-class _Progress:
-    """One line per stage on stderr with the elapsed time, and a detail line every few seconds."""
-
-    def __init__(self, every_s: float = 5.0) -> None:
-        self.t0 = time.perf_counter()
-        self.stage = ""
-        self.every_s = every_s
-        self.last = 0.0
-
-    def __call__(self, stage: str, fraction: float, detail: str = "") -> None:
-        now = time.perf_counter() - self.t0
-        if stage != self.stage:
-            self.stage, self.last = stage, now
-            print(f"[{now:6.1f} s] {100 * fraction:3.0f} %  {stage}", file=sys.stderr, flush=True)
-        elif detail and now - self.last >= self.every_s:
-            self.last = now
-            print(f"[{now:6.1f} s]        {detail}", file=sys.stderr, flush=True)
-
-
 def run(args: argparse.Namespace) -> int:
     from nniquad.errors import GainError
-    from nniquad.reporting.report import ReportOptions, build_report
+    from nniquad.reporting.job import report
 
     vehicle = vehicle_from_args(args)
     if not (0.0 < args.gamma_max < 1.0):
@@ -67,9 +48,10 @@ def run(args: argparse.Namespace) -> int:
     if args.roa_radius is not None and args.roa_radius != 0:
         finite_positive("--roa-radius", args.roa_radius)
     out = Path(args.out)
-    options = ReportOptions(out_dir=out, model=args.model, gamma_max=args.gamma_max,
-                            roa_radius_m=args.roa_radius, budget=args.budget, reruns=args.reruns)
-    data = build_report(vehicle, options, progress=_Progress())
+    progress = Progress("report")
+    data = report(out, vehicle, model=args.model, gamma_max=args.gamma_max, roa_radius_m=args.roa_radius,
+                  budget=args.budget, reruns=args.reruns, progress=progress.stage).data
+    progress.close()
     print(f"report written to {out.resolve()} in {data['wall_time_s']:.1f} s:")
     for name in data["files"]:
         print(f"  {out / name}")

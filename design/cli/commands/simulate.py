@@ -3,17 +3,17 @@
 from __future__ import annotations
 
 import argparse
-import math
 import sys
-import time
 from pathlib import Path
-from typing import Any
 
 from nniquad.config import ALTITUDE_LIMIT_M
 from nniquad.errors import GainError, NniquadError
-from .common import add_json_option, add_vehicle_option, vehicle_from_args, write_json_if_asked
+from nniquad.format import fmt
+from nniquad.progress import Progress
+from .common import (add_json_option, add_tilt_limit_option, add_vehicle_option, add_xi0_option, vehicle_from_args,
+                     write_json_if_asked)
 
-__all__ = ["HELP", "DESCRIPTION", "add_arguments", "run", "gains_from_certificate", "StderrProgress"]
+__all__ = ["HELP", "DESCRIPTION", "add_arguments", "run", "gains_from_certificate"]
 
 HELP = "simulate the closed loop on the linear, reduced or full model"
 DESCRIPTION = """Simulate the paper's closed loop from xi_h(0) = (2, -1.5) m at rest.
@@ -50,13 +50,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         "'nniquad verify' checks the rest)")
     add_vehicle_option(parser)
     s = parser.add_argument_group("run")
+    add_xi0_option(s)
+    add_tilt_limit_option(s)
     s.add_argument("--horizon", type=float, default=60.0, metavar="T", help="simulated time in s (default 60)")
     s.add_argument("--dt", type=float, default=1e-3, metavar="S", help="RK4 step in s (default 0.001)")
     s.add_argument("--output-dt", type=float, default=0.01, metavar="S",
                    help="output sample period in s, a multiple of --dt (default 0.01)")
-    s.add_argument("--xi0", type=float, nargs=2, default=[2.0, -1.5], metavar=("X", "Y"),
-                   help="initial horizontal position in m, at rest (default 2 -1.5)")
-    s.add_argument("--tilt-limit", type=float, default=30.0, metavar="DEG", help="tilt limit in deg (default 30)")
     d = parser.add_argument_group("disturbances and uncertainty")
     d.add_argument("--noise", type=float, default=0.0, metavar="SIGMA",
                    help="position-noise standard deviation in m (default 0); the measurement is sampled and held")
@@ -96,36 +95,6 @@ def gains_from_certificate(path: str | Path):
     return certificate_gains(load_certificate(path))
 
 
-class StderrProgress:
-    """Progress on stderr: a start and an end line; a bar in between when stderr is a terminal.
-
-    The bar appears only once the run has taken more than ``delay_s``.
-    """
-
-    def __init__(self, label: str, delay_s: float = 2.0, stream=None) -> None:
-        self.label = label
-        self.delay_s = delay_s
-        self.stream = sys.stderr if stream is None else stream
-        self.t0 = time.perf_counter()
-        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
-        self.drawn = False
-        print(f"[simulate] {label} ...", file=self.stream, flush=True)
-
-    def __call__(self, fraction: float) -> None:
-        elapsed = time.perf_counter() - self.t0
-        if self.tty and elapsed > self.delay_s:
-            n = int(30 * fraction)
-            eta = elapsed * (1 - fraction) / max(fraction, 1e-9)
-            self.stream.write(f"\r[simulate] [{'#' * n}{'.' * (30 - n)}] {100 * fraction:5.1f} %  eta {eta:5.1f} s")
-            self.stream.flush()
-            self.drawn = True
-
-    def done(self) -> None:
-        if self.drawn:
-            self.stream.write("\n")
-        print(f"[simulate] done in {time.perf_counter() - self.t0:.1f} s", file=self.stream, flush=True)
-
-
 def _gains(args: argparse.Namespace):
     from nniquad.control.gains import PAPER_GAINS, Gains
 
@@ -156,16 +125,6 @@ def _inner(args: argparse.Namespace):
     changes = {k: v for k, v in (("attitude_wn_rad_s", args.attitude_wn), ("attitude_zeta", args.attitude_zeta))
                if v is not None}
     return replace(inner, **changes)
-
-
-def _fmt(value: Any, unit: str = "", digits: int = 4) -> str:
-    if value is None:
-        return "-"
-    if isinstance(value, bool):
-        return "yes" if value else "no"
-    if isinstance(value, float) and not math.isfinite(value):
-        return "-"
-    return f"{value:.{digits}g}{(' ' + unit) if unit else ''}"
 
 
 def run(args: argparse.Namespace) -> int:
@@ -202,27 +161,28 @@ def run(args: argparse.Namespace) -> int:
     if traj_path is not None and Path(traj_path).suffix.lower() not in (".npz", ".csv"):
         raise NniquadError(f"--trajectory must end in .npz or .csv, got {traj_path}")
 
-    progress = StderrProgress(f"{args.model} model, {options.horizon_s:g} s simulated")
-    traj = simulate(vehicle, gains, options, progress=progress)[0]
-    progress.done()
+    progress = Progress("simulate")
+    progress.note(f"{args.model} model, {options.horizon_s:g} s simulated")
+    traj = simulate(vehicle, gains, options, progress=progress.fraction)[0]
+    progress.close()
     m = traj.metrics()
 
     print(f"vehicle: {vehicle.name}")
     print(f"model: {args.model}   gains: kp={gains.kp:g} kpy={gains.kp_y:g} Gamma={gains.Gamma:g} delta={gains.delta:g}")
     rows = [
-        ("settling time (2 % band)", _fmt(m.settling_s, "s"), "not settled" if m.settling_s is None else ""),
-        ("overshoot along xi0", _fmt(m.overshoot_pct, "%"), ""),
-        ("peak tilt", _fmt(m.peak_tilt_deg, "deg"), ""),
-        ("peak commanded tilt", _fmt(m.peak_cmd_tilt_deg, "deg"), ""),
-        ("time on the tilt limit", _fmt(None if m.tilt_limit_fraction is None else 100 * m.tilt_limit_fraction, "%"),
+        ("settling time (2 % band)", fmt(m.settling_s, "s"), "not settled" if m.settling_s is None else ""),
+        ("overshoot along xi0", fmt(m.overshoot_pct, "%"), ""),
+        ("peak tilt", fmt(m.peak_tilt_deg, "deg"), ""),
+        ("peak commanded tilt", fmt(m.peak_cmd_tilt_deg, "deg"), ""),
+        ("time on the tilt limit", fmt(None if m.tilt_limit_fraction is None else 100 * m.tilt_limit_fraction, "%"),
          ""),
-        ("peak rotor speed", _fmt(m.peak_rotor_speed_rad_s, "rad/s"), ""),
-        ("peak altitude deviation", _fmt(m.altitude_dev_m, "m"), ""),
-        ("tilt RMS after settling", _fmt(m.tilt_jitter_rms_deg, "deg"), ""),
-        ("diverged", _fmt(m.diverged), ""),
-        ("altitude lost", _fmt(m.altitude_lost), "" if m.altitude_lost is None else f"(> {ALTITUDE_LIMIT_M:g} m)"),
+        ("peak rotor speed", fmt(m.peak_rotor_speed_rad_s, "rad/s"), ""),
+        ("peak altitude deviation", fmt(m.altitude_dev_m, "m"), ""),
+        ("tilt RMS after settling", fmt(m.tilt_jitter_rms_deg, "deg"), ""),
+        ("diverged", fmt(m.diverged), ""),
+        ("altitude lost", fmt(m.altitude_lost), "" if m.altitude_lost is None else f"(> {ALTITUDE_LIMIT_M:g} m)"),
         ("verdict", m.failure or "settled", ""),
-        ("horizon", _fmt(m.horizon_s, "s"), ""),
+        ("horizon", fmt(m.horizon_s, "s"), ""),
     ]
     for name, value, note in rows:
         print(f"{name:<26} {value:>16}  {note}")

@@ -3,15 +3,13 @@
 from __future__ import annotations
 
 import argparse
-import math
-import sys
-import time
-from typing import Any
 
-from .common import add_json_option, add_vehicle_option, vehicle_from_args, write_json_if_asked
+from nniquad.format import fmt
+
+from .common import add_json_option, add_tilt_limit_option, add_vehicle_option, vehicle_from_args, write_json_if_asked
 
 __all__ = ["HELP", "DESCRIPTION", "add_arguments", "run", "add_tuning_options", "tune_options_from_args",
-           "Progress", "print_tune_result"]
+           "print_tune_result"]
 
 HELP = "find the fastest gain set the NI theory certifies"
 DESCRIPTION = """Find the gain set (kp, Gamma, delta) with the shortest settling time.
@@ -47,7 +45,7 @@ def add_tuning_options(parser: argparse.ArgumentParser) -> None:
                         help="true masses in kg the settling time must hold for (worst case is tuned)")
     parser.add_argument("--noise", type=float, default=0.0, metavar="SIGMA",
                         help="position-noise standard deviation in m during tuning (default 0)")
-    parser.add_argument("--tilt-limit", type=float, default=30.0, metavar="DEG", help="tilt limit in deg (default 30)")
+    add_tilt_limit_option(parser)
     parser.add_argument("--budget", choices=tuple(BUDGETS), default="normal",
                         help="search effort (default normal; quick for a fast look)")
     parser.add_argument("--seed", type=int, default=0, metavar="N", help="seed of the sweep and the search (default 0)")
@@ -68,54 +66,31 @@ def tune_options_from_args(args: argparse.Namespace):
                        seed=args.seed, reruns=args.reruns, margin=args.margin)
 
 
-class Progress:
-    """Status lines on stderr with the elapsed time (one per message, rate-limited on long runs)."""
-
-    def __init__(self, label: str, every_s: float = 1.0) -> None:
-        self.label, self.every_s = label, every_s
-        self.t0 = time.perf_counter()
-        self.last = -math.inf
-
-    def __call__(self, message: str) -> None:
-        now = time.perf_counter() - self.t0
-        if now - self.last >= self.every_s or "sweep" in message:
-            print(f"[{self.label} {now:6.1f} s] {message}", file=sys.stderr, flush=True)
-            self.last = now
-
-
-def _fmt(x: Any, digits: int = 5) -> str:
-    if x is None:
-        return "-"
-    if isinstance(x, bool):
-        return "yes" if x else "no"
-    return f"{x:.{digits}g}"
-
-
 def print_tune_result(res) -> None:
     """The tuned gains and their numbers, with units."""
     m = res.metrics
     rows = [
         ("model", res.options.model, ""),
-        ("kp", _fmt(res.gains.kp), "1/s^2"),
-        ("Gamma", _fmt(res.gains.Gamma), "-"),
-        ("delta", _fmt(res.gains.delta), "-"),
-        ("smallest gamma (sector)", _fmt(res.gamma), f"<= gamma_max {res.options.gamma_max:g}"),
+        ("kp", fmt(res.gains.kp, digits=5), "1/s^2"),
+        ("Gamma", fmt(res.gains.Gamma, digits=5), "-"),
+        ("delta", fmt(res.gains.delta, digits=5), "-"),
+        ("smallest gamma (sector)", fmt(res.gamma, digits=5), f"<= gamma_max {res.options.gamma_max:g}"),
     ]
     if res.options.dims > 3:
-        rows += [("attitude natural frequency", _fmt(res.inner.attitude_wn_rad_s), "rad/s"),
-                 ("attitude damping", _fmt(res.inner.attitude_zeta), "-"),
-                 ("attitude deceleration (shaping)", _fmt(res.inner.attitude_accel_limit_rad_s2), "rad/s^2")]
+        rows += [("attitude natural frequency", fmt(res.inner.attitude_wn_rad_s, digits=5), "rad/s"),
+                 ("attitude damping", fmt(res.inner.attitude_zeta, digits=5), "-"),
+                 ("attitude deceleration (shaping)", fmt(res.inner.attitude_accel_limit_rad_s2), "rad/s^2")]
     rows += [
-        ("settling time (worst scenario)", _fmt(res.settling_s), "s"),
-        ("time-optimal bound enter_band_s", _fmt(res.bound.enter_band_s), "s"),
-        ("ratio to bound", _fmt(res.ratio_to_bound, 4), "-"),
-        ("overshoot", _fmt(m.overshoot_pct, 3), "%"),
-        ("peak actual tilt", _fmt(m.peak_tilt_deg, 4), "deg"),
-        ("peak rotor speed", _fmt(m.peak_rotor_speed_rad_s, 4), "rad/s"),
-        ("certified reach (ROA LMI)", _fmt(res.certified_reach_m, 4), f"m (required {res.roa_radius_m:g})"),
+        ("settling time (worst scenario)", fmt(res.settling_s, digits=5), "s"),
+        ("time-optimal bound enter_band_s", fmt(res.bound.enter_band_s, digits=5), "s"),
+        ("ratio to bound", fmt(res.ratio_to_bound, digits=4), "-"),
+        ("overshoot", fmt(m.overshoot_pct, digits=3), "%"),
+        ("peak actual tilt", fmt(m.peak_tilt_deg, digits=4), "deg"),
+        ("peak rotor speed", fmt(m.peak_rotor_speed_rad_s, digits=4), "rad/s"),
+        ("certified reach (ROA LMI)", fmt(res.certified_reach_m, digits=4), f"m (required {res.roa_radius_m:g})"),
         ("best settling per seed", ", ".join(f"{r['seed']}: {r['settling_s']:.4g}" for r in res.reruns), "s"),
         ("simulations / LMI solves", f"{res.n_simulations} / {res.n_lmi}", ""),
-        ("time taken", _fmt(res.elapsed_s, 3), "s"),
+        ("time taken", fmt(res.elapsed_s, digits=3), "s"),
     ]
     w = max(len(r[0]) for r in rows)
     for name, value, unit in rows:
@@ -123,11 +98,14 @@ def print_tune_result(res) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from nniquad.progress import Progress
     from nniquad.tuning.tune import tune
 
     vehicle = vehicle_from_args(args)
     options = tune_options_from_args(args)
-    res = tune(vehicle, options, progress=Progress("tune"))
+    progress = Progress("tune")
+    res = tune(vehicle, options, progress=progress.message)
+    progress.close()
     print_tune_result(res)
     write_json_if_asked(args, res.to_json())
     return 0

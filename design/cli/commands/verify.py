@@ -33,10 +33,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from nniquad.certificates import read_certificate, verify_certificate
+    from nniquad.certificates import read_certificate
+    from nniquad.certificates.job import verify
 
     cert = read_certificate(args.certificate)
-    result = verify_certificate(cert, simulate=not args.no_simulate)
+    result = verify(cert, simulate=not args.no_simulate)
     print(result.table())
     write_json_if_asked(args, result.to_json())
     if result.ok:
