@@ -98,19 +98,49 @@ class Progress:
             self.stream.flush()
 
     def fraction(self, fraction: float) -> None:
-        """Callback for a completed fraction in [0, 1]."""
+        """Callback for a completed fraction in [0, 1].
+
+        Parameters
+        ----------
+        fraction
+            Completed fraction in [0, 1].
+        """
         self(fraction)
 
     def message(self, text: str) -> None:
-        """Callback for a status line (no fraction)."""
+        """Callback for a status line (no fraction).
+
+        Parameters
+        ----------
+        text
+            One-line status.
+        """
         self(None, text)
 
     def count(self, done: int, total: int) -> None:
-        """Callback for ``done`` of ``total`` units of work finished."""
+        """Callback for ``done`` of ``total`` units of work finished.
+
+        Parameters
+        ----------
+        done
+            Units finished.
+        total
+            Units in all.
+        """
         self(done / max(total, 1), f"{done}/{total}")
 
     def stage(self, stage: str, fraction: float, detail: str = "") -> None:
-        """Callback for a pipeline: a new ``stage`` is printed at once, a ``detail`` at the usual rate."""
+        """Callback for a pipeline: a new ``stage`` is printed at once, a ``detail`` at the usual rate.
+
+        Parameters
+        ----------
+        stage
+            Name of the current stage.
+        fraction
+            Completed fraction of the whole pipeline in [0, 1].
+        detail
+            Status within the stage.
+        """
         if stage != getattr(self, "_stage", None):
             self._stage = stage
             self._fraction = min(max(float(fraction), 0.0), 1.0)
@@ -119,7 +149,13 @@ class Progress:
             self(fraction, detail)
 
     def note(self, message: str) -> None:
-        """Print one line now (a stage change), whatever the rate limit."""
+        """Print one line now (a stage change), whatever the rate limit.
+
+        Parameters
+        ----------
+        message
+            The line to print.
+        """
         if not self.enabled:
             return
         line = f"[{self.label} {self.elapsed_s:7.1f} s] {message}"
@@ -132,7 +168,13 @@ class Progress:
         self._last = self.elapsed_s
 
     def close(self, message: str = "done") -> None:
-        """End the job with a closing line (``"done"``, ``"interrupted"``, ...)."""
+        """End the job with a closing line (``"done"``, ``"interrupted"``, ...).
+
+        Parameters
+        ----------
+        message
+            How the job ended.
+        """
         if not self.enabled:
             return
         if self._bar is not None:

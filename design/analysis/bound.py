@@ -132,7 +132,15 @@ def thrust_tilt_limit_deg(vehicle: Vehicle) -> float:
 
 
 def max_horizontal_acceleration(vehicle: Vehicle, tilt_limit_deg: float) -> float:
-    """``a_max = g tan(min(tilt_limit, thrust tilt limit))`` [m/s²] at constant altitude."""
+    """``a_max = g tan(min(tilt_limit, thrust tilt limit))`` [m/s²] at constant altitude.
+
+    Parameters
+    ----------
+    vehicle
+        Supplies ``g`` and the thrust limit.
+    tilt_limit_deg
+        Tilt limit [deg].
+    """
     tilt = min(float(tilt_limit_deg), thrust_tilt_limit_deg(vehicle))
     return vehicle.g * math.tan(math.radians(tilt))
 
@@ -234,11 +242,23 @@ class BoundResult:
                 f"|xi0|={self.distance_m:.4g} m, vehicle={self.vehicle_name!r})")
 
     def ratio(self, settling_s: float | None) -> float | None:
-        """A settling time as a multiple of ``enter_band_s`` (``None`` if not settled)."""
+        """A settling time as a multiple of ``enter_band_s`` (``None`` if not settled).
+
+        Parameters
+        ----------
+        settling_s
+            A settling time [s], or ``None`` (did not settle).
+        """
         return None if settling_s is None else float(settling_s) / self.enter_band_s
 
     def to_json(self, *, include_trajectories: bool = True) -> dict[str, Any]:
-        """Plain dict with units in the key names."""
+        """Plain dict with units in the key names.
+
+        Parameters
+        ----------
+        include_trajectories
+            Also include the optimal motions (time, position, velocity, acceleration).
+        """
         out: dict[str, Any] = {
             "vehicle": self.vehicle_name,
             "xi0_m": list(self.xi0_m),

@@ -149,6 +149,10 @@ class Vehicle:
         return "\n".join(rows)
 
 
+Vehicle.__doc__ = (Vehicle.__doc__ or "").rstrip() + "\n\n    Attributes\n    ----------\n" + "".join(
+    f"    {name}\n        {DESCRIPTIONS[name]}" + (f" [{UNITS[name]}]" if UNITS[name] else "") + ".\n"
+    for name in UNITS)
+
 PAPER_VEHICLE = Vehicle(
     name="Ghallab & Petersen simulation vehicle (l, Jr from Luukkonen 2011)",
     m=0.5,
@@ -193,6 +197,11 @@ def vehicle_from_mapping(data: Mapping[str, Any], *, source: str = "vehicle") ->
 
 def load_vehicle(path: str | Path | None) -> Vehicle:
     """Load a vehicle from a ``.toml`` or ``.json`` file; ``None`` gives the paper's vehicle.
+
+    Parameters
+    ----------
+    path
+        A ``.toml`` or ``.json`` file with the fields of :class:`Vehicle`, or ``None``.
 
     Raises
     ------

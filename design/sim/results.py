@@ -141,7 +141,13 @@ class Trajectory:
         )
 
     def save(self, path: str | os.PathLike[str]) -> Path:
-        """Write the trajectory atomically: ``.npz`` (arrays + names) or ``.csv`` (one column per signal)."""
+        """Write the trajectory atomically: ``.npz`` (arrays + names) or ``.csv`` (one column per signal).
+
+        Parameters
+        ----------
+        path
+            Destination ending in ``.npz`` or ``.csv``.
+        """
         p = Path(path)
         cols = {"t": self.t}
         cols.update({n: self.state[:, i] for i, n in enumerate(self.state_names)})
@@ -238,13 +244,25 @@ class SimulationResult:
     # ---------------------------------------------------------------- signals
 
     def state(self, name: str) -> np.ndarray:
-        """State ``name`` of every run, shape ``(B, N)``."""
+        """State ``name`` of every run, shape ``(B, N)``.
+
+        Parameters
+        ----------
+        name
+            A state name of :attr:`state_names` (e.g. ``"x"``, ``"phi"``).
+        """
         if name not in self.state_names:
             raise SimulationError(f"no state '{name}' in the {self.model} model ({', '.join(self.state_names)})")
         return self.states[:, :, self.state_names.index(name)]
 
     def output(self, name: str) -> np.ndarray:
-        """Output ``name`` of every run, shape ``(B, N)``."""
+        """Output ``name`` of every run, shape ``(B, N)``.
+
+        Parameters
+        ----------
+        name
+            An output name of :attr:`output_names` (e.g. ``"tilt_cmd"``, ``"w1"``).
+        """
         if name not in self.output_names:
             raise SimulationError(f"no output '{name}' in the {self.model} model ({', '.join(self.output_names)})")
         return self.outputs[:, :, self.output_names.index(name)]

@@ -417,6 +417,19 @@ def paper_figure_runs(
 
     ``options`` (model and horizon ignored) sets anything else; the default is
     the paper's initial state without noise or wind.
+
+    Parameters
+    ----------
+    vehicle
+        The vehicle; default the paper's.
+    gains
+        The gains (default the paper's).
+    horizon_s
+        Simulated time of every run [s].
+    options
+        Anything else (model and horizon are replaced).
+    progress
+        Called with the completed fraction.
     """
     base = SimOptions() if options is None else options
     runs: dict[str, Trajectory] = {}

@@ -220,6 +220,13 @@ def search_box(options: TuneOptions, dt_s: float = DT_S) -> tuple[np.ndarray, np
     kp in [0.5, 2000] 1/s², u in [0, 4] (γ from γ_max down to γ_max e⁻⁴),
     Γδ in [0.05, 2.5/dt] 1/s; ω_a in [10, 150] rad/s, ζ_a in [0.5, 1.5],
     α/α_avail in [0.1, 1].
+
+    Parameters
+    ----------
+    options
+        The tuning options (the model decides the dimension).
+    dt_s
+        RK4 step [s]; bounds the controller pole Gamma delta <= 2.5/dt.
     """
     lo = [math.log(0.5), 0.0, math.log(0.05)]
     hi = [math.log(2000.0), 4.0, math.log(2.5 / dt_s)]
@@ -235,6 +242,13 @@ def attitude_accel_headroom(vehicle: Vehicle, tilt_limit_deg: float) -> float:
     Holding altitude at tilt ``T`` needs ``c = m g / (4 cos T)`` per rotor; a roll
     torque moves a pair apart by ``±r`` with ``r <= min(c, T_max - c)``, so
     ``α_avail = 2 l min(c, T_max - c) / J_x`` (the smaller of roll and pitch).
+
+    Parameters
+    ----------
+    vehicle
+        The vehicle (mass, arm, rotor limits, inertias).
+    tilt_limit_deg
+        Tilt limit [deg].
     """
     c = vehicle.m * vehicle.g / (4.0 * math.cos(math.radians(tilt_limit_deg)))
     t_max = vehicle.b * vehicle.omega_max**2
@@ -243,7 +257,21 @@ def attitude_accel_headroom(vehicle: Vehicle, tilt_limit_deg: float) -> float:
 
 def decode(q: Sequence[float], m: float, gamma_max: float,
            inner: InnerLoopGains = DEFAULT_INNER_LOOP_GAINS, alpha_avail: float = 1.0) -> tuple[Gains, InnerLoopGains]:
-    """Search coordinates → gains (and inner-loop gains when ``q`` has 6 entries)."""
+    """Search coordinates → gains (and inner-loop gains when ``q`` has 6 entries).
+
+    Parameters
+    ----------
+    q
+        Search coordinates (3, or 6 with the attitude loop).
+    m
+        Nominal mass [kg].
+    gamma_max
+        Ceiling of the sector bound.
+    inner
+        Inner-loop gains to start from (the attitude fields are replaced with 6 coordinates).
+    alpha_avail
+        Attitude acceleration headroom [rad/s^2] (:func:`attitude_accel_headroom`).
+    """
     kp = math.exp(q[0])
     delta = math.exp(q[1]) / (gamma_max * m * kp)
     Gamma = math.exp(q[2]) / delta
@@ -255,7 +283,21 @@ def decode(q: Sequence[float], m: float, gamma_max: float,
 
 def encode(gains: Gains, m: float, gamma_max: float, inner: InnerLoopGains | None = None,
            alpha_avail: float = 1.0) -> np.ndarray:
-    """Inverse of :func:`decode`."""
+    """Inverse of :func:`decode`.
+
+    Parameters
+    ----------
+    gains
+        The NNI gains.
+    m
+        Nominal mass [kg].
+    gamma_max
+        Ceiling of the sector bound.
+    inner
+        Inner-loop gains (adds the 3 attitude coordinates), or ``None``.
+    alpha_avail
+        Attitude acceleration headroom [rad/s^2].
+    """
     q = [math.log(gains.kp), math.log(gamma_max * m * gains.kp * gains.delta), math.log(gains.Gamma * gains.delta)]
     if inner is not None:
         q += [math.log(inner.attitude_wn_rad_s), inner.attitude_zeta,
@@ -475,8 +517,16 @@ class TuneResult:
         Largest displacement from rest its region-of-attraction LMI certifies [m].
     bound
         The time-optimal bound; ``ratio_to_bound`` = settling / ``enter_band_s``.
+    horizon_s
+        Simulated time of every candidate [s].
     reruns
         ``[{seed, settling_s, gains}]`` of the artefact check (seed of the main run first).
+    n_simulations, n_lmi
+        Simulations run and region-of-attraction LMIs solved.
+    elapsed_s
+        Wall time of the tuning [s].
+    tradeoffs
+        Labelled key numbers for the report.
     """
 
     vehicle: Vehicle
@@ -493,6 +543,12 @@ class TuneResult:
     n_lmi: int = 0
     elapsed_s: float = 0.0
     tradeoffs: list[dict[str, Any]] = field(default_factory=list)
+
+    def __repr__(self) -> str:
+        g = self.gains
+        return (f"TuneResult(model={self.options.model!r}, kp={g.kp:.5g}, Gamma={g.Gamma:.5g}, delta={g.delta:.5g}, "
+                f"settling {self.settling_s:.4g} s = {self.ratio_to_bound:.3g} x bound, "
+                f"certified reach {self.certified_reach_m:.3g} m)")
 
     @property
     def roa_radius_m(self) -> float:

@@ -58,6 +58,12 @@ class LMIResult:
     note: str = ""
     values: dict[str, float] = field(default_factory=dict)
 
+    def __repr__(self) -> str:
+        margin = f"{self.margin:.5g}" if math.isfinite(self.margin) else "-"
+        keys = ", ".join(f"{k}={v:.4g}" for k, v in self.values.items() if k in ("decay_rate", "max_displacement_m"))
+        return (f"LMIResult({self.name!r}, feasible={bool(self.feasible)}, status={self.status!r}, margin={margin}"
+                + (f", {keys}" if keys else "") + f", matrices={sorted(self.matrices)})")
+
     def to_json(self) -> dict[str, Any]:
         """JSON-ready dictionary (matrices as nested lists, non-finite numbers as strings)."""
 
