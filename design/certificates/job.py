@@ -37,7 +37,9 @@ def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLo
         gains are tuned, the inner loops are tuned with them.
     options
         A :class:`nniquad.tuning.tune.TuneOptions`: the model, ``gamma_max``, the
-        tilt limit and the mass interval of the certificate, and how to tune.
+        tilt limit and the mass interval of the certificate, and how to tune
+        (default: those of a given :class:`~nniquad.tuning.tune.TuneResult`, else
+        ``TuneOptions()``).
     progress
         Called with one-line status messages.
 
@@ -56,7 +58,8 @@ def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLo
     from nniquad.tuning.tune import TuneOptions, TuneResult, tune
 
     vehicle = PAPER_VEHICLE if vehicle is None else vehicle
-    options = TuneOptions() if options is None else options
+    if options is None:
+        options = gains.options if isinstance(gains, TuneResult) else TuneOptions()
     if not isinstance(options, TuneOptions):
         raise NniquadError("options must be a TuneOptions")
     say = progress or (lambda msg: None)
