@@ -17,7 +17,7 @@
 # Ghallab & Petersen regulate the horizontal position of a quadrotor with a
 # proportional inner loop and an integral resonant (NNI) controller in positive
 # feedback, with the gains of their Table "Simulation Parameters"
-# (`nniquad.analysis.linear.PAPER_GAINS`).  Their Section "Simulation Results" announces
+# (`nniquad.PAPER_GAINS`).  Their Section "Simulation Results" announces
 # a figure (`fig:position_tracking`) whose `\includegraphics` is empty, and
 # describes it as "smooth transient response with no oscillations or
 # overshoot".
@@ -47,15 +47,24 @@ import numpy as np
 from IPython.display import Image, display
 from scipy.optimize import brentq
 
-from nniquad.analysis.linear import ReducedLoop
-from nniquad.control.gains import PAPER_GAINS
-from nniquad.analysis import lmi
-import nniquad.sim as S
-from nniquad.config import XI0_M
-from nniquad.reporting.display import show_figure as show, show_table as md_table
-from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS
-from nniquad.reporting.plots import paper_figure
-from nniquad.model.vehicle import PAPER_VEHICLE
+from nniquad import (
+    audit,
+    axis_acceleration_limit,
+    DEFAULT_INNER_LOOP_GAINS,
+    paper_figure,
+    PAPER_FIGURE_HORIZON_S,
+    paper_figure_runs,
+    PAPER_GAINS,
+    PAPER_VEHICLE,
+    ReducedLoop,
+    region_of_attraction,
+    show_figure as show,
+    show_table as md_table,
+    SimOptions,
+    simulate,
+    TILT_LIMIT_DEG,
+    XI0_M,
+)
 
 T_START = time.perf_counter()
 V = PAPER_VEHICLE
@@ -125,7 +134,7 @@ print(f"envelope estimate of the 2 % settling time ln(50)/σ = {t_envelope:.0f} 
 # first seconds with the tilt.
 
 # %%
-runs = S.paper_figure_runs(V, G, horizon_s=S.PAPER_FIGURE_HORIZON_S)
+runs = paper_figure_runs(V, G, horizon_s=PAPER_FIGURE_HORIZON_S)
 fig_path = paper_figure(runs, OUT / "paper_figure.png", zoom_s=10)
 display(Image(filename=str(fig_path)))
 
@@ -201,9 +210,9 @@ print(f"linearised: dominant real part {dominant_real_part(wa_default):+.4f} 1/s
       f"stable only for ω_a > {wa_crit:.1f} rad/s")
 
 wa_grid = np.array([25.0, 40.0, 60.0, 70.0, 80.0, 90.0, 100.0, 150.0])
-opt_full = S.SimOptions(model="full", horizon_s=S.PAPER_FIGURE_HORIZON_S)
+opt_full = SimOptions(model="full", horizon_s=PAPER_FIGURE_HORIZON_S)
 # one batched call: the same gains, one option set per attitude bandwidth
-res_wa = S.simulate(V, G, [opt_full.with_(inner=replace(DEFAULT_INNER_LOOP_GAINS, attitude_wn_rad_s=float(w)))
+res_wa = simulate(V, G, [opt_full.with_(inner=replace(DEFAULT_INNER_LOOP_GAINS, attitude_wn_rad_s=float(w)))
                            for w in wa_grid])
 t_wa, dist_wa = res_wa.t, res_wa.distance
 growth = dist_wa[:, -w60:].max(axis=1) / dist_wa[:, :w60].max(axis=1)
@@ -248,13 +257,13 @@ show(fig)
 # ## Certified region of attraction of the paper's gains
 #
 # For completeness: the saturated reduced loop (tilt limit, norm limit) has a
-# certified ellipsoidal region of attraction (`nniquad.analysis.lmi.region_of_attraction`,
+# certified ellipsoidal region of attraction (`nniquad.region_of_attraction`,
 # generalised sector condition).  It covers the paper's start, but it says
 # nothing about the attitude dynamics that break the full vehicle.
 
 # %%
-u0 = lmi.axis_acceleration_limit(V.g, 30.0)
-roa_paper = lmi.region_of_attraction(LOOP, u0)
+u0 = axis_acceleration_limit(V.g, TILT_LIMIT_DEG)
+roa_paper = region_of_attraction(LOOP, u0)
 reach_paper = roa_paper.values["max_displacement_m"]
 xi0_norm = math.hypot(*XI0_M)
 print(f"u0 = {u0:.3f} m/s²; certified reach from rest {reach_paper:.2f} m (feasible: {roa_paper.feasible}); "
@@ -264,13 +273,11 @@ print(f"u0 = {u0:.3f} m/s²; certified reach from rest {reach_paper:.2f} m (feas
 # ## The audit's verdicts on the simulation section
 
 # %%
-from nniquad.proofs.claims import registry, run_audit  # noqa: E402
 
-sim_ids = [cid for cid, spec in registry().items() if spec.section == "simulation"]
-audit = run_audit(only=sim_ids)
-md_table(["claim", "verdict", "reason"], [[r.id, f"**{r.verdict}**", r.reason] for r in audit])
-verdicts = {r.id: r.verdict for r in audit}
-for r in audit:
+sim_audit = audit(section="simulation")
+md_table(["claim", "verdict", "reason"], [[r.id, f"**{r.verdict}**", r.reason] for r in sim_audit])
+verdicts = {r.id: r.verdict for r in sim_audit}
+for r in sim_audit:
     if isinstance(r.correction, dict):
         for k, v in r.correction.items():
             if isinstance(v, str):
@@ -290,7 +297,7 @@ print(f"- The missing figure therefore shows a slowly decaying oscillation, not 
       f"{lin.settling_s:.0f} s (the tilt-limited reduced model: {red.settling_s:.0f} s).")
 print(f"- On the full vehicle with the default attitude loop (ω_a = {wa_default:g} rad/s, ~{1000 * lag_s:.0f} ms lag) "
       f"the same gains diverge: the distance grows from {full_first60:.1f} m to {full_last60:.1f} m over "
-      f"{S.PAPER_FIGURE_HORIZON_S:.0f} s with the tilt saturated {100 * full.tilt_limit_fraction:.0f} % of the time. "
+      f"{PAPER_FIGURE_HORIZON_S:.0f} s with the tilt saturated {100 * full.tilt_limit_fraction:.0f} % of the time. "
       f"The linearised loop with the attitude lag is stable only for ω_a > {wa_crit:.0f} rad/s; in the full "
       f"simulation the oscillation first shrinks at ω_a = {wa_full_stable:g} rad/s.")
 print(f"- Audit of the simulation section: {', '.join(f'{k}: {v}' for k, v in verdicts.items())} "

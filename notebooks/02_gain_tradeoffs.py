@@ -37,22 +37,26 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.colors import LogNorm, Normalize
 
-from nniquad.control.gains import Gains
-import nniquad.sim as S
-from nniquad.config import XI0_M
-from nniquad.reporting.display import show_figure as show, show_table as md_table
-from nniquad.analysis.bound import time_optimal_bound
-from nniquad.tuning.tune import TuneOptions, search_box, tune
-from nniquad.analysis.linear import ReducedLoop
-from nniquad.analysis.lmi import certified_reach as _reach
+from nniquad import (
+    bound as time_optimal_bound,
+    certified_reach as _reach,
+    Gains,
+    PAPER_VEHICLE,
+    ReducedLoop,
+    search_box,
+    show_figure as show,
+    show_table as md_table,
+    SimOptions,
+    simulate,
+    tune,
+    TuneOptions,
+    XI0_M,
+)
 
 
 def certified_reach(vehicle, gains, tilt):
     """The certified reach of the ROA LMI (nniquad.analysis.lmi.certified_reach) for a vehicle and gains."""
     return _reach(ReducedLoop.from_vehicle(vehicle, gains), tilt)
-
-
-from nniquad.model.vehicle import PAPER_VEHICLE
 
 T_START = time.perf_counter()
 V = PAPER_VEHICLE
@@ -72,7 +76,7 @@ def metric_array(metrics, name, scale=1.0):
 
 
 bound = time_optimal_bound(V)
-print(f"vehicle m = {M} kg; tilt limit {S.SimOptions().tilt_limit_deg:g}° → a_max = {bound.a_max_m_s2:.3f} m/s²")
+print(f"vehicle m = {M} kg; tilt limit {SimOptions().tilt_limit_deg:g}° → a_max = {bound.a_max_m_s2:.3f} m/s²")
 print(f"time-optimal lower bound on settling from ‖ξ_h(0)‖ = {XI0_NORM:g} m: {bound.enter_band_s:.3f} s")
 
 # %% [markdown]
@@ -117,7 +121,7 @@ lo, hi = search_box(TuneOptions(model="reduced"))
 KP = np.geomspace(math.exp(lo[0]), math.exp(hi[0]), 40)
 U = np.geomspace(1.02, 5.0, 28)
 GAMMA_FACTORS = (0.2, 1.0, 5.0)
-MAP_OPTS = S.SimOptions(model="reduced", horizon_s=10.0)
+MAP_OPTS = SimOptions(model="reduced", horizon_s=10.0)
 RK4_LIMIT = 2.5 / MAP_OPTS.dt_s  # largest Γδ the integrator accepts [1/s]
 
 maps = {}
@@ -128,7 +132,7 @@ for f in GAMMA_FACTORS:
     dd = uu / (M * kk)
     ok = Gam * dd <= RK4_LIMIT
     gains = [Gains(k, Gam, d) for k, d in zip(kk[ok], dd[ok])]
-    res = S.simulate(V, gains, MAP_OPTS)
+    res = simulate(V, gains, MAP_OPTS)
     out = {}
     for name, scale in (("settling_s", 1), ("overshoot_pct", 1), ("peak_tilt_deg", 1), ("tilt_limit_fraction", 100)):
         z = np.full(kk.shape, np.nan)
@@ -356,7 +360,7 @@ def shape_gains(kp, r, u):
 
 
 t0 = time.perf_counter()
-tilt = S.SimOptions().tilt_limit_deg
+tilt = SimOptions().tilt_limit_deg
 reach_ref = np.array([[certified_reach(V, shape_gains(KP_REF, r, u), tilt) for r in R_SHAPES] for u in U_SHAPES])
 # scaling check on three shapes at two other kp
 checks = []
@@ -374,7 +378,7 @@ KP_FAM = np.geomspace(0.3, 400.0, 40)
 FAM_HORIZON_S = 12.0
 fam = [(kp, r, u) for u in U_SHAPES for r in R_SHAPES for kp in KP_FAM]
 t0 = time.perf_counter()
-fam_settle = S.simulate(V, [shape_gains(*p) for p in fam], S.SimOptions(model="reduced", horizon_s=FAM_HORIZON_S)).settling_s
+fam_settle = simulate(V, [shape_gains(*p) for p in fam], SimOptions(model="reduced", horizon_s=FAM_HORIZON_S)).settling_s
 fam_time = time.perf_counter() - t0
 fam_reach = np.array([reach_ref[list(U_SHAPES).index(u), list(R_SHAPES).index(r)] * KP_REF / kp for kp, r, u in fam])
 print(f"{len(fam)} reduced-model runs of {FAM_HORIZON_S:g} s in {fam_time:.1f} s")

@@ -35,14 +35,22 @@ import matplotlib.pyplot as plt
 import numpy as np
 from scipy.optimize import brentq
 
-import nniquad.sim as S
-from nniquad.config import XI0_M
-from nniquad.reporting.display import show_figure as show, show_table as md_table
-from nniquad.analysis.bound import max_horizontal_acceleration
-from nniquad.tuning.tune import TuneOptions, attitude_accel_headroom, tune
-from nniquad.analysis.linear import ReducedLoop
-from nniquad.analysis.lmi import certified_reach
-from nniquad.model.vehicle import PAPER_VEHICLE
+from nniquad import (
+    attitude_accel_headroom,
+    certified_reach,
+    max_horizontal_acceleration,
+    PAPER_VEHICLE,
+    read_certificate,
+    ReducedLoop,
+    show_figure as show,
+    show_table as md_table,
+    SimOptions,
+    simulate,
+    tune,
+    TuneOptions,
+    XI0_M,
+)
+
 
 T_START = time.perf_counter()
 V = PAPER_VEHICLE
@@ -72,22 +80,20 @@ def fmt(x, spec=".2f", none="—"):
 # %%
 from pathlib import Path
 
-from nniquad.certificates.certificate import certificate_gains, certificate_inner_loop, load_certificate
-
 # written by `nniquad certify --model full --roa-radius 0 --out notebooks/data/full_model_certificate.json`;
 # load_certificate checks its schema and SHA-256 digest
-CERT = load_certificate(Path("data") / "full_model_certificate.json" if Path("data").is_dir()
+CERT = read_certificate(Path("data") / "full_model_certificate.json" if Path("data").is_dir()
                         else Path("notebooks") / "data" / "full_model_certificate.json")
-GAINS = certificate_gains(CERT)
-INNER = certificate_inner_loop(CERT)
-BASE = S.SimOptions(model="full", horizon_s=HORIZON_S, motor_lag=True, inner=INNER)
+GAINS = CERT.gains
+INNER = CERT.inner_loop
+BASE = SimOptions(model="full", horizon_s=HORIZON_S, motor_lag=True, inner=INNER)
 TILT = BASE.tilt_limit_deg
 
 gamma_used = ReducedLoop.from_vehicle(V, GAINS).smallest_gamma
 reach = certified_reach(ReducedLoop.from_vehicle(V, GAINS), TILT)
-nominal = S.simulate(V, GAINS, BASE)[0]
+nominal = simulate(V, GAINS, BASE)[0]
 nom = nominal.metrics()
-nom_reduced = S.simulate(V, GAINS, S.SimOptions(model="reduced", horizon_s=HORIZON_S))[0].metrics()
+nom_reduced = simulate(V, GAINS, SimOptions(model="reduced", horizon_s=HORIZON_S))[0].metrics()
 wa0, za0, tau0 = INNER.attitude_wn_rad_s, INNER.attitude_zeta, V.tau_motor
 print(f"gains kp = {GAINS.kp:.4g} 1/s², Γ = {GAINS.Gamma:.4g}, δ = {GAINS.delta:.4g}; attitude loop ω_a = {wa0:.4g} rad/s, "
       f"ζ_a = {za0:.3f}, α = {INNER.attitude_accel_limit_rad_s2:.3g} rad/s²")
@@ -133,7 +139,7 @@ def chatter(traj, window_s=5.0):
 t0 = time.perf_counter()
 quick = tune(V, TuneOptions(model="full", roa_radius_m=0, budget="quick"))
 quick_time = time.perf_counter() - t0
-q_traj = S.simulate(V, quick.gains, BASE.with_(inner=quick.inner))[0]
+q_traj = simulate(V, quick.gains, BASE.with_(inner=quick.inner))[0]
 qm = q_traj.metrics()
 q_margin = attitude_margin(quick.inner.attitude_wn_rad_s, quick.inner.attitude_zeta, tau0)
 ref_margin = attitude_margin(wa0, za0, tau0)
@@ -178,7 +184,7 @@ print(f"hover limit {m_hover:.3f} kg; hover at the {TILT:g}° tilt limit {m_tilt
       f"torque headroom at the limit falls below α = {alpha_design:.3g} rad/s² above {m_alpha:.3f} kg")
 
 MASSES = np.round(np.arange(0.30, 1.0001, 0.05), 2)
-mass_runs = {float(mm): S.simulate(V, GAINS, BASE.with_(true_mass_kg=float(mm)))[0] for mm in MASSES}
+mass_runs = {float(mm): simulate(V, GAINS, BASE.with_(true_mass_kg=float(mm)))[0] for mm in MASSES}
 mass_met = {mm: tr.metrics() for mm, tr in mass_runs.items()}
 md_table(["true mass [kg]", "settling [s]", "overshoot [%]", "peak rotor speed [rad/s]", "altitude deviation [m]",
           "final distance [m]"],
@@ -200,7 +206,7 @@ print(f"works (settles, altitude within 1 m) from {m_first_ok:.2f} kg to {m_last
 
 # %%
 WA = np.array([10, 15, 20, 25, 30, 40, 50, 60, 80, 90, wa0, 105, 110, 120, 150, 200], dtype=float)
-wa_runs = {w: S.simulate(V, GAINS, BASE.with_(inner=replace(INNER, attitude_wn_rad_s=float(w))))[0] for w in WA}
+wa_runs = {w: simulate(V, GAINS, BASE.with_(inner=replace(INNER, attitude_wn_rad_s=float(w))))[0] for w in WA}
 wa_met = {w: tr.metrics() for w, tr in wa_runs.items()}
 wa_crit = 2.0 * za0 / tau0
 md_table(["ω_a [rad/s]", "2ζ_a/(ω_a τ)", "settling [s]", "overshoot [%]", "altitude deviation [m]", "rotor chatter [rad/s]"],
@@ -223,8 +229,8 @@ print(f"Routh limit ω_a < 2ζ_a/τ = {wa_crit:.1f} rad/s (the design uses {wa0:
 
 # %%
 TAUS = np.array([0.005, 0.01, 0.015, 0.02, 0.022, 0.025, 0.03, 0.04, 0.06, 0.1])
-tau_runs = {t: S.simulate(V, GAINS, BASE.with_(tau_motor_s=float(t)))[0] for t in TAUS}
-nolag = S.simulate(V, GAINS, BASE.with_(motor_lag=False))[0]
+tau_runs = {t: simulate(V, GAINS, BASE.with_(tau_motor_s=float(t)))[0] for t in TAUS}
+nolag = simulate(V, GAINS, BASE.with_(motor_lag=False))[0]
 tau_met = {t: tr.metrics() for t, tr in tau_runs.items()}
 tau_crit = 2.0 * za0 / wa0
 nl = nolag.metrics()
@@ -258,7 +264,7 @@ F_max = V.m * a_max
 compliance = GAINS.delta / (V.m * GAINS.kp * GAINS.delta - 1.0)
 compliance_p = 1.0 / (V.m * GAINS.kp)
 WIND = np.round(np.concatenate([np.linspace(0.0, 2.5, 6), [2.7, 2.8, 3.0, 3.5]]), 3)
-wind_runs = {float(F): S.simulate(V, GAINS, BASE.with_(wind_N=(float(F), 0.0)))[0] for F in WIND}
+wind_runs = {float(F): simulate(V, GAINS, BASE.with_(wind_N=(float(F), 0.0)))[0] for F in WIND}
 wind_final = {F: float(np.hypot(*tr.xy[-1])) for F, tr in wind_runs.items()}
 wind_met = {F: tr.metrics() for F, tr in wind_runs.items()}
 md_table(["F [N]", "F / F_max", "predicted offset [m]", "final distance [m]", "time on tilt limit [%]"],

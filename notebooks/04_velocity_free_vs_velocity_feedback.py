@@ -41,15 +41,24 @@ from dataclasses import replace
 import matplotlib.pyplot as plt
 import numpy as np
 
-from nniquad.control.gains import DEFAULT_TAU_F_S, PDFilteredGains, PDGains
-import nniquad.sim as S
-from nniquad.reporting.display import show_figure as show, show_table as md_table
-from nniquad.analysis.bound import time_optimal_bound
-from nniquad.analysis.metrics import rms_after
-from nniquad.tuning.tune import TILT_SLACK_DEG, TuneOptions, decode
-from nniquad.analysis.linear import ReducedLoop
-from nniquad.analysis.lmi import certified_reach
-from nniquad.model.vehicle import PAPER_VEHICLE
+from nniquad import (
+    bound as time_optimal_bound,
+    certified_reach,
+    decode,
+    DEFAULT_TAU_F_S,
+    PAPER_VEHICLE,
+    PDFilteredGains,
+    PDGains,
+    read_certificate,
+    ReducedLoop,
+    rms_after,
+    show_figure as show,
+    show_table as md_table,
+    SimOptions,
+    simulate,
+    TILT_SLACK_DEG,
+    TuneOptions,
+)
 
 T_START = time.perf_counter()
 V = PAPER_VEHICLE
@@ -81,15 +90,13 @@ CTRL_COLOR = {"nni": "tab:blue", "pd_velocity": "tab:green", "pd_filtered": "tab
 # %%
 from pathlib import Path
 
-from nniquad.certificates.certificate import certificate_gains, certificate_inner_loop, load_certificate
-
 # written by `nniquad certify --model full --roa-radius 0 --out notebooks/data/full_model_certificate.json`;
 # load_certificate checks its schema and SHA-256 digest
-CERT = load_certificate(Path("data") / "full_model_certificate.json" if Path("data").is_dir()
+CERT = read_certificate(Path("data") / "full_model_certificate.json" if Path("data").is_dir()
                         else Path("notebooks") / "data" / "full_model_certificate.json")
-NNI_REF = certificate_gains(CERT)
-INNER = certificate_inner_loop(CERT)
-BASE = S.SimOptions(model="full", horizon_s=HORIZON_S, motor_lag=True, inner=INNER)
+NNI_REF = CERT.gains
+INNER = CERT.inner_loop
+BASE = SimOptions(model="full", horizon_s=HORIZON_S, motor_lag=True, inner=INNER)
 TILT_CAP = BASE.tilt_limit_deg + TILT_SLACK_DEG
 print(f"NNI: kp = {NNI_REF.kp:.4g}, Γ = {NNI_REF.Gamma:.4g}, δ = {NNI_REF.delta:.4g}; smallest γ = "
       f"{ReducedLoop.from_vehicle(V, NNI_REF).smallest_gamma:.4f} (γ_max {GAMMA_MAX:g}); certified reach "
@@ -142,7 +149,7 @@ assert all(ReducedLoop.from_vehicle(V, g).smallest_gamma <= GAMMA_MAX + 1e-12 fo
 
 def score(controller, options, gains_list):
     """Simulate a batch; return rows (gains, settling, jitter, peak tilt, altitude dev, Metrics jitter, admissible)."""
-    res = S.simulate(V, gains_list, options)  # the law is the type of the gain blocks
+    res = simulate(V, gains_list, options)  # the law is the type of the gain blocks
     assert res.controller == controller
     rows = []
     for g, m, tr in zip(gains_list, res.metrics(), res):
@@ -295,7 +302,7 @@ md_table(["jitter budget"] + [CTRL_LABEL[c] for c in CANDIDATES] + ["fastest"], 
 CHECK_CAP = 1.0
 check_rows = []
 for c, r in picks[CHECK_CAP].items():
-    tr = S.simulate(V, r["gains"], r["options"].with_(seed=1))[0]
+    tr = simulate(V, r["gains"], r["options"].with_(seed=1))[0]
     m = tr.metrics()
     check_rows.append([CTRL_LABEL[c], fmt_gains(r["gains"]), f"{r['options'].inner.attitude_wn_rad_s:.0f}",
                        f"{r['settling']:.2f}", f"{r['jitter']:.3f}", f"{r['metrics_jitter']:.3f}",

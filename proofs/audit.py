@@ -66,13 +66,16 @@ class Audit:
         return audit_to_json(list(self.claims))
 
 
-def audit(only: Iterable[str] | None = None) -> Audit:
+def audit(only: Iterable[str] | None = None, section: str | None = None) -> Audit:
     """Audit the claims of Ghallab & Petersen's paper, one check per claim.
 
     Parameters
     ----------
     only
         Claim ids to run (default: all, see :func:`nniquad.proofs.claims.claim_ids`).
+    section
+        Run only the claims of this paper section (``"ni_preliminaries"``,
+        ``"quadrotor_model"``, ``"control_design"``, ``"simulation"``).
 
     Returns
     -------
@@ -84,7 +87,15 @@ def audit(only: Iterable[str] | None = None) -> Audit:
     NniquadError
         An unknown claim id.
     """
+    from nniquad.proofs.claims import registry
+
     ids: Sequence[str] | None = None if only is None else [str(i) for i in only]
+    if section is not None:
+        reg = registry()
+        sections = sorted({spec.section for spec in reg.values()})
+        if section not in sections:
+            raise NniquadError(f"unknown section {section!r} (known: {', '.join(sections)})")
+        ids = [i for i in (ids if ids is not None else list(reg)) if reg[i].section == section]
     if ids is not None:
         known = claim_ids()
         bad = [i for i in ids if i not in known]
