@@ -235,14 +235,14 @@ def test_compute_metrics_without_optional_signals_and_json_nulls():
     assert m_bad.diverged and m_bad.settling_s is None and m_bad.overshoot_pct is None
 
 
-def test_shape_errors_are_domain_errors():
+def test_shape_errors_are_programming_errors_not_user_errors():
+    """A wrong array shape can only come from calling code: ValueError, never the CLI's one-line user error."""
     t = np.linspace(0.0, 1.0, 5)
-    with pytest.raises(NniquadError):
-        settling_time(t, np.zeros((4, 2)))
-    with pytest.raises(NniquadError):
-        settling_time(t[::-1], np.ones((5, 2)))
-    with pytest.raises(NniquadError):
-        settling_time_batch(t, np.ones((5, 2)))
+    for call in (lambda: settling_time(t, np.zeros((4, 2))), lambda: settling_time(t[::-1], np.ones((5, 2))),
+                 lambda: settling_time_batch(t, np.ones((5, 2)))):
+        with pytest.raises(ValueError) as info:
+            call()
+        assert not isinstance(info.value, NniquadError)
 
 
 def test_overshoot_is_measured_along_the_start_direction_with_a_sideways_offset_at_the_peak():

@@ -74,9 +74,9 @@ DEFAULT_DIVERGENCE_FACTOR = DIVERGENCE_FACTOR
 def _time(t: ArrayLike) -> NDArray[np.float64]:
     ta = np.asarray(t, dtype=float)
     if ta.ndim != 1 or ta.size < 1:
-        raise SimulationError(f"time vector must be 1-D and non-empty, got shape {ta.shape}")
+        raise ValueError(f"time vector must be 1-D and non-empty, got shape {ta.shape}")
     if ta.size > 1 and np.any(np.diff(ta) < 0):
-        raise SimulationError("time vector must be non-decreasing")
+        raise ValueError("time vector must be non-decreasing")
     return ta
 
 
@@ -85,9 +85,9 @@ def _xy_batch(t: NDArray[np.float64], xy: ArrayLike, *, batched: bool) -> NDArra
     want = 3 if batched else 2
     if a.ndim != want or a.shape[-1] != 2:
         shape = "(B, N, 2)" if batched else "(N, 2)"
-        raise SimulationError(f"positions must have shape {shape}, got {a.shape}")
+        raise ValueError(f"positions must have shape {shape}, got {a.shape}")
     if a.shape[-2] != t.size:
-        raise SimulationError(f"positions have {a.shape[-2]} samples but the time vector has {t.size}")
+        raise ValueError(f"positions have {a.shape[-2]} samples but the time vector has {t.size}")
     return a if batched else a[None]
 
 
@@ -290,7 +290,7 @@ def time_on_limit_fraction(t: ArrayLike, value: ArrayLike, limit: float | ArrayL
     ta = _time(t)
     v = np.abs(np.asarray(value, dtype=float))
     if v.shape != ta.shape:
-        raise SimulationError(f"signal has shape {v.shape} but the time vector has {ta.shape}")
+        raise ValueError(f"signal has shape {v.shape} but the time vector has {ta.shape}")
     at = (v >= np.asarray(limit, float) * (1.0 - rel_tol)).astype(float)
     duration = ta[-1] - ta[0]
     if duration <= 0:
@@ -323,7 +323,7 @@ def rms_after(t: ArrayLike, signal: ArrayLike, t0: float | None, *, remove_mean:
     ta = _time(t)
     s = np.asarray(signal, dtype=float)
     if s.shape != ta.shape:
-        raise SimulationError(f"signal has shape {s.shape} but the time vector has {ta.shape}")
+        raise ValueError(f"signal has shape {s.shape} but the time vector has {ta.shape}")
     mask = ta >= t0
     if not mask.any():
         return None
@@ -372,7 +372,7 @@ def diverged_batch(
     """
     a = np.asarray(xy_batch, dtype=float)
     if a.ndim != 3 or a.shape[-1] != 2:
-        raise SimulationError(f"positions must have shape (B, N, 2), got {a.shape}")
+        raise ValueError(f"positions must have shape (B, N, 2), got {a.shape}")
     d = np.hypot(a[..., 0], a[..., 1])
     if threshold_m is not None:
         thr = np.full(d.shape[0], float(threshold_m))
@@ -407,7 +407,7 @@ def diverged(xy: ArrayLike, threshold_m: float | None = None, factor: float = DE
     """
     a = np.asarray(xy, dtype=float)
     if a.ndim != 2 or a.shape[-1] != 2:
-        raise SimulationError(f"positions must have shape (N, 2), got {a.shape}")
+        raise ValueError(f"positions must have shape (N, 2), got {a.shape}")
     zb = None if z is None else np.asarray(z, dtype=float)[None]
     return bool(diverged_batch(a[None], threshold_m, factor, scale_m=scale_m, z_batch=zb)[0])
 
@@ -431,7 +431,7 @@ def altitude_lost_batch(z_batch: ArrayLike, limit_m: float = ALTITUDE_LIMIT_M, z
     """
     z = np.asarray(z_batch, dtype=float)
     if z.ndim != 2:
-        raise SimulationError(f"altitudes must have shape (B, N), got {z.shape}")
+        raise ValueError(f"altitudes must have shape (B, N), got {z.shape}")
     with np.errstate(invalid="ignore"):
         dev = np.max(np.abs(z - z_ref), axis=1)
         return ~(dev <= limit_m)  # NaN counts as lost
@@ -585,7 +585,7 @@ def compute_metrics(
     if phi is not None and theta is not None:
         tilt = tilt_deg(phi, theta)
         if tilt.shape != ta.shape:
-            raise SimulationError(f"roll/pitch have shape {tilt.shape} but the time vector has {ta.shape}")
+            raise ValueError(f"roll/pitch have shape {tilt.shape} but the time vector has {ta.shape}")
     cmd = None if cmd_tilt_deg is None else np.asarray(cmd_tilt_deg, dtype=float)
     limited = cmd if cmd is not None else tilt
     return Metrics(

@@ -31,6 +31,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Callable
 
+from nniquad.config import GAMMA_MAX
 from nniquad.reporting.display import markdown_table
 from nniquad.io import atomic_write_json, atomic_write_text
 from nniquad.model.vehicle import UNITS, Vehicle
@@ -80,7 +81,7 @@ class ReportOptions:
 
     out_dir: Path
     model: str = "full"
-    gamma_max: float = 0.8
+    gamma_max: float = GAMMA_MAX
     roa_radius_m: float | None = None
     paper_horizon_s: float = 300.0
     budget: str = "normal"

@@ -201,9 +201,9 @@ def run_batch(
     B = P.shape[0]
     nx, ny = len(STATE_NAMES[model]), len(OUTPUT_NAMES[model])
     if P.shape[1] != n_p:
-        raise SimulationError(f"params must have {n_p} columns, got {P.shape[1]}")
+        raise ValueError(f"params must have {n_p} columns, got {P.shape[1]}")
     if X0.shape != (B, nx):
-        raise SimulationError(f"x0 must have shape ({B}, {nx}), got {X0.shape}")
+        raise ValueError(f"x0 must have shape ({B}, {nx}), got {X0.shape}")
     if not np.all(np.isfinite(P)):
         raise SimulationError("parameter vector has a non-finite entry")
     K, N = int(steps_per_sample), int(n_samples)
@@ -212,9 +212,9 @@ def run_batch(
     E = np.asarray(exo, float)
     shared = E.ndim == 2
     if (shared and (E.shape[1] != 5)) or (not shared and (E.ndim != 3 or E.shape[0] != B or E.shape[2] != 5)):
-        raise SimulationError(f"exo must have shape (n_steps, 5) or ({B}, n_steps, 5), got {E.shape}")
+        raise ValueError(f"exo must have shape (n_steps, 5) or ({B}, n_steps, 5), got {E.shape}")
     if E.shape[-2] < K * N:
-        raise SimulationError(f"exo has {E.shape[-2]} steps, the run needs {K * N}")
+        raise ValueError(f"exo has {E.shape[-2]} steps, the run needs {K * N}")
     n_seg = max(1, min(N, n_segments if n_segments is not None else 20))
     M = int(math.ceil(N / n_seg))
     n_seg = int(math.ceil(N / M))

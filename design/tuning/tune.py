@@ -66,9 +66,9 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from nniquad.config import DT_S, TILT_LIMIT_DEG, XI0_NORM_M
+from nniquad.config import DT_S, GAMMA_MAX, TILT_LIMIT_DEG, XI0_NORM_M
 from nniquad.analysis.bound import BoundResult, time_optimal_bound
-from nniquad.errors import GainError, NniquadError
+from nniquad.errors import GainError, NniquadError, VehicleError
 from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, InnerLoopGains
 from nniquad.analysis.linear import ReducedLoop
 from nniquad.analysis.lmi.roa import certified_reach
@@ -153,7 +153,7 @@ class TuneOptions:
     """
 
     model: str = "reduced"
-    gamma_max: float = 0.8
+    gamma_max: float = GAMMA_MAX
     roa_radius_m: float = DEFAULT_ROA_RADIUS_M
     mass_range: tuple[float, float] | None = None
     noise_sigma_m: float = 0.0
@@ -178,7 +178,7 @@ class TuneOptions:
         if self.mass_range is not None:
             lo, hi = (_finite("mass range", v) for v in self.mass_range)
             if not 0 < lo <= hi:
-                raise NniquadError(f"mass range must satisfy 0 < LO <= HI, got {lo:g} {hi:g}")
+                raise VehicleError(f"mass range must satisfy 0 < LO <= HI, got {lo:g} {hi:g}")
             object.__setattr__(self, "mass_range", (lo, hi))
         if _finite("noise sigma", self.noise_sigma_m) < 0:
             raise NniquadError(f"noise sigma must not be negative, got {self.noise_sigma_m!r}")

@@ -16,7 +16,7 @@ import numpy as np
 from nniquad.analysis.linear import ReducedLoop
 from nniquad.analysis.lmi import checks as K
 from nniquad.analysis.lmi.solver import LMIResult, cpsym, solve, solved
-from nniquad.errors import GainError, SolverError
+from nniquad.errors import GainError, SolverError, VehicleError
 
 __all__ = ["closed_loop_decay", "robust_mass_decay"]
 
@@ -274,7 +274,7 @@ def robust_mass_decay(loop: ReducedLoop, m_lo: float, m_hi: float, *, parameter_
     name = name or f"robust_mass_decay[{kind}]"
     m_lo, m_hi = float(m_lo), float(m_hi)
     if not (math.isfinite(m_lo) and math.isfinite(m_hi) and 0 < m_lo <= m_hi):
-        raise GainError(f"mass range must satisfy 0 < m_lo <= m_hi, got [{m_lo}, {m_hi}]")
+        raise VehicleError(f"mass range must satisfy 0 < m_lo <= m_hi, got [{m_lo}, {m_hi}]")
     gains = loop.gains
     per_axis, As = [], []
     for label, kp in loop.axes:

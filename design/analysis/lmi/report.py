@@ -20,7 +20,7 @@ from nniquad.analysis.lmi.roa import reach_of, start_certified
 from nniquad.analysis.lmi.solver import LMIResult
 from nniquad.config import MASS_RANGE_FRACTION, TILT_LIMIT_DEG, XI0_M
 from nniquad.control.gains import PAPER_GAINS, Gains
-from nniquad.errors import GainError
+from nniquad.errors import GainError, VehicleError
 from nniquad.model.vehicle import PAPER_VEHICLE, Vehicle
 from nniquad.validate import finite_number
 
@@ -210,11 +210,11 @@ def lmis(vehicle: Vehicle | None = None, gains: Gains = PAPER_GAINS, *,
         lo, hi = (f * vehicle.m for f in MASS_RANGE_FRACTION)
     else:
         try:
-            lo, hi = (finite_number("mass range", v, error=GainError, positive=True) for v in mass_range)
+            lo, hi = (finite_number("mass range", v, error=VehicleError, positive=True) for v in mass_range)
         except ValueError:
-            raise GainError(f"mass range must be two numbers (LO HI), got {mass_range!r}") from None
+            raise VehicleError(f"mass range must be two numbers (LO HI), got {mass_range!r}") from None
         if lo > hi:
-            raise GainError(f"mass range LO must not exceed HI, got {lo:g} > {hi:g}")
+            raise VehicleError(f"mass range LO must not exceed HI, got {lo:g} > {hi:g}")
     loop = ReducedLoop.from_vehicle(vehicle, gains)
     results = run_all(loop, mass_range=(lo, hi), tilt_limit_deg=tilt)
     return LMIReport(vehicle, loop, (lo, hi), tilt, tuple(results), loop.poles_and_damping(), _frequency(loop))

@@ -61,14 +61,15 @@ def _gains(args: argparse.Namespace):
 
 def run(args: argparse.Namespace) -> int:
     from nniquad.analysis.lmi.report import lmis
-    from nniquad.errors import GainError
+    from nniquad.errors import VehicleError
+    from nniquad.validate import finite_number
 
     gains = _gains(args)
     mass_range = None
     if args.mass_range is not None:
-        mass_range = tuple(finite_positive("mass-range", v) for v in args.mass_range)
+        mass_range = tuple(finite_number("mass-range", v, error=VehicleError, positive=True) for v in args.mass_range)
         if mass_range[0] > mass_range[1]:
-            raise GainError(f"mass-range LO must not exceed HI, got {mass_range[0]} > {mass_range[1]}")
+            raise VehicleError(f"mass-range LO must not exceed HI, got {mass_range[0]} > {mass_range[1]}")
     tilt = finite_positive("tilt-limit", args.tilt_limit)
     report = lmis(vehicle_from_args(args), gains, mass_range=mass_range, tilt_limit_deg=tilt)
     print(report.table())

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from nniquad.config import GAMMA_MAX
 from nniquad.progress import Progress
 
 from .common import add_vehicle_option, finite_positive, vehicle_from_args
@@ -29,7 +30,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", metavar="DIR", default="out", help="output folder (default: out)")
     parser.add_argument("--model", choices=("full", "reduced"), default="full",
                         help="model the certified gains are tuned on (default: full)")
-    parser.add_argument("--gamma-max", type=float, default=0.8, help="sector-bound ceiling gamma_max in (0, 1) (default 0.8, the paper's)")
+    parser.add_argument("--gamma-max", type=float, default=GAMMA_MAX,
+                        help=f"sector-bound ceiling gamma_max in (0, 1) (default {GAMMA_MAX:g}, the paper's)")
     parser.add_argument("--roa-radius", type=float, default=None, metavar="R",
                         help="certified reach the tuner demands, in m (default: |xi_h(0)| = 2.5 m; 0 switches it off)")
     parser.add_argument("--budget", choices=("quick", "normal", "thorough"), default="normal",

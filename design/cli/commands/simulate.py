@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from nniquad.config import ALTITUDE_LIMIT_M
+from nniquad.config import ALTITUDE_LIMIT_M, XI0_M
 from nniquad.errors import GainError, NniquadError
 from nniquad.format import fmt
 from nniquad.progress import Progress
@@ -16,7 +16,7 @@ from .common import (add_json_option, add_tilt_limit_option, add_vehicle_option,
 __all__ = ["HELP", "DESCRIPTION", "add_arguments", "run", "gains_from_certificate"]
 
 HELP = "simulate the closed loop on the linear, reduced or full model"
-DESCRIPTION = """Simulate the paper's closed loop from xi_h(0) = (2, -1.5) m at rest.
+DESCRIPTION = f"""Simulate the paper's closed loop from xi_h(0) = ({XI0_M[0]:g}, {XI0_M[1]:g}) m at rest.
 
 Models:
   linear   the reduced horizontal loop of the paper, both axes, no limits

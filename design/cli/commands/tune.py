@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from nniquad.config import GAMMA_MAX
 from nniquad.format import fmt
 
 from .common import add_json_option, add_tilt_limit_option, add_vehicle_option, vehicle_from_args, write_json_if_asked
@@ -37,8 +38,8 @@ def add_tuning_options(parser: argparse.ArgumentParser) -> None:
 
     parser.add_argument("--model", choices=("reduced", "full"), default="reduced",
                         help="model the settling time is measured on (default reduced)")
-    parser.add_argument("--gamma-max", type=float, default=0.8, metavar="G",
-                        help="gamma_max of the sector bound, in (0, 1) (default 0.8, the paper's)")
+    parser.add_argument("--gamma-max", type=float, default=GAMMA_MAX, metavar="G",
+                        help=f"gamma_max of the sector bound, in (0, 1) (default {GAMMA_MAX:g}, the paper's)")
     parser.add_argument("--roa-radius", type=float, default=DEFAULT_ROA_RADIUS_M, metavar="R",
                         help=f"certified reach required in m (default {DEFAULT_ROA_RADIUS_M:g}; 0: off)")
     parser.add_argument("--mass-range", type=float, nargs=2, default=None, metavar=("LO", "HI"),
