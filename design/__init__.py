@@ -66,8 +66,8 @@ _export("nniquad.reporting.job", "report", "Report")
 # the LMIs and metrics a notebook calls directly
 _export("nniquad.analysis.lmi", "LMIResult", "region_of_attraction", "axis_acceleration_limit", "certified_reach",
         "closed_loop_decay", "robust_mass_decay")
-_export("nniquad.analysis.metrics", "Metrics", "settling_time", "settling_time_batch", "overshoot_pct", "tilt_deg",
-        "rms_after")
+_export("nniquad.analysis.metrics", "settling_time", "settling_time_batch", "overshoot_pct", "tilt_deg", "rms_after")
+_export("nniquad.analysis.verdicts", "Metrics", "compute_metrics")
 # figures and tables (matplotlib and IPython are imported only when these are used)
 _export("nniquad.reporting.plots", "paper_figure", "trajectory_plot")
 _export("nniquad.reporting.display", "show_figure", "show_table", "markdown_table")

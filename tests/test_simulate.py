@@ -484,7 +484,7 @@ def test_per_run_options_and_params_equal_separate_runs():
 def test_one_verdict_for_a_vehicle_that_falls():
     """A vehicle that cannot hover falls: altitude lost, in simulate's metrics and in the Monte Carlo verdict alike."""
     import nniquad.study as mc
-    from nniquad.analysis.metrics import failure_reason
+    from nniquad.analysis.verdicts import failure_reason
 
     o = SimOptions(model="full", horizon_s=3.0)
     heavy = SimParams.from_options(V, FAST, o).with_(plant={"m": 1.5 * V.max_thrust() / V.g})

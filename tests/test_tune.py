@@ -137,7 +137,7 @@ def test_mass_range_tunes_the_worst_case():
 
 
 def test_margin_scenario_and_altitude_penalty():
-    from nniquad.analysis.metrics import Metrics
+    from nniquad.analysis.verdicts import Metrics
     from nniquad.tuning.tune import ALTITUDE_CAP_M, _cost, _scenario_options, simulation_options
 
     opts = TuneOptions(model="full", roa_radius_m=0.0, margin=True, mass_range=(0.4, 0.6))

@@ -19,8 +19,9 @@ from typing import Any, Iterator
 
 import numpy as np
 
-from nniquad.analysis.metrics import (Metrics, altitude_lost_batch, compute_metrics, diverged_batch,
-                                      settling_time_batch, tilt_deg)
+from nniquad.analysis.metrics import settling_time_batch, tilt_deg
+
+from nniquad.analysis.verdicts import Metrics, altitude_lost_batch, compute_metrics, diverged_batch
 from nniquad.control.gains import ControllerGains
 from nniquad.errors import SimulationError
 from nniquad.io import atomic_write_with
@@ -127,7 +128,7 @@ class Trajectory:
         return self.outputs[:, [self.output_names.index("a_x"), self.output_names.index("a_y")]]
 
     def metrics(self) -> Metrics:
-        """All :class:`nniquad.analysis.metrics.Metrics` this run supports (altitude loss on ``full``)."""
+        """All :class:`nniquad.analysis.verdicts.Metrics` this run supports (altitude loss on ``full``)."""
         return compute_metrics(
             self.t,
             self.xy,
@@ -314,12 +315,12 @@ class SimulationResult:
 
     @property
     def diverged(self) -> np.ndarray:
-        """Divergence flags ``(B,)`` (:func:`nniquad.analysis.metrics.diverged_batch`)."""
+        """Divergence flags ``(B,)`` (:func:`nniquad.analysis.verdicts.diverged_batch`)."""
         return diverged_batch(self.xy, z_batch=self.z_ned)
 
     @property
     def altitude_lost(self) -> np.ndarray | None:
-        """Altitude-loss flags ``(B,)`` (``full`` only, :func:`nniquad.analysis.metrics.altitude_lost_batch`)."""
+        """Altitude-loss flags ``(B,)`` (``full`` only, :func:`nniquad.analysis.verdicts.altitude_lost_batch`)."""
         z = self.z_ned
         return None if z is None else altitude_lost_batch(z)
 

@@ -1,9 +1,9 @@
 """Running Monte Carlo scenarios: one :func:`nniquad.sim.simulate` call each, and its verdict.
 
 The verdict is the project's one definition (:mod:`nniquad.analysis.metrics`:
-:func:`~nniquad.analysis.metrics.diverged_batch`,
-:func:`~nniquad.analysis.metrics.altitude_lost_batch`,
-:func:`~nniquad.analysis.metrics.failure_reason`), with the study's scale:
+:func:`~nniquad.analysis.verdicts.diverged_batch`,
+:func:`~nniquad.analysis.verdicts.altitude_lost_batch`,
+:func:`~nniquad.analysis.verdicts.failure_reason`), with the study's scale:
 distances are measured from the scenario's wind equilibrium, the divergence
 scale is ``max(‖ξ(0)‖, band)`` and the altitude limit is the ranges'
 ``altitude_limit_m``.
@@ -17,8 +17,9 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from nniquad.analysis.metrics import (DEFAULT_BAND_FRACTION, altitude_lost_batch, diverged_batch, failure_reason,
-                                      settling_time_batch, tilt_deg)
+from nniquad.analysis.metrics import DEFAULT_BAND_FRACTION, settling_time_batch, tilt_deg
+
+from nniquad.analysis.verdicts import altitude_lost_batch, diverged_batch, failure_reason
 from nniquad.errors import NniquadError
 from nniquad.sim import SimOptions, simulate
 from nniquad.study.scenarios import Scenario

@@ -73,7 +73,7 @@ from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, InnerLoopGains
 from nniquad.analysis.linear import ReducedLoop
 from nniquad.analysis.lmi.roa import certified_reach
 from nniquad.control.gains import Gains
-from nniquad.analysis.metrics import Metrics
+from nniquad.analysis.verdicts import Metrics
 from nniquad.validate import finite_number
 from nniquad.model.vehicle import PAPER_VEHICLE, Vehicle
 
