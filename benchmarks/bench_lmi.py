@@ -17,17 +17,9 @@ ROOT = Path(__file__).resolve().parent.parent
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
+from timing import best_of  # noqa: E402  (benchmarks/timing.py)
+
 CLI_TARGET_S = 5.0
-
-
-def _time(fn, repeat: int = 3) -> float:
-    fn()  # warm-up: compile / import
-    best = float("inf")
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
 
 
 def run() -> list[dict]:
@@ -51,7 +43,7 @@ def run() -> list[dict]:
         "region_of_attraction[x]": lambda: lmi.region_of_attraction(loop, u0),
         "run_all": lambda: lmi.run_all(loop),
     }
-    rows = [{"name": f"lmi {name} build+solve", "value": _time(fn), "unit": "s"} for name, fn in cases.items()]
+    rows = [{"name": f"lmi {name} build+solve", "value": best_of(fn, 3, warmup=True), "unit": "s"} for name, fn in cases.items()]
     t0 = time.perf_counter()
     proc = subprocess.run([sys.executable, "-m", "nniquad", "lmi"], cwd=ROOT, capture_output=True, text=True)
     wall = time.perf_counter() - t0

@@ -14,6 +14,7 @@ import time
 import numpy as np
 
 from nniquad import sim
+from timing import best_of  # benchmarks/timing.py
 from nniquad.control.gains import PAPER_GAINS, Gains
 from nniquad.sim import SimOptions, SimParams, simulate
 from nniquad.model.vehicle import PAPER_VEHICLE
@@ -34,15 +35,6 @@ def _gain_sets(n: int) -> list[Gains]:
         if PAPER_VEHICLE.m * g.kp * g.delta > 1:  # Routh-stable sets, as a tuner would try
             out.append(g)
     return out
-
-
-def _best(fn, repeat: int) -> float:
-    best = float("inf")
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
 
 
 def _accuracy() -> float:
@@ -71,7 +63,7 @@ def run() -> list[dict]:
 
     for model in sim.MODELS:
         o = SimOptions(model=model, horizon_s=HORIZON_S)
-        wall = _best(lambda: simulate(PAPER_VEHICLE, PAPER_GAINS, o), 3)
+        wall = best_of(lambda: simulate(PAPER_VEHICLE, PAPER_GAINS, o), 3)
         rows.append({"name": f"simulate: {model}, one {HORIZON_S:g} s run (best of 3)", "value": wall, "unit": "s"})
         rows.append({"name": f"simulate: {model}, one run, throughput", "value": HORIZON_S / wall,
                      "unit": "sim-s/s"})
@@ -79,7 +71,7 @@ def run() -> list[dict]:
     gains = _gain_sets(BATCH)
     o = SimOptions(model="full", horizon_s=HORIZON_S)
     simulate(PAPER_VEHICLE, gains, o.with_(horizon_s=0.1))  # builds the mapped function
-    wall = _best(lambda: simulate(PAPER_VEHICLE, gains, o), 2)
+    wall = best_of(lambda: simulate(PAPER_VEHICLE, gains, o), 2)
     rows.append({"name": f"simulate: full, batch {BATCH} x {HORIZON_S:g} s (best of 2)", "value": wall, "unit": "s",
                  "target": BATCH_TARGET_S, "ok": wall <= BATCH_TARGET_S})
     rows.append({"name": "simulate: full, batch, throughput", "value": BATCH * HORIZON_S / wall, "unit": "sim-s/s"})

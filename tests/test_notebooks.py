@@ -1,18 +1,21 @@
 """Every notebook (jupytext py:percent source in notebooks/) executes without error.
 
 Each notebook is converted in memory and run with nbclient in the project's own
-Python (its ipykernel), from the notebooks/ folder, with a 2-minute budget.
+Python (its ipykernel), from the notebooks/ folder.  A cell that runs longer
+than ``CELL_TIMEOUT_S`` is a hang and fails the test; how long the notebooks
+take is a speed target, measured in ``benchmarks/bench_notebooks.py`` (timed
+tests on a shared machine measure the machine, not the notebook).
 """
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 import pytest
 
 NOTEBOOKS = sorted((Path(__file__).resolve().parents[1] / "notebooks").glob("*.py"))
-BUDGET_S = 120
+#: A cell running longer than this has hung [s].
+CELL_TIMEOUT_S = 600
 
 
 @pytest.mark.slow
@@ -23,12 +26,9 @@ def test_notebook_executes(path, tmp_path):
     nb = jupytext.read(path)
     nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
     client = nbclient.NotebookClient(
-        nb, timeout=BUDGET_S, kernel_name="python3", resources={"metadata": {"path": str(path.parent)}}
+        nb, timeout=CELL_TIMEOUT_S, kernel_name="python3", resources={"metadata": {"path": str(path.parent)}}
     )
-    t0 = time.perf_counter()
     client.execute()
-    elapsed = time.perf_counter() - t0
-    assert elapsed < BUDGET_S, f"{path.name} took {elapsed:.0f} s (budget {BUDGET_S} s)"
     # The notebook ends in a written conclusion built from the numbers it computed:
     # a final code cell that prints it (so no number in it is typed by hand).
     last = nb.cells[-1]
