@@ -169,13 +169,15 @@ def test_attitude_loop_converges_with_saturated_rotors():
         o = SimOptions(model="full", horizon_s=2.0, xi0=(200.0, -150.0), inner=inner)
         tr = simulate(V, PAPER_GAINS, o)[0]
         assert np.all(np.isfinite(tr.state))
-        assert np.max(tr.rotor_speeds) == pytest.approx(V.omega_max)
-        assert np.min(tr.rotor_speeds) >= 0.0
+        # saturated: with the collective kept at hover the pair hits the lower limit (0) first
+        assert np.max(tr.rotor_speeds) <= V.omega_max
+        assert np.min(tr.rotor_speeds) == pytest.approx(0.0, abs=1e-9)
         late = tr.t >= 1.0
         assert np.all(np.abs(tr.cmd_tilt_deg[late] - 30.0) < 1e-6)
         assert np.max(np.abs(tr.tilt_deg[late] - 30.0)) < 0.5
         # yaw gives way first while the rotors saturate, then the yaw hold brings it back
-        assert np.max(np.abs(tr.psi)) < 0.1 and abs(tr.psi[-1]) < 1e-4
+        # (0.12 rad with the collective kept at hover: the saturated pair leaves yaw less room)
+        assert np.max(np.abs(tr.psi)) < 0.15 and abs(tr.psi[-1]) < 1e-4
         assert np.max(np.abs(tr.z_ned)) < 0.05  # altitude hold through the manoeuvre [m]
 
 
@@ -202,11 +204,12 @@ def test_allocation_inverts_the_mixer_and_keeps_priorities():
     assert np.all(T >= -1e-15) and np.all(T <= t_max * (1 + 1e-12))
     assert u[2] == pytest.approx(pitch, rel=1e-12) and u[0] == pytest.approx(hover, rel=1e-12)
     assert 0 < u[3] < 0.9 * yaw
-    # infeasible roll and pitch: scaled together (direction kept), collective shifted
+    # infeasible roll and pitch: scaled together (direction kept), collective kept (it holds altitude)
     w_cmd, T = alloc(hover, np.array([2.0, -1.0, 0.0]))
     u = np.asarray(mixer(w_cmd, p)[0]).ravel()
     assert u[1] / u[2] == pytest.approx(-2.0, rel=1e-9)
-    assert np.max(np.asarray(w_cmd)) == pytest.approx(V.omega_max)
+    assert u[0] == pytest.approx(hover, rel=1e-12)
+    assert np.min(np.asarray(T)) == pytest.approx(0.0, abs=1e-12)  # the pair uses all the room below hover
 
 
 def test_batch_equals_single_runs_and_per_run_exogenous_inputs():

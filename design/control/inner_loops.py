@@ -58,18 +58,47 @@ Frames: NED inertial frame (z down), FRD body frame, ZYX Euler angles
    ``r = τ_φ/(2l)``, a pitch pair difference ``q = τ_θ/(2l)`` and a yaw share
    ``y = τ_ψ b/(4d)``, so that ``T1 = c+q-y``, ``T2 = c-r+y``, ``T3 = c-q-y``,
    ``T4 = c+r+y`` (the inverse of :func:`nniquad.model.symbolic.mixer_matrix` for the
-   '+' layout).  Priority: roll/pitch first, then collective, yaw last:
+   '+' layout).  Priority: the collective first (it holds the altitude), then
+   roll/pitch, yaw last:
 
    a. roll and pitch are scaled together (direction kept) so that
-      ``M = max(|r|, |q|) ≤ T_max/2`` -- the most any pair can differ;
-   b. the collective is shifted into ``[M, T_max - M]`` so that both pairs fit
-      with zero yaw;
+      ``M = max(|r|, |q|)`` fits around the demanded collective ``c``:
+      ``M ≤ max(min(c, T_max - c), M_res)`` with the reserved attitude
+      authority ``M_res = ATTITUDE_RESERVE_FRACTION · T_max/2`` (and always
+      ``M ≤ T_max/2``);
+   b. the collective is shifted into ``[M, T_max - M]``: it moves only when
+      the demand lies within ``M_res`` of a rotor limit (a vehicle near its
+      thrust limit keeps a minimum of attitude control, and a vehicle near
+      idle a minimum of roll torque);
    c. the yaw share is clipped to the interval that keeps all four thrusts in
       ``[0, T_max]`` given ``c, r, q`` (it always contains 0).
+
+   Why the collective comes first (Monte Carlo finding, FINDINGS.md): the old
+   priority (roll/pitch first, ``M ≤ T_max/2``, then the collective shifted
+   into ``[M, T_max - M]``) cuts the collective to ``T_max/2`` per rotor whenever
+   roll/pitch saturate.  With a thrust-to-weight ratio of 2 that is the hover
+   thrust of the *nominal* mass, below the weight of a heavier vehicle and
+   below ``m g / cos(tilt)`` at any tilt, so a saturated attitude loop lost
+   altitude.
 
    The result satisfies the limits exactly, so the commanded rotor speeds are
    ``ω_i = sqrt(T_i / b)``.  Below saturation it is the exact inverse of the
    mixer (tested against :func:`nniquad.model.numeric.mixer_function`).
+
+Attitude bandwidth against motor lag
+------------------------------------
+Linearised at hover, one attitude axis with the rate loop ``τ = J k_r (k e - p)``
+and a first-order motor lag ``τ_m`` has the characteristic polynomial
+``τ_m s³ + s² + k_r s + k_r k`` (the torque scale ``s`` and an inertia error
+multiply ``k_r`` and ``k_r k`` alike and drop out of the Routh condition).
+Routh: stable iff ``k τ_m < 1``, i.e. ``ω_a τ_m < 2 ζ_a``.  The loop therefore
+tolerates a motor time constant up to ``2 ζ_a / ω_a``; a design that must
+survive a motor ``f`` times slower than nominal with a gain margin ``GM``
+(a factor on ``τ_m``) needs ``ω_a ≤ 2 ζ_a / (GM f τ_m)``
+(:func:`attitude_wn_limit`).  Beyond the Routh limit the loop does not diverge
+but falls into a limit cycle on the rotor limits, in which the lagged rotor
+speeds average to about ``sqrt(c/2b)`` and the thrust ``b ω²`` drops to half the
+allocated collective: the vehicle falls ("altitude lost").
 """
 
 from __future__ import annotations
@@ -88,7 +117,10 @@ __all__ = [
     "attitude_torques",
     "sqrt_shaping",
     "allocate",
+    "attitude_motor_lag_limit",
+    "attitude_wn_limit",
     "G_Z_MIN_FRACTION",
+    "ATTITUDE_RESERVE_FRACTION",
     "TILT_COMPENSATION_MIN_COS",
 ]
 
@@ -96,6 +128,36 @@ __all__ = [
 G_Z_MIN_FRACTION = 0.2
 #: The tilt compensation ``1/(cos φ cos θ)`` is capped at 2 (60°).
 TILT_COMPENSATION_MIN_COS = 0.5
+#: Roll/pitch authority the allocation keeps even at a collective near a rotor limit,
+#: as a fraction of the largest pair difference ``T_max/2`` (module docstring, 4a).
+ATTITUDE_RESERVE_FRACTION = 0.25
+
+
+def attitude_motor_lag_limit(wn: float, zeta: float) -> float:
+    """Largest motor time constant [s] the linearised attitude loop tolerates: ``2 ζ_a / ω_a``.
+
+    Routh condition of ``τ_m s³ + s² + k_r s + k_r k`` with ``k_r = 2 ζ_a ω_a``,
+    ``k = ω_a / (2 ζ_a)`` (module docstring).
+    """
+    if not (wn > 0 and zeta > 0):
+        raise SimulationError(f"attitude natural frequency and damping must be positive, got {wn!r}, {zeta!r}")
+    return 2.0 * zeta / wn
+
+
+def attitude_wn_limit(tau_motor_s: float, zeta: float, tau_factor: float = 2.0, gain_margin: float = 2.0) -> float:
+    """Largest attitude natural frequency [rad/s] that keeps ``gain_margin`` on a motor ``tau_factor`` times slower.
+
+    ``ω_a ≤ 2 ζ_a / (gain_margin · tau_factor · τ_m)``: with it the loop stays
+    stable up to a motor time constant ``gain_margin · tau_factor · τ_m``.
+    The defaults (factor 2, the top of the Monte Carlo range of
+    :data:`nniquad.config.TAU_MOTOR_FACTOR_RANGE`; a gain margin of 2, i.e. 6 dB)
+    give ``ω_a ≤ ζ_a / (2 τ_m)``: 28 rad/s for ζ_a = 1.13 and the paper's 20 ms motor.
+    """
+    for name, v in (("motor time constant", tau_motor_s), ("damping", zeta), ("tau factor", tau_factor),
+                    ("gain margin", gain_margin)):
+        if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+            raise SimulationError(f"{name} must be a positive number, got {v!r}")
+    return 2.0 * zeta / (gain_margin * tau_factor * tau_motor_s)
 
 
 
@@ -208,12 +270,15 @@ def allocate(u1: ca.SX, tau: ca.SX, l: ca.SX, b: ca.SX, d: ca.SX, omega_max: ca.
     r = tau[0] / (2 * l)
     q = tau[1] / (2 * l)
     y = tau[2] * b / (4 * d)
-    # a. roll/pitch scaled together so that no pair needs more than T_max of spread
+    # a. roll/pitch scaled together to fit around the demanded collective (it holds the
+    #    altitude), keeping at least the reserved authority M_res near a rotor limit
+    c = ca.fmin(ca.fmax(c, 0), t_max)
+    allowed = ca.fmin(ca.fmax(ca.fmin(c, t_max - c), ATTITUDE_RESERVE_FRACTION * t_max / 2), t_max / 2)
     big = ca.fmax(ca.fabs(r), ca.fabs(q))
-    k = (t_max / 2) / ca.fmax(big, t_max / 2)
+    k = allowed / ca.fmax(big, allowed)
     r, q = r * k, q * k
     M = big * k
-    # b. collective shifted so that both pairs fit with zero yaw
+    # b. the collective moves only where the reserve needs it (within M_res of a limit)
     c = ca.fmin(ca.fmax(c, M), t_max - M)
     # c. yaw share clipped to what is left
     y_lo = ca.fmax(c - t_max + ca.fabs(q), ca.fabs(r) - c)

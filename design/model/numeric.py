@@ -31,6 +31,7 @@ __all__ = [
     "dynamics_numpy",
     "mixer_function",
     "mixer_numpy",
+    "reaction_torque_function",
     "rotation_function",
 ]
 
@@ -134,6 +135,20 @@ def mixer_function() -> ca.Function:
         "mixer",
         {"w": s.rotor, "p": s.params},
         {"u": A * w2, "Omega_r": S.rotor_momentum_sum()},
+    )
+
+
+@lru_cache(maxsize=None)
+def reaction_torque_function() -> ca.Function:
+    """CasADi ``reaction(w_dot[4], p) -> tau[3]``: body torque [N m] of the rotor spin-up.
+
+    :func:`nniquad.model.symbolic.rotor_reaction_torque`, ``-Jr dOmega_r/dt e3_B``.
+    """
+    s = S.symbols()
+    return casadi_function(
+        "rotor_reaction",
+        {"w_dot": S.rotor_acceleration_symbols(), "p": s.params},
+        {"tau": S.rotor_reaction_torque()},
     )
 
 

@@ -64,6 +64,8 @@ __all__ = [
     "coriolis_matrix",
     "rotational_dynamics",
     "gyroscopic_torque",
+    "rotor_reaction_torque",
+    "rotor_acceleration_symbols",
     "full_dynamics",
     "paper_full_dynamics",
     "mixer_matrix",
@@ -462,3 +464,29 @@ def rotor_momentum_sum() -> sp.Expr:
     s = symbols()
     _, spins = rotor_geometry()
     return sum(spin * w for spin, w in zip(spins, s.rotor))
+
+
+@lru_cache(maxsize=1)
+def rotor_acceleration_symbols() -> tuple[sp.Symbol, sp.Symbol, sp.Symbol, sp.Symbol]:
+    """Symbols of the rotor accelerations ``d(omega_i)/dt`` [rad/s²] (motor lag)."""
+    return sp.symbols("omegadot_1:5", real=True)
+
+
+@lru_cache(maxsize=None)
+def rotor_reaction_torque() -> sp.Matrix:
+    """Body-frame torque on the airframe from spinning the rotors up or down: ``-Jr dOmega_r/dt e3_B``.
+
+    The rotors' angular momentum relative to the body is ``h = Jr Omega_r e3_B``
+    (:func:`rotor_momentum_sum`).  The motors exert ``dh/dt`` (taken in the body
+    frame) on the rotors and, by reaction, ``-dh/dt`` on the airframe; the part
+    ``-omega x h`` from the body's rotation is :func:`gyroscopic_torque`, the
+    remaining part is derived here by the chain rule through the rotor speeds,
+    ``-Jr sum_i spin_i omegadot_i e3_B``.  It matters only where the rotor
+    speeds are states (motor lag); with instant speed changes it would be an impulse.
+    Expressed in the symbols of :func:`rotor_acceleration_symbols`.
+    """
+    s = symbols()
+    h = s.Jr * rotor_momentum_sum() * sp.Matrix([0, 0, 1])
+    rotor_dot = rotor_acceleration_symbols()
+    h_dot = sum((h.diff(w) * wd for w, wd in zip(s.rotor, rotor_dot)), sp.zeros(3, 1))
+    return -h_dot

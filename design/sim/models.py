@@ -12,7 +12,9 @@ Models
     its setpoint instantly.
 ``full``
     The 12-state vehicle (:func:`nniquad.model.numeric.dynamics_function` ``"exact"``,
-    NED, rotor gyroscopic terms) with rotor-speed saturation, and the loops of
+    NED, rotor gyroscopic terms; with motor lag also the rotor spin-up reaction torque
+    ``-Jr dΩ_r/dt`` about ``z_B``, :func:`nniquad.model.symbolic.rotor_reaction_torque`)
+    with rotor-speed saturation, and the loops of
     :mod:`nniquad.control.inner_loops` (altitude PID, yaw hold, attitude PD with gyro
     rates, tilt limit, saturation-aware allocation).  The horizontal command is
     the paper's ``a_h = -K_p ξ_m + z/m̂``.  No horizontal velocity is used.
@@ -70,7 +72,7 @@ from functools import lru_cache
 import casadi as ca
 
 from nniquad.control import inner_loops as IL
-from nniquad.model.numeric import PARAM_NAMES, mixer_function, rotation_function
+from nniquad.model.numeric import PARAM_NAMES, mixer_function, reaction_torque_function, rotation_function
 from nniquad.sim.codegen import compile_function
 from nniquad.sim.options import check_model
 from nniquad.sim.params import EXO_FIELDS, STATE_NAMES, check_controller, param_layout
@@ -163,6 +165,9 @@ def _closed_loop(model: str, X: ca.SX, e: ca.SX, p: ca.SX, controller: str = "nn
     w_dot = ca.if_else(lag, (w_cmd - w_state) / P["plant.tau_motor"], ca.SX.zeros(4))
     p_true = ca.vertcat(*[P[f"plant.{name}"] for name in PARAM_NAMES])
     u, omega_r = mixer_function()(w_act, p_true)
+    # rotor spin-up reaction torque -Jr dOmega_r/dt about z_B, exported from the symbolic model
+    # (nniquad.model.symbolic.rotor_reaction_torque); zero without lag (w_dot = 0)
+    u = u + ca.vertcat(0, reaction_torque_function()(w_dot, p_true))
     sdot = vehicle_dynamics()(s, u, omega_r, p_true)
     sdot[1] += wind[0] / P["plant.m"]
     sdot[3] += wind[1] / P["plant.m"]
