@@ -22,6 +22,10 @@ __all__ = [
     "CONTROL_RATE_HZ",
     "REQUIRED_GM_DB",
     "REQUIRED_PM_DEG",
+    "TAU_MOTOR_FACTOR_RANGE",
+    "ATTITUDE_GAIN_MARGIN",
+    "SETTLING_HOLD_MIN_S",
+    "SETTLING_HOLD_FACTOR",
 ]
 
 #: Initial horizontal position of the paper's run, north/east [m], at rest (DESIGN.md).
@@ -50,3 +54,14 @@ CONTROL_RATE_HZ: float = 100.0
 REQUIRED_GM_DB: float = 6.0
 #: Required phase margin [deg]; flight-control practice (MIL-F-9490D).
 REQUIRED_PM_DEG: float = 45.0
+
+#: Monte Carlo range of the motor time constant as factors of the vehicle's nominal one.
+#: The same factor (its upper end) bounds the attitude bandwidth the tuner may choose.
+TAU_MOTOR_FACTOR_RANGE: tuple[float, float] = (0.5, 2.0)
+#: Gain margin (a factor on the motor time constant, 2 = 6 dB) the attitude loop keeps at the
+#: slowest motor of TAU_MOTOR_FACTOR_RANGE (nniquad.control.inner_loops.attitude_wn_limit).
+ATTITUDE_GAIN_MARGIN: float = 2.0
+#: A settling time s counts only if the run is shown to stay in the band for
+#: max(SETTLING_HOLD_MIN_S, SETTLING_HOLD_FACTOR * s) after it (else: did not settle).
+SETTLING_HOLD_MIN_S: float = 5.0
+SETTLING_HOLD_FACTOR: float = 2.0

@@ -149,5 +149,38 @@ def test_margin_scenario_and_altitude_penalty():
     ok = Metrics(1.2, 1.0, 30.0, 30.0, 0.1, 800.0, ALTITUDE_CAP_M / 2, 0.1, False, 5.0)
     lost = Metrics(1.2, 1.0, 30.0, 30.0, 0.1, 800.0, ALTITUDE_CAP_M + 1.0, 0.1, False, 5.0)
     xy = np.zeros(2)
-    assert _cost(ok, xy, 2.5, 5.0, 31.0) == 1.2
-    assert _cost(lost, xy, 2.5, 5.0, 31.0) == pytest.approx(1.2 + 5.0 * 2.0)
+    assert _cost(ok, xy, 2.5, 7.0, 31.0) == 1.2
+    assert _cost(lost, xy, 2.5, 7.0, 31.0) == pytest.approx(1.2 + 7.0 * 2.0)
+
+
+def test_settling_counts_only_when_the_run_is_seen_to_stay_in_the_band():
+    """A last exit at s counts only with max(5 s, 2 s) of horizon after it."""
+    from nniquad.analysis.metrics import Metrics
+    from nniquad.tuning.tune import _cost, honest_horizon_s, required_hold_s, settling_shown
+
+    assert required_hold_s(1.0) == 5.0 and required_hold_s(4.0) == 8.0
+    assert honest_horizon_s(4.0) == 12.0
+    assert settling_shown(4.0, 12.0) and not settling_shown(4.0, 11.9) and not settling_shown(None, 99.0)
+    assert settling_shown(1.2, 6.2) and not settling_shown(1.2, 6.1)
+    # the case of the issue: 6.81 s on a 6.9 s horizon is "did not settle"
+    assert not settling_shown(6.81, 6.9)
+    m = Metrics(6.81, 1.0, 30.0, 30.0, 0.1, 800.0, 0.01, 0.1, False, 5.0)
+    assert _cost(m, np.zeros(2), 2.5, 6.9, 31.0) >= 6.9
+
+
+def test_decode_caps_the_attitude_bandwidth_at_the_slowest_motor():
+    from nniquad import config
+    from nniquad.tuning.tune import attitude_wn_cap
+
+    zeta, tau = 1.0, V.tau_motor
+    cap = attitude_wn_cap(tau, zeta)
+    # independent: the linearised attitude loop is stable up to GM x the slowest motor of the range
+    tau_edge = config.ATTITUDE_GAIN_MARGIN * config.TAU_MOTOR_FACTOR_RANGE[1] * tau
+    for t, stable in ((0.99 * tau_edge, True), (1.01 * tau_edge, False)):
+        kr, k = 2 * zeta * cap, cap / (2 * zeta)
+        assert (np.max(np.roots([t, 1.0, kr, kr * k]).real) < 0) == stable
+    q = np.array([math.log(10.0), 0.5, math.log(5.0), math.log(150.0), zeta, 0.5])
+    _, inner = decode(q, V.m, 0.8, tau_motor_s=tau)
+    assert inner.attitude_wn_rad_s == pytest.approx(cap)
+    _, free = decode(q, V.m, 0.8)
+    assert free.attitude_wn_rad_s == pytest.approx(150.0)

@@ -76,6 +76,8 @@ from nniquad.control.gains import Gains
 from nniquad.analysis.verdicts import Metrics
 from nniquad.validate import finite_number
 from nniquad.model.vehicle import PAPER_VEHICLE, Vehicle
+from nniquad import config
+from nniquad.control.inner_loops import attitude_wn_limit
 
 __all__ = [
     "TuneOptions",
@@ -88,6 +90,10 @@ __all__ = [
     "simulation_options",
     "evaluate",
     "attitude_accel_headroom",
+    "attitude_wn_cap",
+    "required_hold_s",
+    "settling_shown",
+    "honest_horizon_s",
     "DEFAULT_ROA_RADIUS_M",
     "BUDGETS",
 ]
@@ -108,6 +114,10 @@ TILT_SLACK_DEG = 1.0
 #: ``full`` margin scenario: motor time constant factor and position noise [m] (100 Hz).
 MARGIN_TAU_FACTOR = 1.5
 MARGIN_NOISE_M = 0.002
+
+#: The default tuner horizon lets settling times up to this multiple of ``enter_band_s`` count
+#: (:func:`honest_horizon_s`): 4 × 1.15 s + 9.2 s hold = 13.8 s for the paper's vehicle.
+LONGEST_SETTLING_BANDS = 4.0
 
 #: Largest altitude deviation a ``full`` candidate may show [m].
 ALTITUDE_CAP_M = 0.5
@@ -136,7 +146,9 @@ class TuneOptions:
     seed
         Seed of the Sobol scrambling and the poll bases.
     horizon_s
-        Simulated time per candidate [s]; default ``6 × enter_band_s``.
+        Simulated time per candidate [s]; default :func:`honest_horizon_s` of
+        ``LONGEST_SETTLING_BANDS × enter_band_s`` (a settling time counts only when
+        the run is seen in the band for ``max(5 s, 2 × settling)`` after it).
     motor_lag
         First-order rotor-speed lag in the ``full`` model (default on).
     tune_attitude
@@ -255,8 +267,35 @@ def attitude_accel_headroom(vehicle: Vehicle, tilt_limit_deg: float) -> float:
     return 2.0 * vehicle.l * max(min(c, t_max - c), 0.0) / max(vehicle.Jx, vehicle.Jy)
 
 
+def attitude_wn_cap(tau_motor_s: float | None, zeta: float) -> float:
+    """Largest attitude natural frequency the tuner may choose [rad/s] (``inf`` without motor lag).
+
+    :func:`nniquad.control.inner_loops.attitude_wn_limit` at the slowest motor of the
+    Monte Carlo range (``config.TAU_MOTOR_FACTOR_RANGE[1]`` × nominal) with gain margin
+    ``config.ATTITUDE_GAIN_MARGIN``.  Without it the sweep drove ω_a to ~100 rad/s, at the
+    Routh limit ``2 ζ_a/τ_m`` of the *nominal* motor: every slower motor then put the
+    attitude loop into a limit cycle on the rotor limits (FINDINGS.md).
+
+    Parameters
+    ----------
+    tau_motor_s
+        Nominal motor time constant [s], or None for a model without motor lag.
+    zeta
+        Attitude damping ratio.
+
+    Returns
+    -------
+    float
+        The cap [rad/s].
+    """
+    if tau_motor_s is None:
+        return math.inf
+    return attitude_wn_limit(tau_motor_s, zeta, config.TAU_MOTOR_FACTOR_RANGE[1], config.ATTITUDE_GAIN_MARGIN)
+
+
 def decode(q: Sequence[float], m: float, gamma_max: float,
-           inner: InnerLoopGains = DEFAULT_INNER_LOOP_GAINS, alpha_avail: float = 1.0) -> tuple[Gains, InnerLoopGains]:
+           inner: InnerLoopGains = DEFAULT_INNER_LOOP_GAINS, alpha_avail: float = 1.0,
+           tau_motor_s: float | None = None) -> tuple[Gains, InnerLoopGains]:
     """Search coordinates → gains (and inner-loop gains when ``q`` has 6 entries).
 
     Parameters
@@ -271,12 +310,15 @@ def decode(q: Sequence[float], m: float, gamma_max: float,
         Inner-loop gains to start from (the attitude fields are replaced with 6 coordinates).
     alpha_avail
         Attitude acceleration headroom [rad/s^2] (:func:`attitude_accel_headroom`).
+    tau_motor_s
+        Nominal motor time constant [s]; when given, ω_a is capped at :func:`attitude_wn_cap`.
     """
     kp = math.exp(q[0])
     delta = math.exp(q[1]) / (gamma_max * m * kp)
     Gamma = math.exp(q[2]) / delta
     if len(q) > 3:
-        inner = replace(inner, attitude_wn_rad_s=math.exp(q[3]), attitude_zeta=float(q[4]),
+        wn = min(math.exp(q[3]), attitude_wn_cap(tau_motor_s, float(q[4])))
+        inner = replace(inner, attitude_wn_rad_s=wn, attitude_zeta=float(q[4]),
                         attitude_accel_limit_rad_s2=float(q[5]) * alpha_avail)
     return Gains(kp=kp, Gamma=Gamma, delta=delta), inner
 
@@ -330,9 +372,34 @@ def _scenario_options(options: TuneOptions, base, vehicle: Vehicle) -> list:
     return out
 
 
+def required_hold_s(settling_s: float) -> float:
+    """How long a run must be seen inside the band after its settling time: ``max(5 s, 2 × settling)``.
+
+    A last exit at ``s`` on a horizon ``T`` proves nothing about ``t > T``; a slowly
+    growing or slowly decaying oscillation can leave the band again after the
+    horizon (a tuner horizon of 6.9 s accepted 6.81 s whose 20 s certificate runs
+    did not settle).  Requiring the run to stay in for twice its settling time
+    (and at least 5 s) rules out a return of any mode slower than the settling itself.
+    """
+    return max(config.SETTLING_HOLD_MIN_S, config.SETTLING_HOLD_FACTOR * float(settling_s))
+
+
+def settling_shown(settling_s: float | None, horizon_s: float) -> bool:
+    """Whether a settling time counts: the run stays in the band for :func:`required_hold_s` after it."""
+    if settling_s is None or not math.isfinite(settling_s):
+        return False
+    return settling_s + required_hold_s(settling_s) <= horizon_s + 1e-9
+
+
+def honest_horizon_s(longest_settling_s: float) -> float:
+    """Horizon on which settling times up to ``longest_settling_s`` can be shown (:func:`settling_shown`)."""
+    return longest_settling_s + required_hold_s(longest_settling_s)
+
+
 def _cost(metrics: Metrics, xy_end: np.ndarray, xi0_norm: float, horizon: float, tilt_cap: float | None) -> float:
     """Settling time, or a penalty above every feasible value that still ranks the failures.
 
+    The settling time counts only if :func:`settling_shown` on this horizon.
     Not settled: ``horizon (1 + min(‖ξ(T)‖/‖ξ(0)‖, 10))``; diverged: ``12 horizon``;
     actual tilt above ``tilt_cap``: ``horizon (1 + excess in deg)`` added; altitude
     deviation above :data:`ALTITUDE_CAP_M`: ``horizon (1 + excess in m)`` added.
@@ -343,7 +410,7 @@ def _cost(metrics: Metrics, xy_end: np.ndarray, xi0_norm: float, horizon: float,
     """
     if metrics.diverged or not np.all(np.isfinite(xy_end)):
         return 12.0 * horizon
-    if metrics.settling_s is None:
+    if not settling_shown(metrics.settling_s, horizon):
         cost = horizon * (1.0 + min(float(np.hypot(*xy_end)) / xi0_norm, 10.0))
     else:
         cost = float(metrics.settling_s)
@@ -352,6 +419,11 @@ def _cost(metrics: Metrics, xy_end: np.ndarray, xi0_norm: float, horizon: float,
     if tilt_cap is not None and metrics.peak_tilt_deg is not None and metrics.peak_tilt_deg > tilt_cap:
         cost += horizon * (1.0 + metrics.peak_tilt_deg - tilt_cap)
     return cost
+
+
+def _tau_cap(vehicle: Vehicle, options: TuneOptions) -> float | None:
+    """Nominal motor time constant that caps ω_a (``full`` with motor lag), else ``None``."""
+    return vehicle.tau_motor if (options.model == "full" and options.motor_lag) else None
 
 
 def evaluate(vehicle: Vehicle, points: np.ndarray, options: TuneOptions, horizon_s: float,
@@ -369,7 +441,7 @@ def evaluate(vehicle: Vehicle, points: np.ndarray, options: TuneOptions, horizon
 
     pts = np.atleast_2d(points)
     alpha = attitude_accel_headroom(vehicle, options.tilt_limit_deg)
-    decoded = [decode(q, vehicle.m, options.gamma_max, inner, alpha) for q in pts]
+    decoded = [decode(q, vehicle.m, options.gamma_max, inner, alpha, _tau_cap(vehicle, options)) for q in pts]
     base = simulation_options(options, horizon_s, inner)
     tilt_cap = options.tilt_limit_deg + TILT_SLACK_DEG if options.model == "full" else None
     xi0_norm = math.hypot(*base.xi0)
@@ -646,7 +718,8 @@ def tune(vehicle: Vehicle = PAPER_VEHICLE, options: TuneOptions | None = None,
     t0 = time.perf_counter()
     say = progress or (lambda msg: None)
     bound = time_optimal_bound(vehicle, tilt_limit_deg=options.tilt_limit_deg)
-    horizon = options.horizon_s if options.horizon_s is not None else 6.0 * bound.enter_band_s
+    horizon = options.horizon_s if options.horizon_s is not None else honest_horizon_s(
+        LONGEST_SETTLING_BANDS * bound.enter_band_s)
     search = _Search(vehicle, options, horizon, lambda msg: say(f"seed {seed}: {msg}"))
     n_reruns = BUDGETS[options.budget][3] if options.reruns is None else options.reruns
     results: list[tuple[int, Candidate]] = []
@@ -668,7 +741,8 @@ def tune(vehicle: Vehicle = PAPER_VEHICLE, options: TuneOptions | None = None,
         seed = options.seed + n_reruns + 1
         polished = _polish(search, pools, k, max_iter, seed)
         best = polished if polished.cost < best.cost else best
-    gains, inner = decode(best.q, vehicle.m, options.gamma_max, alpha_avail=alpha)
+    gains, inner = decode(best.q, vehicle.m, options.gamma_max, alpha_avail=alpha,
+                          tau_motor_s=_tau_cap(vehicle, options))
     if best.cost >= horizon:
         raise NniquadError(
             f"no gain set settled within the {horizon:g} s horizon on the {options.model} model "
@@ -677,7 +751,7 @@ def tune(vehicle: Vehicle = PAPER_VEHICLE, options: TuneOptions | None = None,
     reach = best.reach_m if best.reach_m is not None else certified_reach(ReducedLoop.from_vehicle(vehicle, gains), options.tilt_limit_deg)
     reruns = []
     for seed, cand in results:
-        g, inn = decode(cand.q, vehicle.m, options.gamma_max, alpha_avail=alpha)
+        g, inn = decode(cand.q, vehicle.m, options.gamma_max, alpha_avail=alpha, tau_motor_s=_tau_cap(vehicle, options))
         reruns.append({"seed": seed, "settling_s": cand.cost, "gains": g.as_dict(), "inner_loop": inn.as_dict()})
     return TuneResult(vehicle=vehicle, options=options, gains=gains, inner=inner, settling_s=best.cost,
                       metrics=best.metrics, certified_reach_m=reach, bound=bound, horizon_s=horizon,
