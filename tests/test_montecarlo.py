@@ -33,8 +33,9 @@ Z95 = 1.959963984540054  # standard normal 97.5 % quantile
 #: Ranges inside which every scenario of these gains settles (checked in test_known_bad_scenarios_fail).
 BENIGN = mc.ScenarioRanges(mass_factor=(0.9, 1.1), inertia_factor=(0.9, 1.1), attitude_gain_factor=(0.9, 1.1),
                            tau_motor_s=(0.005, 0.015), noise_sigma_m=(0.0, 0.0), wind_N=(0.0, 0.1))
-#: CLI options of a study with both outcomes (seed 1: 5 successes, 3 altitude losses in 4 s).
-MIXED = ["--tau-motor-range", "0.005", "0.03", "--noise-range", "0", "0.002"]
+#: CLI options of a study with both outcomes: up to 2.4 x the mass of a vehicle with thrust-to-weight 2.02
+#: (seed 1, 4 s: 3 successes, 1 altitude loss at 1.98 x, 4 not settled at 1.4-1.9 x).
+MIXED = ["--mass-range", "1.0", "2.4", "--tau-motor-range", "0.005", "0.03", "--noise-range", "0", "0.002"]
 
 
 @pytest.fixture(scope="session")
@@ -205,7 +206,7 @@ def test_dask_cluster_equals_local_pool(run_cli, cert_path, tmp_path):
     # a third executor: this process, one batch
     from nniquad.certificates.certificate import load_certificate
 
-    ranges = mc.ScenarioRanges(tau_motor_s=(0.005, 0.03), noise_sigma_m=(0.0, 0.002))
+    ranges = mc.ScenarioRanges(mass_factor=(1.0, 2.4), tau_motor_s=(0.005, 0.03), noise_sigma_m=(0.0, 0.002))
     setup = mc.study_setup(load_certificate(cert_path), ranges, horizon_s=4.0)
     here = mc.run_scenarios(mc.draw_scenarios(8, 1, ranges, setup))
     assert json.loads(json.dumps([r.to_json() for r in here])) == pool["results"]
@@ -319,3 +320,24 @@ def test_cli_rejects_tampered_certificate(run_cli, cert_path, tmp_path):
     code, out, err = run_cli("montecarlo", "--certificate", str(bad), "--samples", "4")
     _one_line_error(code, out, err, "digest mismatch")
     assert out == ""
+
+
+def test_motor_time_constant_range_is_relative_to_the_vehicle(setup4):
+    """Default: tau_motor = nominal x U[0.5, 2] (config), for a 5 ms motor as for the paper's 20 ms."""
+    from nniquad import config
+
+    lo, hi = config.TAU_MOTOR_FACTOR_RANGE
+    assert mc.DEFAULT_RANGES.tau_motor_s is None and mc.DEFAULT_RANGES.tau_motor_factor == (lo, hi)
+    for tau_nom in (0.005, 0.02):
+        vehicle = replace(PAPER_VEHICLE, tau_motor=tau_nom)
+        setup = mc.study_setup_from(vehicle, GAINS, inner=INNER, horizon_s=1.0)
+        taus = np.array([s.sim_params.plant.tau_motor for s in mc.draw_scenarios(200, 5, mc.DEFAULT_RANGES, setup)])
+        assert np.all(taus >= lo * tau_nom) and np.all(taus <= hi * tau_nom)
+        assert taus.min() < 0.6 * tau_nom and taus.max() > 1.9 * tau_nom  # the whole range is used
+    # an absolute range still wins, drawn from the same stream position
+    setup = mc.study_setup_from(PAPER_VEHICLE, GAINS, inner=INNER, horizon_s=1.0)
+    rel = mc.draw_scenario(3, 5, mc.DEFAULT_RANGES, setup)
+    ab = mc.draw_scenario(3, 5, mc.DEFAULT_RANGES.with_(tau_motor_s=(0.01, 0.04)), setup)
+    f = (rel.sim_params.plant.tau_motor / PAPER_VEHICLE.tau_motor - lo) / (hi - lo)
+    assert ab.sim_params.plant.tau_motor == pytest.approx(0.01 + f * 0.03, rel=1e-12)
+    assert ab.sim_params.plant.m == rel.sim_params.plant.m

@@ -13,7 +13,7 @@ mass                   nominal × U[0.8, 1.2]                   true plant ``m``
 inertia                each axis × U[0.8, 1.2]                 true ``Jx, Jy, Jz``
                        (``Jz`` capped at ``Jx + Jy``)
 attitude-loop gain     × U[0.7, 1.3]                           ``att_scale`` (torques)
-motor time constant    U[5, 40] ms, lag on                     ``tau_motor``
+motor time constant    nominal × U[0.5, 2], lag on             ``tau_motor``
 position noise σ       U[0, 2] cm, sampled and held at 100 Hz  exogenous input
 wind force             magnitude U[0, 0.3] N,                  ``wind_x, wind_y``
                        direction U[0°, 360°)
@@ -25,8 +25,11 @@ Why these ranges: a battery swap or a camera changes a 0.5 kg vehicle's mass
 by 10-20 %; inertias measured by a pendulum test or taken from CAD are good to
 10-20 %; the attitude-loop gain error lumps the errors of the thrust and drag
 coefficients and of the inertia estimate (±30 %); small brushless motors with
-light propellers have time constants of 10-50 ms (the vehicle file assumes
-20 ms; below 5 ms the lag is negligible next to the 25 rad/s attitude loop);
+light propellers have time constants of 10-50 ms, but a given vehicle's motor is
+known to about a factor of 2 either way (ESC firmware, battery sag, temperature,
+propeller change), so the range is relative to the vehicle's nominal ``tau_motor``
+(an absolute range, ``tau_motor_s``, may still be given; the old default 5-40 ms
+was 8× the nominal of a 5 ms motor);
 2 cm is the noise of RTK-GNSS or UWB positioning (motion capture is below
 1 mm); 0.3 N is the drag of a 5 m/s breeze on a drag area C_d A ≈ 0.02 m²
 (6 % of the paper vehicle's weight).

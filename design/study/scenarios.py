@@ -12,7 +12,8 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from nniquad.config import ALTITUDE_LIMIT_M, BAND_FRACTION, DT_S, OUTPUT_DT_S, TILT_LIMIT_DEG, XI0_M
+from nniquad.config import (ALTITUDE_LIMIT_M, BAND_FRACTION, DT_S, OUTPUT_DT_S, TAU_MOTOR_FACTOR_RANGE, TILT_LIMIT_DEG,
+                             XI0_M)
 from nniquad.errors import MonteCarloError
 from nniquad.sim import SimOptions, SimParams, to_gains
 
@@ -66,8 +67,12 @@ class ScenarioRanges:
         ``Jz`` is capped at ``Jx + Jy`` (rigid-body triangle inequality).
     attitude_gain_factor
         Factor on the attitude-loop torques (default 0.7-1.3).
+    tau_motor_factor
+        Motor time constant / the vehicle's nominal (default
+        :data:`nniquad.config.TAU_MOTOR_FACTOR_RANGE`, 0.5-2); used unless ``tau_motor_s`` is given.
     tau_motor_s
-        Motor time constant [s] (default 0.005-0.040; at least ``2 dt``).
+        Absolute motor time constant range [s] instead of the factor (default ``None``;
+        at least ``2 dt``).
     noise_sigma_m
         Standard deviation of the position noise [m] (default 0-0.02).
     noise_rate_hz
@@ -86,7 +91,8 @@ class ScenarioRanges:
     mass_factor: tuple[float, float] = (0.8, 1.2)
     inertia_factor: tuple[float, float] = (0.8, 1.2)
     attitude_gain_factor: tuple[float, float] = (0.7, 1.3)
-    tau_motor_s: tuple[float, float] = (0.005, 0.040)
+    tau_motor_factor: tuple[float, float] = TAU_MOTOR_FACTOR_RANGE
+    tau_motor_s: tuple[float, float] | None = None
     noise_sigma_m: tuple[float, float] = (0.0, 0.02)
     noise_rate_hz: float = 100.0
     wind_N: tuple[float, float] = (0.0, 0.3)
@@ -98,7 +104,9 @@ class ScenarioRanges:
         set_("mass_factor", _pair("mass factor range", self.mass_factor, positive=True))
         set_("inertia_factor", _pair("inertia factor range", self.inertia_factor, positive=True))
         set_("attitude_gain_factor", _pair("attitude-gain factor range", self.attitude_gain_factor, positive=True))
-        set_("tau_motor_s", _pair("motor time-constant range", self.tau_motor_s, lo=0.002))
+        set_("tau_motor_factor", _pair("motor time-constant factor range", self.tau_motor_factor, positive=True))
+        if self.tau_motor_s is not None:
+            set_("tau_motor_s", _pair("motor time-constant range", self.tau_motor_s, lo=0.002))
         set_("noise_sigma_m", _pair("noise sigma range", self.noise_sigma_m, lo=0.0))
         set_("wind_N", _pair("wind force range", self.wind_N, lo=0.0))
         for name in ("noise_rate_hz", "max_displacement_m", "altitude_limit_m"):
@@ -379,15 +387,17 @@ def draw_scenario(index: int, seed: int, ranges: ScenarioRanges, setup: StudySet
     seed = _check_seed(seed)
     if isinstance(index, bool) or not isinstance(index, (int, np.integer)) or index < 0:
         raise MonteCarloError(f"scenario index must be a non-negative integer, got {index!r}")
-    if 2 * setup.dt_s > ranges.tau_motor_s[0] + 1e-15:
+    base = setup.base
+    tau_range = (ranges.tau_motor_s if ranges.tau_motor_s is not None
+                 else tuple(base.plant.tau_motor * f for f in ranges.tau_motor_factor))
+    if 2 * setup.dt_s > tau_range[0] + 1e-15:
         raise MonteCarloError(f"motor time constant must be at least 2 dt = {2 * setup.dt_s:g} s for RK4")
     rng = _stream(seed, int(index))
     u = lambda r: float(rng.uniform(r[0], r[1]))  # noqa: E731
-    base = setup.base
     f_m = u(ranges.mass_factor)
     f_J = [u(ranges.inertia_factor) for _ in range(3)]
     f_att = u(ranges.attitude_gain_factor)
-    tau = u(ranges.tau_motor_s)
+    tau = u(tau_range)  # the same stream position for a factor or an absolute range
     sigma = u(ranges.noise_sigma_m)
     wind = u(ranges.wind_N)
     wdir = float(rng.uniform(0.0, 2 * math.pi))

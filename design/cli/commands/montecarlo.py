@@ -22,7 +22,8 @@ the full vehicle model (default 20 s).  Each scenario perturbs:
   mass                 nominal x U[0.8, 1.2]           (--mass-range)
   inertia              each axis x U[0.8, 1.2]         (--inertia-range)
   attitude-loop gain   x U[0.7, 1.3]                   (--attitude-gain-range)
-  motor time constant  U[5, 40] ms, motor lag on       (--tau-motor-range, in s)
+  motor time constant  nominal x U[0.5, 2], lag on     (--tau-motor-factor-range;
+                                                        absolute: --tau-motor-range, in s)
   position noise       sigma U[0, 2] cm at 100 Hz      (--noise-range, in m)
   wind force           U[0, 0.3] N, random direction   (--wind-range, in N)
   initial displacement uniform over the disk of the certificate's certified
@@ -69,8 +70,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                    help="true inertia / nominal, per axis (default 0.8 1.2)")
     r.add_argument("--attitude-gain-range", type=float, nargs=2, default=None, metavar=("LO", "HI"),
                    help="factor on the attitude-loop torques (default 0.7 1.3)")
+    r.add_argument("--tau-motor-factor-range", type=float, nargs=2, default=None, metavar=("LO", "HI"),
+                   help="motor time constant / the vehicle's nominal (default 0.5 2)")
     r.add_argument("--tau-motor-range", type=float, nargs=2, default=None, metavar=("LO", "HI"),
-                   help="motor time constant in s (default 0.005 0.04)")
+                   help="absolute motor time constant range in s, instead of the factor (default: off)")
     r.add_argument("--noise-range", type=float, nargs=2, default=None, metavar=("LO", "HI"),
                    help="position-noise sigma in m, sampled at 100 Hz (default 0 0.02)")
     r.add_argument("--wind-range", type=float, nargs=2, default=None, metavar=("LO", "HI"),
@@ -88,6 +91,7 @@ _RANGE_OPTIONS = (
     ("mass_range", "mass_factor", "--mass-range"),
     ("inertia_range", "inertia_factor", "--inertia-range"),
     ("attitude_gain_range", "attitude_gain_factor", "--attitude-gain-range"),
+    ("tau_motor_factor_range", "tau_motor_factor", "--tau-motor-factor-range"),
     ("tau_motor_range", "tau_motor_s", "--tau-motor-range"),
     ("noise_range", "noise_sigma_m", "--noise-range"),
     ("wind_range", "wind_N", "--wind-range"),
