@@ -399,8 +399,9 @@ def honest_horizon_s(longest_settling_s: float) -> float:
 def _cost(metrics: Metrics, xy_end: np.ndarray, xi0_norm: float, horizon: float, tilt_cap: float | None) -> float:
     """Settling time, or a penalty above every feasible value that still ranks the failures.
 
-    The settling time counts only if :func:`settling_shown` on this horizon.
-    Not settled: ``horizon (1 + min(‖ξ(T)‖/‖ξ(0)‖, 10))``; diverged: ``12 horizon``;
+    The settling time counts only if :func:`settling_shown` on this horizon; a last
+    exit ``s`` that is not shown costs ``horizon + s`` (ranked, but above every shown one).
+    Not settled: ``horizon (2 + min(‖ξ(T)‖/‖ξ(0)‖, 10))``; diverged: ``12 horizon``;
     actual tilt above ``tilt_cap``: ``horizon (1 + excess in deg)`` added; altitude
     deviation above :data:`ALTITUDE_CAP_M`: ``horizon (1 + excess in m)`` added.
     "Diverged" is the project's one verdict (:attr:`Metrics.diverged`); a run that
@@ -410,8 +411,11 @@ def _cost(metrics: Metrics, xy_end: np.ndarray, xi0_norm: float, horizon: float,
     """
     if metrics.diverged or not np.all(np.isfinite(xy_end)):
         return 12.0 * horizon
-    if not settling_shown(metrics.settling_s, horizon):
-        cost = horizon * (1.0 + min(float(np.hypot(*xy_end)) / xi0_norm, 10.0))
+    if metrics.settling_s is not None and not settling_shown(metrics.settling_s, horizon):
+        # in the band at the end but not shown to stay: ranked by its last exit, above every shown settling
+        cost = horizon + float(metrics.settling_s)
+    elif metrics.settling_s is None:
+        cost = horizon * (2.0 + min(float(np.hypot(*xy_end)) / xi0_norm, 10.0))
     else:
         cost = float(metrics.settling_s)
     if metrics.altitude_dev_m is not None and metrics.altitude_dev_m > ALTITUDE_CAP_M:
