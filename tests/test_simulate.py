@@ -95,7 +95,8 @@ def test_full_rk4_matches_solve_ivp(lag):
     o = SimOptions(model="full", horizon_s=4.0, motor_lag=lag)
     tr = simulate(V, PAPER_GAINS, o)[0]
     if not lag:  # saturation really is exercised (with lag the motors filter the short saturated command)
-        assert np.max(tr.rotor_speeds) == pytest.approx(V.omega_max)
+        w = tr.rotor_speeds  # a rotor at either limit (the collective is kept, so usually 0 first)
+        assert np.max(w) == pytest.approx(V.omega_max) or np.min(w) == pytest.approx(0.0, abs=1e-9)
     P = SimParams.from_options(V, PAPER_GAINS, o).vector()
     f = sim.rhs_function("full")
     e = np.zeros(5)
