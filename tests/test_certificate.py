@@ -137,14 +137,55 @@ def test_certify_refuses_the_sector_violation_and_leaves_no_file(tmp_path, run_c
 
 
 def test_certify_given_gains_writes_a_verifiable_certificate(tmp_path, run_cli):
-    # the paper's gains satisfy the sector bound (delta = 0.6 >= 0.5): they are certifiable, if slow
-    out = tmp_path / "paper.json"
-    code, stdout, err = run_cli("certify", "--kp", "5", "--Gamma", "160", "--delta", "0.6", "--out", str(out))
+    out = tmp_path / "given.json"
+    code, stdout, err = run_cli("certify", "--kp", repr(GAINS.kp), "--Gamma", repr(GAINS.Gamma), "--delta",
+                                repr(GAINS.delta), "--attitude-wn", repr(INNER.attitude_wn_rad_s), "--attitude-zeta",
+                                repr(INNER.attitude_zeta), "--attitude-accel", repr(INNER.attitude_accel_limit_rad_s2),
+                                "--model", "full", "--out", str(out))
     assert code == 0, err
     c = load_certificate(out)
-    assert c["sector"]["gamma"] == pytest.approx(1 / (0.5 * 5 * 0.6))
-    assert c["performance"]["full"]["diverged"] in (True, False)
+    assert c["sector"]["gamma"] == pytest.approx(1 / (0.5 * GAINS.kp * GAINS.delta))
+    for model in ("reduced", "full"):  # written only because both reference runs settle, and are seen to stay
+        run = c["performance"][model]
+        assert run["settling_s"] is not None and not run["diverged"]
+        assert run["settling_s"] + max(5.0, 2 * run["settling_s"]) <= run["settings"]["horizon_s"]
     assert verify_certificate(c).ok
+
+
+def test_certify_refuses_gains_whose_reference_run_does_not_settle(tmp_path, run_cli):
+    """The paper's gains satisfy the sector bound (delta = 0.6 >= 0.5), but neither 20 s run settles."""
+    out = tmp_path / "paper.json"
+    code, stdout, err = run_cli("certify", "--kp", "5", "--Gamma", "160", "--delta", "0.6", "--out", str(out))
+    assert code == 2, (stdout, err)
+    lines = [ln for ln in err.splitlines() if ln.strip() and not ln.startswith("[")]  # [certify] progress lines
+    assert len(lines) == 1 and "Traceback" not in err
+    assert "reference run did not settle within its 20 s horizon" in lines[0] and "nothing certified" in lines[0]
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_library_certify_refuses_an_unsettled_reference_run():
+    """The refusal is the library's, not only the CLI's: ``nniquad.certify`` raises and returns nothing."""
+    import nniquad
+
+    with pytest.raises(CertificateError, match=r"^refused: the \w+ reference run did not settle within its 20 s"):
+        nniquad.certify(V, Gains(5.0, 160.0, 0.6))
+
+
+@pytest.mark.parametrize("settling, verdict", [(6.6, None), (6.81, "not shown to stay there for 13.6 s"),
+                                               (None, "did not settle"), (1.0, "diverged")])
+def test_reference_run_must_be_seen_in_the_band_for_the_hold_time(cert, settling, verdict):
+    """On a 20 s run a last exit at s counts only if s + max(5 s, 2 s) <= 20 s, i.e. s <= 6.67 s."""
+    from nniquad.certificates.job import unsettled_reference_run
+
+    c = copy.deepcopy(cert)
+    assert unsettled_reference_run(c) is None  # the fixture's runs settle at about 2-3 s
+    c["performance"]["full"]["settling_s"] = settling
+    c["performance"]["full"]["diverged"] = verdict == "diverged"
+    reason = unsettled_reference_run(c)
+    if verdict is None:
+        assert reason is None
+    else:
+        assert reason is not None and verdict in reason and "full" in reason
 
 
 def test_signed_but_malformed_field_is_one_line(cert, tmp_path, run_cli):

@@ -12,7 +12,7 @@ from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, InnerLoopGain
 from nniquad.errors import CertificateError, NniquadError
 from nniquad.model.vehicle import PAPER_VEHICLE, Vehicle
 
-__all__ = ["certify", "verify"]
+__all__ = ["certify", "verify", "unsettled_reference_run"]
 
 
 def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLoopGains | None = None,
@@ -53,7 +53,9 @@ def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLo
     ------
     CertificateError
         The gains violate the sector bound, an LMI is infeasible, or the
-        certificate fails its own verification: nothing is certified.
+        certificate fails its own verification, or a reference run does not
+    settle, diverges or is not seen to stay in the band for the hold time
+    (:func:`unsettled_reference_run`): nothing is certified.
     """
     from nniquad.tuning.tune import TuneOptions, TuneResult, tune
 
@@ -78,6 +80,9 @@ def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLo
     cert = build_certificate(vehicle, gains, inner=inner, gamma_max=options.gamma_max,
                              tilt_limit_deg=options.tilt_limit_deg, mass_range=options.mass_range,
                              model=options.model, tuning=tuning, progress=progress)
+    unsettled = unsettled_reference_run(cert)
+    if unsettled is not None:
+        raise CertificateError(f"refused: {unsettled}; nothing certified")
     say("verifying before writing")
     check = verify_certificate(cert)
     if not check.ok:
@@ -85,6 +90,41 @@ def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLo
         raise CertificateError(f"certificate failed its own verification ({bad.name}: {bad.detail}); "
                                "nothing certified")
     return cert
+
+
+def unsettled_reference_run(cert: Certificate | Mapping[str, Any]) -> str | None:
+    """Why a certificate's reference runs do not show settling, or ``None`` when both do.
+
+    The rule is the tuner's (:func:`nniquad.tuning.tune.settling_shown`): a last exit
+    at ``s`` counts only if the run is then seen inside the band for
+    ``max(5 s, 2 s)`` before its horizon ends.  A run that never settles, that
+    diverges, or whose last exit comes too late to be shown is refused: the
+    certificate would state a performance it has not observed (issue 14, item 1).
+
+    Parameters
+    ----------
+    cert
+        A :class:`Certificate` or its JSON content.
+
+    Returns
+    -------
+    str or None
+        A one-line reason naming the reference run, or ``None``.
+    """
+    from nniquad.tuning.tune import required_hold_s, settling_shown
+
+    perf = cert["performance"] if isinstance(cert, Mapping) else cert.performance  # JSON content or Certificate
+    for model, run in perf.items():
+        horizon = float(run["settings"]["horizon_s"])
+        s = run["settling_s"]
+        if run.get("diverged"):
+            return f"the {model} reference run diverged"
+        if s is None:
+            return f"the {model} reference run did not settle within its {horizon:g} s horizon"
+        if not settling_shown(s, horizon):
+            return (f"the {model} reference run was last in the band from {s:.3g} s, but is not shown to stay "
+                    f"there for {required_hold_s(s):.3g} s within its {horizon:g} s horizon")
+    return None
 
 
 def verify(certificate: Certificate | Mapping[str, Any] | str | Path, *, simulate: bool = True,
