@@ -380,12 +380,35 @@ def required_hold_s(settling_s: float) -> float:
     horizon (a tuner horizon of 6.9 s accepted 6.81 s whose 20 s certificate runs
     did not settle).  Requiring the run to stay in for twice its settling time
     (and at least 5 s) rules out a return of any mode slower than the settling itself.
+
+    Parameters
+    ----------
+    settling_s
+        Settling time [s] (last exit from the band).
+
+    Returns
+    -------
+    float
+        The hold time [s] (``config.SETTLING_HOLD_MIN_S``, ``config.SETTLING_HOLD_FACTOR``).
     """
     return max(config.SETTLING_HOLD_MIN_S, config.SETTLING_HOLD_FACTOR * float(settling_s))
 
 
 def settling_shown(settling_s: float | None, horizon_s: float) -> bool:
-    """Whether a settling time counts: the run stays in the band for :func:`required_hold_s` after it."""
+    """Whether a settling time counts: the run stays in the band for :func:`required_hold_s` after it.
+
+    Parameters
+    ----------
+    settling_s
+        Settling time [s], or None (never settled).
+    horizon_s
+        Horizon of the run [s].
+
+    Returns
+    -------
+    bool
+        ``settling_s + required_hold_s(settling_s) <= horizon_s``.
+    """
     if settling_s is None or not math.isfinite(settling_s):
         return False
     return settling_s + required_hold_s(settling_s) <= horizon_s + 1e-9
