@@ -90,7 +90,11 @@ def test_bad_input_gets_one_line(tmp_path, run_cli, args, message):
 
 def test_bad_certificate_gets_one_line(tmp_path, run_cli):
     bad = tmp_path / "bad.json"
-    bad.write_text(CERT.read_text().replace('"kp": 13.', '"kp": 14.'))
+    text = CERT.read_text()
+    kp = json.loads(text)["gains"]["kp"]
+    tampered = text.replace(f'"kp": {kp!r}', f'"kp": {kp + 1.0!r}', 1)  # the signed gain changed, digest kept
+    assert tampered != text
+    bad.write_text(tampered)
     code, _, err = run_cli("export", str(bad), "--out", str(tmp_path / "o"))
     assert code == 2 and "digest mismatch" in err and len(err.strip().splitlines()) == 1
 

@@ -13,8 +13,8 @@ from nniquad.analysis.linear import ReducedLoop
 from nniquad.analysis.lmi import certified_reach
 from nniquad.control.gains import Gains
 from nniquad.analysis.metrics import settling_time
-from nniquad.tuning.tune import (TuneOptions, attitude_accel_headroom, decode, encode, search_box,
-                         tune)
+from nniquad.tuning.tune import (SECTOR_FACE_SHARE, TuneOptions, attitude_accel_headroom, decode, encode,
+                                initial_design, search_box, tune)
 from nniquad.model.vehicle import PAPER_VEHICLE as V
 
 
@@ -53,6 +53,30 @@ def test_coordinates_make_the_sector_bound_a_box_bound():
             np.testing.assert_allclose(encode(g, V.m, gamma_max), q, rtol=1e-12, atol=1e-12)
     g, _ = decode([math.log(7.0), 0.0, math.log(3.0)], V.m, 0.8)
     assert g.delta == pytest.approx(1 / (0.8 * V.m * 7.0)) and g.Gamma * g.delta == pytest.approx(3.0)
+
+
+def test_initial_design_puts_a_share_on_the_sector_bound_face():
+    """The fastest designs sit on u = 0 (gamma = gamma_max); a plain Sobol set never samples that face."""
+    options = TuneOptions(model="full", roa_radius_m=0)
+    lo, hi = search_box(options)
+    n = 256
+    pts = initial_design(n, lo, hi, seed=4)
+    assert pts.shape == (n, 6) and np.all(pts >= lo) and np.all(pts <= hi)
+    on_face = pts[:, 1] == lo[1]
+    assert on_face.sum() == round(SECTOR_FACE_SHARE * n) > 0
+    face, box = pts[on_face], pts[~on_face]
+    for q in face[:8]:  # gamma = gamma_max exactly, computed independently by nniquad.analysis.linear
+        g, _ = decode(q, V.m, options.gamma_max)
+        assert ReducedLoop.from_vehicle(V, g).smallest_gamma == pytest.approx(options.gamma_max, rel=1e-12)
+    # the face set is spread over the other coordinates (each quarter of each range holds a quarter of it) ...
+    for j in (0, 2, 3, 4, 5):
+        counts = np.histogram(face[:, j], bins=4, range=(lo[j], hi[j]))[0]
+        assert np.all(counts == len(face) // 4), (j, counts)
+    # ... and is not the box set projected onto the face
+    others = [0, 2, 3, 4, 5]
+    dist = np.min(np.abs(face[:, None, others] - box[None, :, others]).max(axis=2), axis=1)
+    assert np.all(dist > 0)
+    np.testing.assert_array_equal(initial_design(n, lo, hi, seed=4), pts)  # seeded
 
 
 def test_attitude_headroom_by_hand():
@@ -155,7 +179,7 @@ def test_margin_scenario_and_altitude_penalty():
 
 def test_settling_counts_only_when_the_run_is_seen_to_stay_in_the_band():
     """A last exit at s counts only with max(5 s, 2 s) of horizon after it."""
-    from nniquad.analysis.metrics import Metrics
+    from nniquad.analysis.verdicts import Metrics
     from nniquad.tuning.tune import _cost, honest_horizon_s, required_hold_s, settling_shown
 
     assert required_hold_s(1.0) == 5.0 and required_hold_s(4.0) == 8.0
