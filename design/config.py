@@ -23,6 +23,7 @@ __all__ = [
     "REQUIRED_GM_DB",
     "REQUIRED_PM_DEG",
     "TAU_MOTOR_FACTOR_RANGE",
+    "WIND_WEIGHT_FRACTION_RANGE",
     "ATTITUDE_GAIN_MARGIN",
     "SETTLING_HOLD_MIN_S",
     "SETTLING_HOLD_FACTOR",
@@ -58,6 +59,10 @@ REQUIRED_PM_DEG: float = 45.0
 #: Monte Carlo range of the motor time constant as factors of the vehicle's nominal one.
 #: The same factor (its upper end) bounds the attitude bandwidth the tuner may choose.
 TAU_MOTOR_FACTOR_RANGE: tuple[float, float] = (0.5, 2.0)
+#: Monte Carlo range of the constant wind force as a fraction of the nominal weight m g: 6 % is
+#: the drag of a 5 m/s breeze on the paper's 0.5 kg vehicle (C_d A ~ 0.02 m^2), and a tenth of
+#: the m g tan(30 deg) = 58 % of the weight the tilt limit can hold against.
+WIND_WEIGHT_FRACTION_RANGE: tuple[float, float] = (0.0, 0.06)
 #: Gain margin (a factor on the motor time constant, 2 = 6 dB) the attitude loop keeps at the
 #: slowest motor of TAU_MOTOR_FACTOR_RANGE (nniquad.control.inner_loops.attitude_wn_limit).
 ATTITUDE_GAIN_MARGIN: float = 2.0

@@ -341,3 +341,29 @@ def test_motor_time_constant_range_is_relative_to_the_vehicle(setup4):
     f = (rel.sim_params.plant.tau_motor / PAPER_VEHICLE.tau_motor - lo) / (hi - lo)
     assert ab.sim_params.plant.tau_motor == pytest.approx(0.01 + f * 0.03, rel=1e-12)
     assert ab.sim_params.plant.m == rel.sim_params.plant.m
+
+
+def test_default_wind_is_a_fraction_of_each_vehicles_weight():
+    """The default wind range scales with the vehicle: a 30 g Crazyflie gets 6 % of its own weight, not 0.3 N."""
+    from nniquad.config import WIND_WEIGHT_FRACTION_RANGE
+    from nniquad.control.gains import Gains
+    from nniquad.model.vehicle import PAPER_VEHICLE
+    from nniquad.study import DEFAULT_RANGES, draw_scenarios, study_setup_from
+
+    light = PAPER_VEHICLE.with_(m=0.03, Jx=1.4e-5, Jy=1.4e-5, Jz=2.2e-5, b=1.8e-8, omega_max=2500.0, l=0.04)
+    for vehicle in (PAPER_VEHICLE, light):
+        gains = Gains(kp=20.0, Gamma=40.0, delta=1.0 / (0.7 * vehicle.m * 20.0))
+        setup = study_setup_from(vehicle, gains)
+        scen = draw_scenarios(200, 5, DEFAULT_RANGES, setup)
+        frac = np.array([s.describe()["wind_fraction_of_weight"] for s in scen])
+        force = np.array([s.describe()["wind_magnitude_N"] for s in scen])
+        weight = vehicle.m * vehicle.g
+        np.testing.assert_allclose(force, frac * weight, rtol=1e-12)
+        assert frac.min() >= WIND_WEIGHT_FRACTION_RANGE[0] and frac.max() <= WIND_WEIGHT_FRACTION_RANGE[1]
+        assert frac.max() > 0.9 * WIND_WEIGHT_FRACTION_RANGE[1]  # the range is really used, not collapsed
+    # an absolute range, when given, wins (and the draw keeps its position in the stream)
+    absolute = DEFAULT_RANGES.with_(wind_N=(0.0, 0.1))
+    a = draw_scenarios(20, 5, absolute, setup)
+    b = draw_scenarios(20, 5, DEFAULT_RANGES, setup)
+    assert all(s.describe()["wind_magnitude_N"] <= 0.1 for s in a)
+    assert [s.xi0_m for s in a] == [s.xi0_m for s in b]

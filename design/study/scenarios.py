@@ -13,7 +13,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from nniquad.config import (ALTITUDE_LIMIT_M, BAND_FRACTION, DT_S, OUTPUT_DT_S, TAU_MOTOR_FACTOR_RANGE, TILT_LIMIT_DEG,
-                             XI0_M)
+                             WIND_WEIGHT_FRACTION_RANGE, XI0_M)
 from nniquad.errors import MonteCarloError
 from nniquad.sim import SimOptions, SimParams, to_gains
 
@@ -77,9 +77,12 @@ class ScenarioRanges:
         Standard deviation of the position noise [m] (default 0-0.02).
     noise_rate_hz
         Position-sensor sample rate [Hz] (default 100; the measurement is sampled and held).
+    wind_weight_fraction
+        Magnitude of the constant horizontal wind force as a fraction of the
+        nominal weight ``m g`` (default :data:`nniquad.config.WIND_WEIGHT_FRACTION_RANGE`,
+        0-6 %), direction uniform; used unless ``wind_N`` is given.
     wind_N
-        Magnitude of the constant horizontal wind force [N] (default 0-0.3),
-        direction uniform.
+        Absolute wind force magnitude range [N] instead of the fraction (default ``None``).
     max_displacement_m
         Cap on the initial displacement radius [m] (default 5); the radius is
         ``min(certified region, cap)``.
@@ -95,7 +98,8 @@ class ScenarioRanges:
     tau_motor_s: tuple[float, float] | None = None
     noise_sigma_m: tuple[float, float] = (0.0, 0.02)
     noise_rate_hz: float = 100.0
-    wind_N: tuple[float, float] = (0.0, 0.3)
+    wind_weight_fraction: tuple[float, float] = WIND_WEIGHT_FRACTION_RANGE
+    wind_N: tuple[float, float] | None = None
     max_displacement_m: float = 5.0
     altitude_limit_m: float = ALTITUDE_LIMIT_M
 
@@ -108,7 +112,9 @@ class ScenarioRanges:
         if self.tau_motor_s is not None:
             set_("tau_motor_s", _pair("motor time-constant range", self.tau_motor_s, lo=0.002))
         set_("noise_sigma_m", _pair("noise sigma range", self.noise_sigma_m, lo=0.0))
-        set_("wind_N", _pair("wind force range", self.wind_N, lo=0.0))
+        set_("wind_weight_fraction", _pair("wind fraction-of-weight range", self.wind_weight_fraction, lo=0.0))
+        if self.wind_N is not None:
+            set_("wind_N", _pair("wind force range", self.wind_N, lo=0.0))
         for name in ("noise_rate_hz", "max_displacement_m", "altitude_limit_m"):
             v = getattr(self, name)
             try:
@@ -360,6 +366,7 @@ class Scenario:
             "noise_sigma_m": self.noise_sigma_m,
             "wind_N": [w.wind_x, w.wind_y],
             "wind_magnitude_N": wind,
+            "wind_fraction_of_weight": wind / (sp.nominal.m * sp.nominal.g),
             "wind_direction_deg": math.degrees(math.atan2(w.wind_y, w.wind_x)) % 360.0 if wind > 0 else 0.0,
             "xi0_m": list(self.xi0_m),
             "displacement_m": math.hypot(*self.xi0_m),
@@ -399,7 +406,9 @@ def draw_scenario(index: int, seed: int, ranges: ScenarioRanges, setup: StudySet
     f_att = u(ranges.attitude_gain_factor)
     tau = u(tau_range)  # the same stream position for a factor or an absolute range
     sigma = u(ranges.noise_sigma_m)
-    wind = u(ranges.wind_N)
+    weight = base.nominal.m * base.nominal.g
+    wind = u(ranges.wind_N if ranges.wind_N is not None
+             else tuple(weight * f for f in ranges.wind_weight_fraction))  # same stream position either way
     wdir = float(rng.uniform(0.0, 2 * math.pi))
     radius = setup.region_m * math.sqrt(float(rng.uniform(0.0, 1.0)))
     rdir = float(rng.uniform(0.0, 2 * math.pi))

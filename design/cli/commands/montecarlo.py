@@ -25,7 +25,8 @@ the full vehicle model (default 20 s).  Each scenario perturbs:
   motor time constant  nominal x U[0.5, 2], lag on     (--tau-motor-factor-range;
                                                         absolute: --tau-motor-range, in s)
   position noise       sigma U[0, 2] cm at 100 Hz      (--noise-range, in m)
-  wind force           U[0, 0.3] N, random direction   (--wind-range, in N)
+  wind force           U[0, 6] % of the weight m g,    (--wind-fraction-range, or
+                       random direction                 --wind-range in N)
   initial displacement uniform over the disk of the certificate's certified
                        region (capped at 5 m), at rest (--max-displacement)
 
@@ -76,8 +77,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                    help="absolute motor time constant range in s, instead of the factor (default: off)")
     r.add_argument("--noise-range", type=float, nargs=2, default=None, metavar=("LO", "HI"),
                    help="position-noise sigma in m, sampled at 100 Hz (default 0 0.02)")
+    r.add_argument("--wind-fraction-range", type=float, nargs=2, default=None, metavar=("LO", "HI"),
+                   help="constant wind force as a fraction of the nominal weight m g, random direction "
+                        "(default 0 0.06)")
     r.add_argument("--wind-range", type=float, nargs=2, default=None, metavar=("LO", "HI"),
-                   help="constant wind force magnitude in N, random direction (default 0 0.3)")
+                   help="constant wind force magnitude in N instead of the fraction (absolute)")
     r.add_argument("--max-displacement", type=float, default=None, metavar="M",
                    help="cap on the initial displacement radius in m (default 5)")
     r.add_argument("--altitude-limit", type=float, default=None, metavar="M",
@@ -94,6 +98,7 @@ _RANGE_OPTIONS = (
     ("tau_motor_factor_range", "tau_motor_factor", "--tau-motor-factor-range"),
     ("tau_motor_range", "tau_motor_s", "--tau-motor-range"),
     ("noise_range", "noise_sigma_m", "--noise-range"),
+    ("wind_fraction_range", "wind_weight_fraction", "--wind-fraction-range"),
     ("wind_range", "wind_N", "--wind-range"),
     ("max_displacement", "max_displacement_m", "--max-displacement"),
     ("altitude_limit", "altitude_limit_m", "--altitude-limit"),
