@@ -162,7 +162,8 @@ def test_mass_range_tunes_the_worst_case():
 
 def test_margin_scenario_and_altitude_penalty():
     from nniquad.analysis.verdicts import Metrics
-    from nniquad.tuning.tune import ALTITUDE_CAP_M, _cost, _scenario_options, simulation_options
+    from nniquad.tuning.objective import _cost, _scenario_options
+    from nniquad.tuning.tune import ALTITUDE_CAP_M, simulation_options
 
     opts = TuneOptions(model="full", roa_radius_m=0.0, margin=True, mass_range=(0.4, 0.6))
     scen = _scenario_options(opts, simulation_options(opts, 5.0), V)
@@ -180,7 +181,8 @@ def test_margin_scenario_and_altitude_penalty():
 def test_settling_counts_only_when_the_run_is_seen_to_stay_in_the_band():
     """A last exit at s counts only with max(5 s, 2 s) of horizon after it."""
     from nniquad.analysis.verdicts import Metrics
-    from nniquad.tuning.tune import _cost, honest_horizon_s, required_hold_s, settling_shown
+    from nniquad.tuning.objective import _cost
+    from nniquad.tuning.tune import honest_horizon_s, required_hold_s, settling_shown
 
     assert required_hold_s(1.0) == 5.0 and required_hold_s(4.0) == 8.0
     assert honest_horizon_s(4.0) == 12.0

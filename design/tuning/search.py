@@ -1,0 +1,160 @@
+"""The search stages: the initial design (Sobol, with a share on the sector-bound face), the sweep and the direct search."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from nniquad.analysis.linear import ReducedLoop
+from nniquad.analysis.lmi.roa import certified_reach
+from nniquad.analysis.verdicts import Metrics
+from nniquad.model.vehicle import Vehicle
+from nniquad.tuning.coordinates import decode, search_box
+from nniquad.tuning.objective import _scenario_options, evaluate, simulation_options
+from nniquad.tuning.options import SECTOR_FACE_SHARE, TuneOptions
+
+
+# ----------------------------------------------------------------------------- search
+
+
+@dataclass
+class Candidate:
+    """One evaluated point: coordinates, cost [s] and nominal metrics."""
+
+    q: np.ndarray
+    cost: float
+    metrics: Metrics
+    reach_m: float | None = None
+
+
+class _Search:
+    """Bookkeeping shared by the stages: evaluation counts, the reach cache, progress."""
+
+    def __init__(self, vehicle: Vehicle, options: TuneOptions, horizon_s: float,
+                 progress: Callable[[str], None] | None) -> None:
+        self.vehicle, self.options, self.horizon_s = vehicle, options, horizon_s
+        self.lo, self.hi = search_box(options)
+        self.n_sim = 0
+        self.n_lmi = 0
+        self._reach: dict[tuple, float] = {}
+        self.progress = progress or (lambda msg: None)
+
+    def evaluate(self, pts: np.ndarray) -> list[Candidate]:
+        pts = np.clip(np.atleast_2d(pts), self.lo, self.hi)
+        cost, mets = evaluate(self.vehicle, pts, self.options, self.horizon_s)
+        self.n_sim += len(pts) * len(_scenario_options(self.options, simulation_options(self.options, 1.0),
+                                                        self.vehicle))
+        return [Candidate(q.copy(), float(c), m) for q, c, m in zip(pts, cost, mets)]
+
+    def admissible(self, cand: Candidate) -> bool:
+        """Certified reach check (cached); always true with ``roa_radius_m = 0``."""
+        if self.options.roa_radius_m <= 0:
+            return True
+        key = tuple(np.round(cand.q[:3], 9))
+        if key not in self._reach:
+            gains, _ = decode(cand.q, self.vehicle.m, self.options.gamma_max)
+            self._reach[key] = certified_reach(ReducedLoop.from_vehicle(self.vehicle, gains), self.options.tilt_limit_deg)
+            self.n_lmi += 1
+        cand.reach_m = self._reach[key]
+        return cand.reach_m >= self.options.roa_radius_m
+
+
+def _sobol(n: int, lo: np.ndarray, hi: np.ndarray, seed: int | np.random.Generator) -> np.ndarray:
+    from scipy.stats import qmc
+
+    m = max(1, int(math.ceil(math.log2(max(n, 2)))))
+    pts = qmc.Sobol(d=len(lo), scramble=True, seed=seed).random_base2(m)[:n]
+    return lo + pts * (hi - lo)
+
+
+def initial_design(n: int, lo: np.ndarray, hi: np.ndarray, seed: int) -> np.ndarray:
+    """The global sweep's points: a Sobol set in the box, and a share of them on the sector-bound face.
+
+    The fastest designs sit on the face ``u = 0`` (γ = γ_max) of the box: the
+    sector bound is the constraint that limits the gains.  A Sobol set in the
+    box puts no point exactly on a face and only a few within a small distance
+    of it (with 256 points, about 3 within 1 % of the ``u`` range), so with the
+    honest settling rule a quick sweep found no settling candidate at all.
+    :data:`SECTOR_FACE_SHARE` of the points are therefore a second, independent
+    Sobol set over the other coordinates with ``u = lo[1]``.
+
+    Parameters
+    ----------
+    n
+        Number of points.
+    lo, hi
+        The search box (:func:`search_box`); coordinate 1 is ``u``.
+    seed
+        Seed of the scrambling (the face set uses an independent stream of it).
+
+    Returns
+    -------
+    ndarray (n, d)
+        The box points first, then the face points.
+    """
+    n_face = int(round(SECTOR_FACE_SHARE * n))
+    box = _sobol(n - n_face, lo, hi, seed)
+    face = _sobol(n_face, lo, hi, np.random.default_rng([seed, 1])) if n_face else np.empty((0, len(lo)))
+    face[:, 1] = lo[1]
+    return np.vstack([box, face])
+
+
+def _global(search: _Search, n: int, seed: int, batch: int = 256) -> list[Candidate]:
+    pts = initial_design(n, search.lo, search.hi, seed)
+    out: list[Candidate] = []
+    for i in range(0, len(pts), batch):
+        out += search.evaluate(pts[i : i + batch])
+        search.progress(f"sweep {min(i + batch, len(pts))}/{len(pts)} points")
+    out.sort(key=lambda c: c.cost)
+    return out
+
+
+def _starts(search: _Search, ranked: list[Candidate], k: int, max_checks: int = 60) -> list[Candidate]:
+    """The best ``k`` admissible sweep points that are not near each other (10 % of the box apart)."""
+    chosen: list[Candidate] = []
+    for cand in ranked[:max_checks]:
+        if any(np.max(np.abs(cand.q - c.q) / (search.hi - search.lo)) < 0.1 for c in chosen):
+            continue
+        if search.admissible(cand):
+            chosen.append(cand)
+        if len(chosen) == k:
+            break
+    return chosen
+
+
+def _local(search: _Search, starts: list[Candidate], max_iter: int, seed: int,
+           step0: float = 0.15, step_min: float = 1e-3) -> list[Candidate]:
+    """Batched direct search with random orthogonal poll bases (module docstring).
+
+    Steps are fractions of the search box in each coordinate, so that the log
+    gains and the attitude damping are moved on comparable scales.
+    """
+    rng = np.random.default_rng(seed)
+    d = len(search.lo)
+    width = search.hi - search.lo
+    best = list(starts)
+    step = [step0] * len(best)
+    for it in range(max_iter):
+        active = [i for i in range(len(best)) if step[i] >= step_min]
+        if not active:
+            break
+        Q, _ = np.linalg.qr(rng.standard_normal((d, d)))
+        polls = {i: [best[i].q + s * step[i] * width * Q[:, j] for j in range(d) for s in (1.0, -1.0)]
+                 for i in active}
+        flat = [p for i in active for p in polls[i]]
+        cands = search.evaluate(np.array(flat))
+        for n_i, i in enumerate(active):
+            mine = sorted(cands[n_i * 2 * d : (n_i + 1) * 2 * d], key=lambda c: c.cost)
+            moved = False
+            for c in mine:
+                if c.cost >= best[i].cost - 1e-4:
+                    break
+                if search.admissible(c):
+                    best[i], moved = c, True
+                    break
+            step[i] = step[i] if moved else step[i] / 2.0
+        search.progress(f"refine iteration {it + 1}/{max_iter}: best {min(b.cost for b in best):.4g} s")
+    return sorted(best, key=lambda c: c.cost)
