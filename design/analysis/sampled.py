@@ -283,23 +283,16 @@ def sampled_gain_interval(cascade: LinearCascade, rate_hz: float = CONTROL_RATE_
         return math.sqrt(lo * hi)
 
     # scan a log grid first: the stable set need not be an interval far from k = 1
-    grid_up = np.geomspace(1.0, k_max, 101)[1:]
-    k_hi = math.inf
-    prev = 1.0
-    for k in grid_up:
-        if not stable(float(k)):
-            k_hi = bisect(prev, float(k))
-            break
-        prev = float(k)
-    grid_dn = np.geomspace(1.0, 1.0 / k_max, 101)[1:]
-    k_lo = 0.0
-    prev = 1.0
-    for k in grid_dn:
-        if not stable(float(k)):
-            k_lo = bisect(prev, float(k))
-            break
-        prev = float(k)
-    return k_lo, k_hi
+    def first_unstable(end: float, none_found: float) -> float:
+        """Walk a geometric grid from the nominal gain 1 towards ``end``; bisect the first stability loss."""
+        prev = 1.0
+        for k in np.geomspace(1.0, end, 101)[1:]:
+            if not stable(float(k)):
+                return bisect(prev, float(k))
+            prev = float(k)
+        return none_found
+
+    return first_unstable(1.0 / k_max, 0.0), first_unstable(k_max, math.inf)
 
 
 # =============================================================================== Lyapunov certificate

@@ -41,6 +41,8 @@ check.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from nniquad.analysis.lmi import checks as K
@@ -56,6 +58,12 @@ def _cp():
 
 
 # ----------------------------------------------------------------------------- 1. NI lemma as the paper states it
+
+
+def _system(name: str, A: Any, B: Any, C: Any, D: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(A, B, C, D)`` as finite 2-D arrays (``D = 0`` when not given), or :class:`SolverError` naming ``name``."""
+    d = as_data(name, A=A, B=B, C=C, D=np.zeros((np.atleast_2d(C).shape[0],) * 2) if D is None else D)
+    return d["A"], d["B"], d["C"], d["D"]
 
 
 def ni_lemma_paper(A, B, C, name: str = "ni_lemma_paper") -> LMIResult:
@@ -123,9 +131,8 @@ def ni_lemma_dissipation(A, B, C, D=None, name: str = "ni_lemma_dissipation") ->
         only when ``CB = 0``), ``D_asymmetry``.
     """
     cp = _cp()
-    d = as_data(name, A=A, B=B, C=C, D=np.zeros((np.atleast_2d(C).shape[0],) * 2) if D is None else D)
-    A, B, C, Dm = d["A"], d["B"], d["C"], d["D"]
-    n, k = A.shape[0], B.shape[1]
+    A, B, C, Dm = _system(name, A, B, C, D)
+    n = A.shape[0]
     asym = float(np.linalg.norm(Dm - Dm.T))
     note = ("NI lemma, dissipation form (Xiong-Petersen-Lanzon 2010): D=D', P>0, "
             "[[PA+A'P, PB-A'C'],[B'P-CA, -(CB+B'C')]] <= 0, i.e. dV/dt <= ydot'u; margin = min eig P")
@@ -173,8 +180,7 @@ def ni_lemma_lanzon_petersen(A, B, C, D=None, name: str = "ni_lemma_lanzon_peter
         (``AY + YA^T``), ``equality`` (``|B + AYC^T| / |B|``), ``det_A_relative``.
     """
     cp = _cp()
-    d = as_data(name, A=A, B=B, C=C, D=np.zeros((np.atleast_2d(C).shape[0],) * 2) if D is None else D)
-    A, B, C, Dm = d["A"], d["B"], d["C"], d["D"]
+    A, B, C, Dm = _system(name, A, B, C, D)
     n = A.shape[0]
     data = {"A": A, "B": B, "C": C, "D": Dm}
     note = "NI lemma, Lanzon-Petersen 2008 form (recalled): det A != 0, Y>0, AY+YA'<=0, B+AYC'=0; margin = min eig Y"
@@ -220,8 +226,7 @@ def sni_lemma(A, B, C, D=None, name: str = "sni_lemma") -> LMIResult:
         ``margin`` = ``s``, the strictness of ``AY + YA^T < 0``.
     """
     cp = _cp()
-    d = as_data(name, A=A, B=B, C=C, D=np.zeros((np.atleast_2d(C).shape[0],) * 2) if D is None else D)
-    A, B, C, Dm = d["A"], d["B"], d["C"], d["D"]
+    A, B, C, Dm = _system(name, A, B, C, D)
     n = A.shape[0]
     data = {"A": A, "B": B, "C": C, "D": Dm}
     note = "SNI lemma (recalled): Y>0, AY+YA' < 0, B+AYC'=0; margin s with AY+YA' <= -s I"
