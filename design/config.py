@@ -27,6 +27,8 @@ __all__ = [
     "ATTITUDE_GAIN_MARGIN",
     "SETTLING_HOLD_MIN_S",
     "SETTLING_HOLD_FACTOR",
+    "MC_STALL_TIMEOUT_S",
+    "MC_STARTUP_GRACE_S",
 ]
 
 #: Initial horizontal position of the paper's run, north/east [m], at rest (DESIGN.md).
@@ -70,3 +72,10 @@ ATTITUDE_GAIN_MARGIN: float = 2.0
 #: max(SETTLING_HOLD_MIN_S, SETTLING_HOLD_FACTOR * s) after it (else: did not settle).
 SETTLING_HOLD_MIN_S: float = 5.0
 SETTLING_HOLD_FACTOR: float = 2.0
+
+#: A Monte Carlo study on a process pool or a Dask cluster stops (and saves what finished) when no
+#: batch has finished for this long [s]; a default batch (50 scenarios of 20 s) takes a few seconds.
+MC_STALL_TIMEOUT_S: float = 120.0
+#: Until its first batch finishes, a study waits at least this long before calling the pool or cluster
+#: stalled [s]: workers start, import nniquad and build the simulator (a few seconds each, more when loaded).
+MC_STARTUP_GRACE_S: float = 60.0

@@ -17,7 +17,13 @@ __all__ = [
     "MonteCarloError",
     "CascadeError",
     "ExportError",
+    "StudyFailedError",
+    "EXIT_STUDY_FAILED",
 ]
+
+#: Exit status of a Monte Carlo study stopped by a fault of where it ran (a worker or the scheduler
+#: died, the cluster stopped making progress); its finished scenarios are saved.
+EXIT_STUDY_FAILED = 4
 
 
 class NniquadError(ValueError):
@@ -56,3 +62,30 @@ class CascadeError(NniquadError):
 class ExportError(NniquadError):
     """A controller cannot be exported as asked (bad rate or format, unwritable folder, sampled loop
     unstable at the rate)."""
+
+
+class StudyFailedError(MonteCarloError):
+    """A running Monte Carlo study stopped on a fault; it carries what had finished.
+
+    Attributes
+    ----------
+    kind
+        ``"worker"`` (a worker died or raised), ``"scheduler"`` (the Dask scheduler was lost),
+        ``"stalled"`` (no batch finished within the stall timeout) or ``"error"`` (an unexpected
+        exception, a bug: it is the ``__cause__``).
+    reason
+        The one-line message.
+    run
+        The :class:`nniquad.study.StudyRun` of the finished scenarios (``partial``), set by the executor.
+    result
+        The :class:`nniquad.study.MonteCarloResult` of them, set by :func:`nniquad.montecarlo`.
+    """
+
+    exit_code = EXIT_STUDY_FAILED
+
+    def __init__(self, reason: str, kind: str = "error") -> None:
+        super().__init__(reason)
+        self.reason = reason
+        self.kind = kind
+        self.run = None
+        self.result = None

@@ -77,9 +77,9 @@ Modules
     success rate, quantiles and their confidence intervals.
 """
 
-from nniquad.errors import MonteCarloError
-from nniquad.study.executors import (CONNECT_TIMEOUT_S, StudyRun, auto_batch_size, close_client, cluster_threads,
-                                     connect_scheduler, make_batches, run_study)
+from nniquad.errors import MonteCarloError, StudyFailedError
+from nniquad.study.executors import (CONNECT_TIMEOUT_S, StopRequest, StudyRun, auto_batch_size, catch_interrupts,
+                                     close_client, cluster_threads, connect_scheduler, make_batches, run_study)
 from nniquad.study.runs import ScenarioResult, run_scenarios
 from nniquad.study.scenarios import (DEFAULT_HORIZON_S, DEFAULT_RANGES, Scenario, ScenarioRanges, StudySetup,
                                      draw_scenario, draw_scenarios, study_setup, study_setup_from)
@@ -87,6 +87,7 @@ from nniquad.study.statistics import Summary, quantile_ci, summarize, wilson_int
 
 __all__ = [
     "MonteCarloError",
+    "StudyFailedError",
     "ScenarioRanges",
     "DEFAULT_RANGES",
     "StudySetup",
@@ -102,6 +103,8 @@ __all__ = [
     "make_batches",
     "auto_batch_size",
     "run_study",
+    "StopRequest",
+    "catch_interrupts",
     "connect_scheduler",
     "close_client",
     "cluster_threads",

@@ -5,9 +5,21 @@ unit of work of a local :class:`concurrent.futures.ProcessPoolExecutor`
 (``spawn`` start method, one process per core, workers ignore Ctrl-C) or of a
 Dask distributed cluster (:func:`connect_scheduler`, which fails fast on a
 bad or unreachable address).  A scenario holds the GIL while CasADi runs, so
-Dask workers should be processes with one thread each.  On
-``KeyboardInterrupt`` the pending batches are cancelled and the finished ones
-are returned, marked partial.
+Dask workers should be processes with one thread each.
+
+Faults.  The executors never wait blindly: every :data:`POLL_S` they collect
+the finished batches, look at a :class:`StopRequest` and at a stall clock.
+
+* Ctrl-C (SIGINT) inside :func:`catch_interrupts` only *sets* the stop request
+  (no ``KeyboardInterrupt`` is raised, so a second Ctrl-C cannot cut the
+  cancelling or the saving short); the pending batches are cancelled and the
+  finished ones returned, marked partial (``stopped="interrupted"``).
+* A worker that dies (a broken local pool; a Dask task whose workers died
+  ``allowed-failures`` times), a worker that raises, a lost Dask scheduler, and
+  no batch finished for ``stall_timeout_s`` (every worker gone, or hung) raise
+  :class:`~nniquad.errors.StudyFailedError` carrying the finished scenarios
+  (``.run``).  A Dask worker that dies once is not a fault: the scheduler runs
+  its batch again elsewhere.
 """
 
 from __future__ import annotations
@@ -15,18 +27,23 @@ from __future__ import annotations
 import math
 import os
 import signal
+import threading
 import time
+from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass
-from typing import Any, Callable, Mapping, Sequence
+from typing import Any, Callable, Iterator, Mapping, Sequence
 
 import numpy as np
 
-from nniquad.errors import MonteCarloError
+from nniquad.config import MC_STALL_TIMEOUT_S, MC_STARTUP_GRACE_S
+from nniquad.errors import MonteCarloError, StudyFailedError
 from nniquad.study.runs import ScenarioResult, run_scenarios
 from nniquad.study.scenarios import Scenario
 
 __all__ = [
     "StudyRun",
+    "StopRequest",
+    "catch_interrupts",
     "make_batches",
     "auto_batch_size",
     "run_study",
@@ -34,10 +51,15 @@ __all__ = [
     "close_client",
     "cluster_threads",
     "CONNECT_TIMEOUT_S",
+    "POLL_S",
 ]
 
 #: Time allowed to reach a Dask scheduler [s].
 CONNECT_TIMEOUT_S = 5.0
+#: How often a running study looks at its batches, its stop request and its stall clock [s].
+POLL_S = 0.2
+#: Time allowed for one exchange with a Dask cluster during a study (fetch a batch, count workers) [s].
+CLUSTER_TIMEOUT_S = 10.0
 
 
 def auto_batch_size(n: int, workers: int) -> int:
@@ -73,13 +95,18 @@ class StudyRun:
     n_requested
         Number of scenarios asked for.
     partial
-        ``True`` when interrupted (only finished batches are in ``results``).
+        ``True`` when the study stopped early (only finished scenarios are in ``results``).
     elapsed_s
         Wall time [s].
     executor
         ``"in-process"``, ``"local process pool"`` or ``"dask tcp://..."``.
     workers, batch_size
         Worker processes (or Dask threads) and scenarios per batch.
+    stopped
+        Why it stopped early: ``"interrupted"`` or the ``kind`` of a
+        :class:`~nniquad.errors.StudyFailedError`; ``None`` when it ran to the end.
+    reason
+        The one-line account of ``stopped``.
     """
 
     results: list[ScenarioResult]
@@ -89,10 +116,83 @@ class StudyRun:
     executor: str
     workers: int
     batch_size: int
+    stopped: str | None = None
+    reason: str | None = None
 
     @property
     def scenarios_per_s(self) -> float:
         return len(self.results) / self.elapsed_s if self.elapsed_s > 0 else float("nan")
+
+
+class StopRequest:
+    """A request to stop a running study, set by a signal (:func:`catch_interrupts`) or by :meth:`set`.
+
+    The executors look at it every :data:`POLL_S` (in-process: between
+    scenarios).  Setting it raises nothing, so it cannot interrupt the
+    cancelling of the pending batches or the writing of the finished ones.
+
+    Attributes
+    ----------
+    signals
+        Signals received while it was installed (a second Ctrl-C counts, and is otherwise ignored).
+    """
+
+    def __init__(self) -> None:
+        self.signals = 0
+        self._event = threading.Event()
+
+    def set(self) -> None:
+        """Ask the study to stop (thread-safe)."""
+        self._event.set()
+
+    @property
+    def requested(self) -> bool:
+        """``True`` once a stop was asked for."""
+        return self._event.is_set()
+
+
+@contextmanager
+def catch_interrupts(stop: StopRequest | None = None,
+                     repeat_message: str = "still saving the finished scenarios, please wait"
+                     ) -> Iterator[StopRequest]:
+    """Within the block, SIGINT (Ctrl-C) sets a :class:`StopRequest` instead of raising ``KeyboardInterrupt``.
+
+    A second and later SIGINT only prints ``repeat_message`` (with a raw
+    write, safe inside a signal handler), so whatever runs in the block --
+    cancelling batches, writing the partial file -- runs to its end.  Outside
+    the main thread, where Python cannot install signal handlers, nothing is
+    installed and ``KeyboardInterrupt`` keeps its usual meaning.
+
+    Parameters
+    ----------
+    stop
+        The request to set (a new one by default).
+    repeat_message
+        Shown on stderr for every SIGINT after the first.
+
+    Yields
+    ------
+    StopRequest
+    """
+    stop = StopRequest() if stop is None else stop
+    if threading.current_thread() is not threading.main_thread():
+        yield stop
+        return
+
+    def on_sigint(signum: int, frame: Any) -> None:
+        stop.signals += 1
+        if stop.requested and repeat_message:
+            try:
+                os.write(2, f"\n[montecarlo] {repeat_message}\n".encode())
+            except OSError:
+                pass
+        stop.set()
+
+    previous = signal.signal(signal.SIGINT, on_sigint)
+    try:
+        yield stop
+    finally:
+        signal.signal(signal.SIGINT, previous if previous is not None else signal.SIG_DFL)
 
 
 def _ignore_sigint() -> None:  # pool initializer: Ctrl-C is the parent's business
@@ -217,12 +317,30 @@ def close_client(client: Any) -> None:
         pass
 
 
-def cluster_threads(client: Any) -> int:
-    """Worker threads of the cluster behind ``client`` (0 when no worker has joined yet)."""
+def cluster_threads(client: Any, timeout_s: float | None = None) -> int:
+    """Worker threads of the cluster behind ``client`` (0 when no worker has joined yet, or no answer in time)."""
     try:
-        return int(sum(client.nthreads().values()))
+        kwargs = {} if timeout_s is None else {"callback_timeout": timeout_s}
+        return int(sum(client.nthreads(**kwargs).values()))
     except Exception:  # noqa: BLE001
         return 0
+
+
+def _check_stall_timeout(value: Any) -> float:
+    if value is None:
+        return float(MC_STALL_TIMEOUT_S)
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        v = float("nan")
+    if isinstance(value, bool) or not v > 0:  # also refuses nan
+        raise MonteCarloError(f"stall timeout must be a positive number of seconds, got {value!r}")
+    return v
+
+
+def _stall_limit(stall_s: float, any_finished: bool) -> float:
+    """How long the pool or cluster may go without finishing a batch (more before the first one)."""
+    return stall_s if any_finished else max(stall_s, MC_STARTUP_GRACE_S)
 
 
 def run_study(
@@ -234,6 +352,9 @@ def run_study(
     batch_size: int | None = None,
     progress: Callable[[int, int], None] | None = None,
     connect_timeout_s: float = CONNECT_TIMEOUT_S,
+    stall_timeout_s: float | None = None,
+    stop: StopRequest | None = None,
+    notify: Callable[[str], None] | None = None,
 ) -> StudyRun:
     """Run the scenarios in batches and collect the results, sorted by index.
 
@@ -254,17 +375,35 @@ def run_study(
         Called as ``progress(done, total)`` after each finished batch.
     connect_timeout_s
         Time allowed to reach the scheduler.
+    stall_timeout_s
+        A pool or cluster on which no batch finished for this long has
+        stopped making progress [s] (default
+        :data:`nniquad.config.MC_STALL_TIMEOUT_S`; ``inf`` waits for ever).
+        Until the first batch finishes, the wait is at least
+        :data:`nniquad.config.MC_STARTUP_GRACE_S` (workers start up).  Not
+        checked in-process, where nothing else could run the batches.
+    stop
+        Stops the study when set (finished batches are kept).  Default: a new
+        one, set by Ctrl-C while the study runs (:func:`catch_interrupts`).
+    notify
+        Called with a one-line note when something happens that the user
+        should know about while waiting (stopping, no worker left).
 
     Returns
     -------
     StudyRun
-        ``partial`` is set when interrupted by ``KeyboardInterrupt``; the
-        finished batches are kept and the pending ones cancelled.
+        ``partial`` with ``stopped="interrupted"`` when stopped (Ctrl-C,
+        ``KeyboardInterrupt``, ``stop``); the finished batches are kept and
+        the pending ones cancelled.
 
     Raises
     ------
     MonteCarloError
-        Bad options, an unreachable scheduler, a failed worker.
+        Bad options, an unreachable scheduler.
+    StudyFailedError
+        A fault while the study ran (a worker or the scheduler died, a worker
+        raised, a stall, an unexpected error); ``.run`` holds the finished
+        scenarios, ``partial``.
     """
     scenarios = list(scenarios)
     total = len(scenarios)
@@ -275,13 +414,13 @@ def run_study(
         raise MonteCarloError(f"number of workers must be a positive integer, got {workers!r}")
     if batch_size is not None:
         make_batches(scenarios[:1], batch_size)  # validates before any connection is made
+    stall_s = _check_stall_timeout(stall_timeout_s)
     t0 = time.perf_counter()
     own_client = False
     if client is None and scheduler:
         client = connect_scheduler(scheduler, connect_timeout_s)
         own_client = True
     collected: list[ScenarioResult] = []
-    partial = False
     done = 0
 
     def _add(res: list[ScenarioResult]) -> None:
@@ -291,100 +430,276 @@ def run_study(
         if progress is not None:
             progress(done, total)
 
-    try:
-        if client is not None:
-            n_workers = max(1, cluster_threads(client))
-            executor = f"dask {getattr(client.scheduler, 'address', scheduler)}"
-        else:
-            n_workers = int(workers or os.cpu_count() or 1)
-            executor = "in-process" if n_workers == 1 else "local process pool"
-        bs = auto_batch_size(total, n_workers) if batch_size is None else int(batch_size)
-        batches = make_batches(scenarios, bs)
-        if client is not None:
-            partial = _run_dask(client, batches, _add)
-        elif n_workers == 1:
+    def _note(text: str) -> None:
+        if notify is not None:
             try:
-                for b in batches:
-                    _add(run_scenarios(b))
-            except KeyboardInterrupt:
-                partial = True
-        else:
-            partial = _run_pool(n_workers, batches, _add)
-    finally:
-        if own_client:
-            close_client(client)
+                notify(text)
+            except Exception:  # noqa: BLE001 -- a note must not stop the study
+                pass
+
+    if client is not None:
+        n_workers = max(1, cluster_threads(client))
+        executor = f"dask {getattr(client.scheduler, 'address', scheduler)}"
+    else:
+        n_workers = int(workers or os.cpu_count() or 1)
+        executor = "in-process" if n_workers == 1 else "local process pool"
+    bs = auto_batch_size(total, n_workers) if batch_size is None else int(batch_size)
+    batches = make_batches(scenarios, bs)
+    stopped: str | None = None
+    fault: StudyFailedError | None = None
+    with (catch_interrupts() if stop is None else nullcontext(stop)) as stop_request:
+        try:
+            if client is not None:
+                stopped = _run_dask(client, executor[5:], batches, _add, stop_request, stall_s, _note)
+            elif n_workers == 1:
+                stopped = _run_here(batches, _add, stop_request)
+            else:
+                stopped = _run_pool(n_workers, batches, _add, stop_request, stall_s, _note)
+        except StudyFailedError as exc:
+            fault = exc
+        except Exception as exc:  # noqa: BLE001 -- a bug: keep what finished, the cause goes with it
+            fault = StudyFailedError(f"the study stopped on an unexpected error: {type(exc).__name__}: "
+                                     f"{_first_line(exc)}", kind="error")
+            fault.__cause__ = exc
+        finally:
+            if own_client:
+                close_client(client)
     collected.sort(key=lambda r: r.index)
-    return StudyRun(collected, total, partial, time.perf_counter() - t0, executor, n_workers, bs)
+    reason: str | None = None
+    if fault is not None:
+        stopped, reason = fault.kind, fault.reason
+    elif stopped is not None and len(collected) < total:
+        reason = "interrupted"
+    else:  # stopped after the last batch had finished: nothing is missing
+        stopped = None
+    run = StudyRun(collected, total, stopped is not None, time.perf_counter() - t0, executor, n_workers, bs,
+                   stopped, reason)
+    if fault is not None:
+        fault.run = run
+        raise fault
+    return run
 
 
-def _run_pool(n_workers: int, batches: list[list[Scenario]], add: Callable[[list[ScenarioResult]], None]) -> bool:
+def _stopping_note(note: Callable[[str], None]) -> None:
+    note("stopping: cancelling the pending batches, keeping the finished ones "
+         "(Ctrl-C again is ignored until they are saved)")
+
+
+def _run_here(batches: list[list[Scenario]], add: Callable[[list[ScenarioResult]], None],
+              stop: StopRequest) -> str | None:
+    """In this process, one scenario per call: a stop takes effect after the running scenario."""
+    try:
+        for batch in batches:
+            for s in batch:
+                if stop.requested:
+                    return "interrupted"
+                add(run_scenarios([s]))
+    except KeyboardInterrupt:  # no handler installed (not the main thread), or raised by the callee
+        return "interrupted"
+    return None
+
+
+def _exit_description(exitcode: int | None) -> str:
+    if exitcode is None:
+        return "still running"
+    if exitcode < 0:
+        try:
+            return f"killed by {signal.Signals(-exitcode).name}"
+        except ValueError:
+            return f"killed by signal {-exitcode}"
+    return f"exit status {exitcode}"
+
+
+def _run_pool(n_workers: int, batches: list[list[Scenario]], add: Callable[[list[ScenarioResult]], None],
+              stop: StopRequest, stall_s: float, note: Callable[[str], None]) -> str | None:
     import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor, as_completed
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
     from concurrent.futures.process import BrokenProcessPool
 
     pool = ProcessPoolExecutor(max_workers=min(n_workers, len(batches)),
                                mp_context=multiprocessing.get_context("spawn"),
                                initializer=_ignore_sigint)
-    futures = []
-    taken: set[int] = set()
-    interrupted = False
-    try:
-        futures = [pool.submit(run_scenarios, b) for b in batches]
-        for fut in as_completed(futures):
-            taken.add(id(fut))
+    pending: set[Any] = set()
+    seen: dict[int, Any] = {}  # every worker process, to say which one died and how
+    finished = False
+
+    def take(fut: Any) -> None:
+        pending.discard(fut)
+        exc = fut.exception()
+        if exc is None:
             add(fut.result())
-    except KeyboardInterrupt:
-        interrupted = True
-        for fut in futures:  # finished but not yet collected: keep them
-            if id(fut) not in taken and fut.done() and not fut.cancelled() and fut.exception() is None:
-                try:
-                    add(fut.result())
-                except KeyboardInterrupt:
-                    pass
-    except BrokenProcessPool as exc:
-        raise MonteCarloError(f"a local worker process died ({exc})") from None
-    finally:
-        if interrupted:
-            procs = list((getattr(pool, "_processes", None) or {}).values())
-            pool.shutdown(wait=False, cancel_futures=True)
-            for proc in procs:  # stop the running batches now (their results would be discarded)
-                try:
-                    proc.terminate()
-                except Exception:  # noqa: BLE001
-                    pass
-            for proc in procs:
-                proc.join(timeout=5)
-        else:
-            pool.shutdown(wait=True, cancel_futures=True)
-    return interrupted
+        elif isinstance(exc, BrokenProcessPool):
+            if stop.requested:  # Ctrl-C on the terminal also reached a worker still starting up
+                return
+            dead = [f"pid {pid}, {_exit_description(p.exitcode)}" for pid, p in seen.items()
+                    if p.exitcode not in (None, 0)]
+            raise StudyFailedError(f"a local worker process died ({'; '.join(dead) or 'terminated abruptly'})",
+                                   kind="worker")
+        else:  # run_scenarios turns simulation errors into failures: anything else is a bug
+            raise exc
 
-
-def _run_dask(client: Any, batches: list[list[Scenario]], add: Callable[[list[ScenarioResult]], None]) -> bool:
-    from distributed import as_completed
-
-    futures = client.map(run_scenarios, batches, pure=False)
-    taken: set[str] = set()
     try:
-        for fut in as_completed(futures, loop=client.loop):  # not the default client: name its loop
-            taken.add(fut.key)
-            try:
-                res = fut.result()
-            except Exception as exc:  # noqa: BLE001
-                client.cancel(futures)
-                detail = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-                raise MonteCarloError(f"a Dask worker failed: {type(exc).__name__}: {detail} "
-                                      "(is nniquad installed on every worker?)") from None
-            add(res)
+        pending = {pool.submit(run_scenarios, b) for b in batches}
+        last = time.monotonic()
+        while pending:
+            seen.update(getattr(pool, "_processes", None) or {})
+            if stop.requested:
+                _stopping_note(note)
+                return "interrupted"
+            ready, _ = wait(pending, timeout=POLL_S, return_when=FIRST_COMPLETED)
+            for fut in ready:
+                take(fut)
+                last = time.monotonic()
+            if stop.requested:
+                continue
+            limit = _stall_limit(stall_s, len(pending) < len(batches))
+            if time.monotonic() - last > limit:
+                raise StudyFailedError(
+                    f"no batch finished in {limit:g} s on {min(n_workers, len(batches))} local worker "
+                    f"process(es): the pool has stopped making progress (a longer stall timeout, "
+                    f"--stall-timeout, if one batch takes longer)", kind="stalled")
+        finished = True
+        return None
     except KeyboardInterrupt:
-        for fut in futures:
-            if fut.key not in taken and fut.status == "finished":
-                try:
-                    add(fut.result(timeout=1))
-                except BaseException:  # noqa: BLE001 -- keep what we have
-                    pass
+        return "interrupted"
+    finally:
+        for fut in list(pending):  # finished while we were stopping: keep them
+            if fut.done() and not fut.cancelled() and fut.exception() is None:
+                pending.discard(fut)
+                add(fut.result())
+        if finished:
+            pool.shutdown(wait=True, cancel_futures=True)
+        else:
+            _stop_pool(pool, seen)
+
+
+def _stop_pool(pool: Any, seen: dict[int, Any]) -> None:
+    """Cancel what is queued and end the running batches now (their results would be discarded)."""
+    procs = list({**seen, **(getattr(pool, "_processes", None) or {})}.values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for proc in procs:
+        try:
+            proc.terminate()
+        except Exception:  # noqa: BLE001
+            pass
+    deadline = time.monotonic() + 3.0
+    for proc in procs:
+        proc.join(timeout=max(0.0, deadline - time.monotonic()))
+    for proc in procs:  # a stopped (SIGSTOP) or hung process ignores SIGTERM
+        if proc.is_alive():
+            try:
+                proc.kill()
+                proc.join(timeout=1.0)
+            except Exception:  # noqa: BLE001
+                pass
+
+
+def _dask_fault(client: Any, address: str, fut: Any, batch: int) -> StudyFailedError:
+    """What went wrong with a Dask future that ended in error or was cancelled."""
+    if fut.status == "cancelled" or client.status != "running":
+        detail = "the connection was lost" if client.status != "running" else "its batches were cancelled"
+        try:
+            fut.result(timeout=0)
+        except BaseException as exc:  # noqa: BLE001 -- the reason Dask gives
+            text = str(exc)
+            if "reason:" in text:
+                detail = text.split("reason:", 1)[1].split(".")[0].strip().replace("-", " ")
+        return StudyFailedError(f"lost the Dask scheduler at {address} mid-study ({detail})", kind="scheduler")
+    try:
+        exc = fut.exception(timeout=CLUSTER_TIMEOUT_S)
+    except BaseException as e:  # noqa: BLE001
+        exc = e
+    name = type(exc).__name__
+    if name == "KilledWorker":
+        return StudyFailedError(f"batch {batch} was running on Dask workers that died each time (KilledWorker: "
+                                f"{_first_line(exc)}); see the worker logs", kind="worker")
+    hint = ""
+    if isinstance(exc, ImportError) or "No module named" in str(exc) or isinstance(exc, AttributeError):
+        hint = " (is nniquad installed on every worker, in the same version?)"
+    return StudyFailedError(f"a Dask worker failed on batch {batch}: {name}: {_first_line(exc)}{hint}",
+                            kind="worker")
+
+
+def _cancel_quietly(client: Any, futures: list[Any], timeout_s: float = 2.0) -> None:
+    """Cancel the futures, but never wait long for a cluster that may be gone."""
+    if not futures or client.status != "running":
+        return
+
+    def cancel() -> None:
         try:
             client.cancel(futures)
         except Exception:  # noqa: BLE001
             pass
+
+    t = threading.Thread(target=cancel, daemon=True)
+    t.start()
+    t.join(timeout_s)
+
+
+def _run_dask(client: Any, address: str, batches: list[list[Scenario]],
+              add: Callable[[list[ScenarioResult]], None], stop: StopRequest, stall_s: float,
+              note: Callable[[str], None]) -> str | None:
+    futures = client.map(run_scenarios, batches, pure=False)
+    pending = dict(enumerate(futures))
+    last = time.monotonic()
+    last_look = last
+    no_worker_since: float | None = None
+
+    def collect(i: int, fut: Any, timeout_s: float) -> bool:
+        try:
+            res = fut.result(timeout=timeout_s)
+        except TimeoutError:  # its worker went away with it: Dask computes it again
+            return False
+        except Exception:  # noqa: BLE001 -- cancelled or errored meanwhile: the loop looks again
+            return False
+        del pending[i]
+        add(res)
         return True
-    return False
+
+    try:
+        while pending:
+            if stop.requested:
+                _stopping_note(note)
+                return "interrupted"
+            for i, fut in list(pending.items()):
+                status = fut.status
+                if status == "finished":
+                    if collect(i, fut, CLUSTER_TIMEOUT_S):
+                        last = time.monotonic()
+                elif status in ("error", "cancelled"):
+                    raise _dask_fault(client, address, fut, i)
+            if not pending:
+                break
+            if client.status in ("closing", "closed", "failed"):
+                raise StudyFailedError(f"lost the Dask scheduler at {address} mid-study (client {client.status})",
+                                       kind="scheduler")
+            now = time.monotonic()
+            if now - last_look >= 1.0 and client.status == "running":
+                last_look = now
+                if cluster_threads(client, timeout_s=min(CLUSTER_TIMEOUT_S, 2.0)) == 0:
+                    if no_worker_since is None:
+                        no_worker_since = now
+                        note(f"the cluster has no worker; waiting for one for up to "
+                             f"{_stall_limit(stall_s, len(pending) < len(batches)):g} s (--stall-timeout)")
+                else:
+                    no_worker_since = None
+            limit = _stall_limit(stall_s, len(pending) < len(batches))
+            if now - last > limit:
+                if no_worker_since is not None:
+                    what = "the cluster has no worker left (every worker died or left)"
+                else:
+                    what = (f"{cluster_threads(client, timeout_s=2.0)} worker thread(s) are connected but the "
+                            f"cluster has stopped making progress (a longer stall timeout, --stall-timeout, "
+                            f"if one batch takes longer)")
+                raise StudyFailedError(f"no batch finished in {limit:g} s on the Dask cluster at {address}: "
+                                       f"{what}", kind="stalled")
+            time.sleep(POLL_S)
+        return None
+    except KeyboardInterrupt:
+        return "interrupted"
+    finally:
+        if pending:
+            for i, fut in list(pending.items()):  # finished while we were stopping: keep them
+                if fut.status == "finished" and client.status == "running":
+                    collect(i, fut, 2.0)
+            _cancel_quietly(client, list(pending.values()))

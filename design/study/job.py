@@ -6,7 +6,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
-from nniquad.study.executors import StudyRun, run_study
+from nniquad.errors import StudyFailedError
+from nniquad.study.executors import StopRequest, StudyRun, run_study
 from nniquad.study.scenarios import DEFAULT_RANGES, ScenarioRanges, StudySetup, draw_scenarios, study_setup
 from nniquad.study.statistics import Summary, summarize
 
@@ -39,7 +40,7 @@ class MonteCarloResult:
 
     @property
     def partial(self) -> bool:
-        """True when the study was interrupted (only finished batches are in :attr:`run`)."""
+        """True when the study stopped early (only finished scenarios are in :attr:`run`)."""
         return self.run.partial
 
     @property
@@ -66,10 +67,15 @@ class MonteCarloResult:
         return "no scenario finished" if self.summary is None else self.summary.table(rerun_hint=rerun_hint)
 
     def to_json(self) -> dict[str, Any]:
-        """``partial, completed, requested, study, run, summary, results`` (units in the key names)."""
+        """``partial, stopped, completed, requested, study, run, summary, results`` (units in the key names).
+
+        ``stopped`` is ``None`` for a complete study, else ``{"kind", "reason"}``: ``kind`` is
+        ``"interrupted"`` (Ctrl-C) or the fault (``"worker"``, ``"scheduler"``, ``"stalled"``, ``"error"``).
+        """
         r = self.run
         return {
             "partial": r.partial,
+            "stopped": None if r.stopped is None else {"kind": r.stopped, "reason": r.reason},
             "completed": len(r.results),
             "requested": r.n_requested,
             "study": {"seed": self.seed, "samples": r.n_requested, "setup": self.setup.to_json(),
@@ -84,7 +90,9 @@ class MonteCarloResult:
 def montecarlo(certificate: Any, samples: int = 1000, seed: int = 0, *, ranges: ScenarioRanges = DEFAULT_RANGES,
                horizon_s: float | None = None, workers: int | None = None, scheduler: str | None = None,
                client: Any = None, batch_size: int | None = None, n_worst: int = 10,
-               progress: Callable[[int, int], None] | None = None) -> MonteCarloResult:
+               progress: Callable[[int, int], None] | None = None, stall_timeout_s: float | None = None,
+               stop: StopRequest | None = None, notify: Callable[[str], None] | None = None
+               ) -> MonteCarloResult:
     """Simulate perturbed scenarios of a certificate's gain set on the full vehicle and summarise them.
 
     Parameters
@@ -113,6 +121,10 @@ def montecarlo(certificate: Any, samples: int = 1000, seed: int = 0, *, ranges: 
         Worst cases kept in the summary.
     progress
         Called as ``progress(done, total)`` after each finished batch.
+    stall_timeout_s, stop, notify
+        See :func:`nniquad.study.run_study` (a pool or cluster on which no
+        batch finished for this long has stalled; a stop request, set by
+        Ctrl-C by default; one-line notes while waiting).
 
     Returns
     -------
@@ -122,7 +134,11 @@ def montecarlo(certificate: Any, samples: int = 1000, seed: int = 0, *, ranges: 
     Raises
     ------
     MonteCarloError
-        Bad options, an unreachable scheduler, a failed worker.
+        Bad options, an unreachable scheduler.
+    StudyFailedError
+        A fault while the study ran (a worker or the scheduler died, a stall,
+        an unexpected error); its ``result`` is the :class:`MonteCarloResult`
+        of the finished scenarios, ``partial``.
     CertificateError
         An unreadable or tampered certificate.
     """
@@ -135,7 +151,15 @@ def montecarlo(certificate: Any, samples: int = 1000, seed: int = 0, *, ranges: 
         certificate = to_json() if callable(to_json) else certificate
     setup = study_setup(certificate, ranges, horizon_s=horizon_s)
     scenarios = draw_scenarios(samples, seed, ranges, setup)
-    run = run_study(scenarios, workers=workers, scheduler=scheduler, client=client, batch_size=batch_size,
-                    progress=progress)
+    try:
+        run = run_study(scenarios, workers=workers, scheduler=scheduler, client=client, batch_size=batch_size,
+                        progress=progress, stall_timeout_s=stall_timeout_s, stop=stop, notify=notify)
+    except StudyFailedError as exc:  # what finished goes with the error
+        try:
+            summary = summarize(exc.run.results, n_worst=n_worst, partial=True) if exc.run.results else None
+        except Exception:  # noqa: BLE001 -- the fault is the news; the results are kept without a summary
+            summary = None
+        exc.result = MonteCarloResult(setup, ranges, int(seed), exc.run, summary)
+        raise
     summary = summarize(run.results, n_worst=n_worst, partial=run.partial) if run.results else None
     return MonteCarloResult(setup, ranges, int(seed), run, summary)

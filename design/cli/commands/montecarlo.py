@@ -10,6 +10,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from nniquad.config import MC_STALL_TIMEOUT_S
 from nniquad.errors import NniquadError
 from nniquad.io import atomic_write_json
 
@@ -44,9 +45,16 @@ Execution: a local process pool on all cores (--workers N), or an existing
 Dask cluster (--scheduler tcp://host:port; start one with 'dask scheduler'
 and 'dask worker tcp://host:8786 --nworkers N --nthreads 1', nniquad
 installed on every worker; an unreachable scheduler fails within 5 s).
-Same seed, same results on either.  Progress goes to stderr.  Ctrl-C keeps
-the finished batches in FILE.partial.json (montecarlo-seedS.partial.json
-without --json), marked "partial": true, and exits with status 130."""
+Same seed, same results on either.  Progress goes to stderr.
+
+Nothing finished is lost.  Ctrl-C stops the study and keeps the finished
+scenarios in FILE.partial.json (montecarlo-seedS.partial.json without
+--json), marked "partial": true with the reason ("stopped"); a second Ctrl-C
+while it saves is ignored; exit status 130.  A fault -- a worker process that
+dies (local pool), a Dask batch whose workers keep dying, a lost scheduler, or
+no batch finished for --stall-timeout seconds (every worker gone, or hung) --
+saves the same way and exits with status 4 and a one-line message naming it.
+A Dask worker that dies once is no fault: its batch runs again elsewhere."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -64,6 +72,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                    help=f"local worker processes (default: all cores, {os.cpu_count()} here; 1 runs in-process)")
     x.add_argument("--batch-size", type=int, default=None, metavar="N",
                    help="scenarios per batch, the unit of work (default: about 4 batches per worker, at most 50)")
+    x.add_argument("--stall-timeout", type=float, default=None, metavar="S",
+                   help=f"stop (and save what finished) when no batch has finished for S seconds on the pool or "
+                        f"cluster (default {MC_STALL_TIMEOUT_S:g}; inf waits for ever)")
     r = parser.add_argument_group("perturbation ranges (uniform)")
     r.add_argument("--mass-range", type=float, nargs=2, default=None, metavar=("LO", "HI"),
                    help="true mass / nominal (default 0.8 1.2)")
@@ -196,6 +207,8 @@ def run(args: argparse.Namespace) -> int:
         raise MonteCarloError(f"--seed must be a non-negative integer, got {args.seed}")
     if not (math.isfinite(args.horizon) and args.horizon > 0):
         raise MonteCarloError(f"--horizon must be a positive number of seconds, got {args.horizon:g}")
+    if args.stall_timeout is not None and not args.stall_timeout > 0:  # nan fails too
+        raise MonteCarloError(f"--stall-timeout must be a positive number of seconds, got {args.stall_timeout:g}")
     if args.json is not None and Path(args.json).is_dir():
         raise NniquadError(f"--json {args.json} is a folder, expected a file name")
     ranges = _ranges(args)
@@ -205,11 +218,14 @@ def run(args: argparse.Namespace) -> int:
         return _rerun(args, setup, ranges)
 
     from nniquad.progress import Progress
+    from nniquad.study import StudyFailedError, catch_interrupts
     from nniquad.study.job import montecarlo
 
     client = None
     if args.scheduler:
         client = connect_scheduler(args.scheduler)
+    failure: StudyFailedError | None = None
+    saved: Path | None = None
     try:
         if client is not None:
             threads = cluster_threads(client)
@@ -223,17 +239,27 @@ def run(args: argparse.Namespace) -> int:
             where = f"{args.workers or os.cpu_count() or 1} local worker(s)"
         progress = Progress("montecarlo")
         progress.note(f"{args.samples} scenarios of {setup.horizon_s:g} s on {where}")
-        result = montecarlo(setup, args.samples, args.seed, ranges=ranges, workers=args.workers, client=client,
-                            batch_size=args.batch_size, n_worst=args.worst, progress=progress.count)
+        # From here until the finished scenarios are on disk, Ctrl-C only asks the study to stop: a second
+        # one cannot cut the cancelling or the writing short.
+        with catch_interrupts() as stop:
+            try:
+                result = montecarlo(setup, args.samples, args.seed, ranges=ranges, workers=args.workers,
+                                    client=client, batch_size=args.batch_size, n_worst=args.worst,
+                                    progress=progress.count, stall_timeout_s=args.stall_timeout, stop=stop,
+                                    notify=progress.note)
+            except StudyFailedError as exc:
+                failure, result = exc, exc.result
+            hint = _rerun_hint(args)
+            data: dict[str, Any] = result.to_json()
+            data["study"] = {"certificate": str(args.certificate), **data["study"]}
+            data["rerun"] = hint
+            if result.partial:
+                saved = _save_partial(partial_path(args.json, args.seed), data)
     finally:
         if client is not None:
             close_client(client)
     study = result.run
-    progress.close("interrupted" if study.partial else "done")
-    hint = _rerun_hint(args)
-    data: dict[str, Any] = result.to_json()
-    data["study"] = {"certificate": str(args.certificate), **data["study"]}
-    data["rerun"] = hint
+    progress.close("done" if not study.partial else "interrupted" if failure is None else f"stopped ({failure.kind})")
     if result.summary is not None:
         print(f"certificate: {args.certificate}  {setup.label}")
         g = setup.base.gains
@@ -243,12 +269,29 @@ def run(args: argparse.Namespace) -> int:
         print(f"{study.executor}, {study.workers} worker(s), batches of {study.batch_size}: "
               f"{study.scenarios_per_s:.2f} scenarios/s")
     if study.partial:
-        target = partial_path(args.json, args.seed)
-        atomic_write_json(target, data)
-        print(f"nniquad montecarlo: interrupted after {len(study.results)} of {study.n_requested} scenarios; "
-              f"finished batches saved in {target} (marked \"partial\": true)", file=sys.stderr)
-        return 130
+        kept = (f"{len(study.results)} of {study.n_requested} scenarios finished, saved in {saved} "
+                f"(marked \"partial\": true)")
+        if failure is None:
+            print(f"nniquad montecarlo: interrupted; {kept}", file=sys.stderr)
+            return 130
+        if failure.kind == "error" and failure.__cause__ is not None:
+            print(f"[montecarlo] {kept}", file=sys.stderr)
+            raise failure.__cause__  # a bug: shown with its traceback
+        print(f"nniquad montecarlo: error: {failure.reason}; {kept}", file=sys.stderr)
+        return failure.exit_code
     if args.json:
         atomic_write_json(args.json, data)
         print(f"wrote {args.json}", file=sys.stderr)
     return 0
+
+
+def _save_partial(target: Path, data: dict[str, Any]) -> Path:
+    """Write the finished scenarios to ``target``, or, if that fails, to the temporary folder."""
+    try:
+        return atomic_write_json(target, data)
+    except OSError as exc:
+        import tempfile
+
+        fallback = Path(tempfile.gettempdir()) / target.name
+        print(f"[montecarlo] cannot write {target} ({exc.strerror or exc}); saving in {fallback}", file=sys.stderr)
+        return atomic_write_json(fallback, data)
