@@ -141,12 +141,13 @@ def test_double_sigint_on_a_real_process_keeps_every_finished_scenario(cert_path
         proc.send_signal(signal.SIGINT)
         time.sleep(0.3)
         proc.send_signal(signal.SIGINT)
-        out, _ = proc.communicate(timeout=60)
+        proc.wait(timeout=60)
+        out = proc.stdout.read()  # a few lines: they fit in the pipe while the process runs
     finally:
         if proc.poll() is None:
             proc.kill()
             proc.wait()
-    reader.join(5)
+    reader.join(10)
     err = "".join(lines)
     assert proc.returncode == 130, err
     assert "Traceback" not in err, err
