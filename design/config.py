@@ -29,6 +29,12 @@ __all__ = [
     "SETTLING_HOLD_FACTOR",
     "MC_STALL_TIMEOUT_S",
     "MC_STARTUP_GRACE_S",
+    "INPUT_MAX_BYTES",
+    "INPUT_MAX_DEPTH",
+    "INPUT_MAX_INT_DIGITS",
+    "RK4_STEP_LIMIT",
+    "MEMORY_FRACTION",
+    "RUN_TIME_LIMIT_S",
 ]
 
 #: Initial horizontal position of the paper's run, north/east [m], at rest (DESIGN.md).
@@ -72,6 +78,19 @@ ATTITUDE_GAIN_MARGIN: float = 2.0
 #: max(SETTLING_HOLD_MIN_S, SETTLING_HOLD_FACTOR * s) after it (else: did not settle).
 SETTLING_HOLD_MIN_S: float = 5.0
 SETTLING_HOLD_FACTOR: float = 2.0
+#: Largest input file (vehicle, certificate) read [bytes]; a certificate is about 30 kB.
+INPUT_MAX_BYTES: int = 16 * 2**20
+#: Deepest nesting of JSON/TOML arrays and tables accepted in an input file (a certificate nests 5 levels).
+INPUT_MAX_DEPTH: int = 64
+#: Longest integer literal accepted in an input file (Python's default int-to-str limit, whatever it is set to).
+INPUT_MAX_INT_DIGITS: int = 4300
+#: RK4 is stable for every pole lambda with |lambda dt| <= 2.61 in the left half-plane (2.785 on the real
+#: axis); every step-size check (controller pole Gamma*delta, inner loops, motor lag) demands |lambda| dt <= this.
+RK4_STEP_LIMIT: float = 2.5
+#: A request may use at most this fraction of the memory available when it starts.
+MEMORY_FRACTION: float = 0.8
+#: A request estimated to run longer than this is refused [s] (30 days).
+RUN_TIME_LIMIT_S: float = 30 * 86400.0
 
 #: A Monte Carlo study on a process pool or a Dask cluster stops (and saves what finished) when no
 #: batch has finished for this long [s]; a default batch (50 scenarios of 20 s) takes a few seconds.

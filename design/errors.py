@@ -3,6 +3,11 @@
 Every error a user can cause (bad vehicle file, non-finite gain, tampered
 certificate, ...) is raised as a subclass of :class:`NniquadError`; the CLI turns
 those into a one-line message and a non-zero exit status, never a traceback.
+
+Exit status (:mod:`nniquad.cli.main`, the same for every command): each class
+carries its ``exit_code``.  :data:`EXIT_USER_ERROR` (2) is the default; a check
+that ran and failed (a certificate that does not verify, a digest mismatch) is
+:class:`CheckFailedError` with :data:`EXIT_CHECK_FAILED` (1).
 """
 
 from __future__ import annotations
@@ -17,9 +22,30 @@ __all__ = [
     "MonteCarloError",
     "CascadeError",
     "ExportError",
+    "InputError",
+    "OutputError",
+    "ResourceError",
+    "CheckFailedError",
+    "CertificateCheckError",
+    "EXIT_OK",
+    "EXIT_CHECK_FAILED",
+    "EXIT_USER_ERROR",
+    "EXIT_INTERNAL_ERROR",
+    "EXIT_INTERRUPTED",
     "StudyFailedError",
     "EXIT_STUDY_FAILED",
 ]
+
+#: The command did what was asked (and every check it ran passed).
+EXIT_OK = 0
+#: The command ran, and a check it ran failed (verify, prove --strict, a certificate that does not verify).
+EXIT_CHECK_FAILED = 1
+#: Bad input: an option, a file, an output path, a request too large for this machine.  Nothing was written.
+EXIT_USER_ERROR = 2
+#: An unexpected exception: a bug in nniquad (the only case with a traceback).
+EXIT_INTERNAL_ERROR = 3
+#: Interrupted by Ctrl-C / SIGINT (128 + 2, the shell convention).
+EXIT_INTERRUPTED = 130
 
 #: Exit status of a Monte Carlo study stopped by a fault of where it ran (a worker or the scheduler
 #: died, the cluster stopped making progress); its finished scenarios are saved.
@@ -28,6 +54,9 @@ EXIT_STUDY_FAILED = 4
 
 class NniquadError(ValueError):
     """Base class of all user-facing errors of the project."""
+
+    #: Exit status of the command line for this error.
+    exit_code: int = EXIT_USER_ERROR
 
 
 class VehicleError(NniquadError):
@@ -62,6 +91,30 @@ class CascadeError(NniquadError):
 class ExportError(NniquadError):
     """A controller cannot be exported as asked (bad rate or format, unwritable folder, sampled loop
     unstable at the rate)."""
+
+
+class InputError(NniquadError):
+    """An input file is not a regular file of sane size, not UTF-8 text, or not valid JSON/TOML."""
+
+
+class OutputError(NniquadError):
+    """An output path cannot be written (a folder, a file used as a folder, no permission, ...)."""
+
+
+class ResourceError(NniquadError):
+    """A request needs more memory (or time) than this machine can give it."""
+
+
+class CheckFailedError(NniquadError):
+    """A check ran and failed (exit status 1, not a user error)."""
+
+    exit_code = EXIT_CHECK_FAILED
+
+
+class CertificateCheckError(CertificateError, CheckFailedError):
+    """A certificate that reads as one but does not verify (digest mismatch, failed own verification)."""
+
+    exit_code = EXIT_CHECK_FAILED
 
 
 class StudyFailedError(MonteCarloError):

@@ -3,11 +3,18 @@
 from __future__ import annotations
 
 import json
+import os
+import subprocess
+import sys
+import time
 
 import pytest
 
 from nniquad.certificates import load_certificate, verify_certificate
+from nniquad.reporting.folder import MANIFEST, MANIFEST_MARKER, file_digest
 from nniquad.reporting.report import fmt
+
+QUICK = ["--budget", "quick", "--reruns", "0", "--roa-radius", "0"]
 
 
 @pytest.fixture(scope="module")
@@ -15,10 +22,13 @@ def report_dir(tmp_path_factory):
     from nniquad.cli.main import main
 
     out = tmp_path_factory.mktemp("report")
-    # a stale file from an "earlier run" that listed it: the new run must remove it
+    # an earlier run's folder: a stale figure it wrote (in its manifest, unchanged) must go,
+    # a file of the user's must stay
     (out / "old_figure.png").write_bytes(b"x")
-    (out / "report.json").write_text(json.dumps({"files": ["old_figure.png"]}))
-    code = main(["report", "--out", str(out), "--budget", "quick", "--reruns", "0", "--roa-radius", "0"])
+    (out / MANIFEST).write_text(json.dumps({"marker": MANIFEST_MARKER,
+                                            "files": {"old_figure.png": file_digest(out / "old_figure.png")}}))
+    (out / "notes.txt").write_text("the user's notes\n")
+    code = main(["report", "--out", str(out), *QUICK])
     assert code == 0
     return out
 
@@ -31,7 +41,10 @@ def test_every_listed_file_exists_and_nothing_stale(report_dir):
     for name in data["files"]:
         assert (report_dir / name).is_file() and (report_dir / name).stat().st_size > 0
     assert not (report_dir / "old_figure.png").exists()
-    assert sorted(p.name for p in report_dir.iterdir()) == sorted(data["files"])
+    assert sorted(p.name for p in report_dir.iterdir()) == sorted(data["files"] + ["notes.txt"])
+    assert (report_dir / "notes.txt").read_text() == "the user's notes\n"
+    manifest = json.loads((report_dir / MANIFEST).read_text())
+    assert manifest["files"] == {n: file_digest(report_dir / n) for n in data["files"] if n != MANIFEST}
 
 
 def test_certificate_verifies(report_dir):
@@ -62,14 +75,40 @@ def test_report_numbers_equal_the_json_files(report_dir):
         assert text in md, text
 
 
-def test_second_run_replaces_cleanly(report_dir, run_cli):
+def _consistent(folder) -> None:
+    """report.md, report.json and certificate.json of one run: the digest report.md cites is the certificate's."""
+    cert = json.loads((folder / "certificate.json").read_text())
+    data = json.loads((folder / "report.json").read_text())
+    assert data["certified"]["digest"] == cert["digest"]["value"]
+    assert cert["digest"]["value"] in (folder / "report.md").read_text()
+
+
+def test_second_run_replaces_cleanly_and_a_concurrent_run_is_refused(report_dir, run_cli):
     before = json.loads((report_dir / "report.json").read_text())["files"]
-    code, out, err = run_cli("report", "--out", str(report_dir), "--budget", "quick", "--reruns", "0",
-                             "--roa-radius", "0")
-    assert code == 0, err
+    env = {**os.environ, "MPLBACKEND": "Agg"}
+    proc = subprocess.Popen([sys.executable, "-m", "nniquad", "report", "--out", str(report_dir), *QUICK],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    try:
+        lock = report_dir.parent / f".{report_dir.name}.nniquad-lock"
+        deadline = time.monotonic() + 120
+        while not lock.exists() and proc.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert lock.exists() and proc.poll() is None, "the first run never took the lock"
+        t0 = time.perf_counter()
+        code, _, err = run_cli("report", "--out", str(report_dir), *QUICK)
+        assert code == 2 and "another 'nniquad report'" in err and f"pid {proc.pid}" in err, err
+        assert len(err.strip().splitlines()) == 1 and time.perf_counter() - t0 < 10
+        _consistent(report_dir)  # while the first run works, the old report is whole
+        out, err = proc.communicate(timeout=600)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 0, err
     after = json.loads((report_dir / "report.json").read_text())["files"]
-    assert before == after and sorted(p.name for p in report_dir.iterdir()) == sorted(after)
+    assert before == after and sorted(p.name for p in report_dir.iterdir()) == sorted(after + ["notes.txt"])
     assert "report.md" in out and "%" in err  # prints where everything is; progress on stderr
+    _consistent(report_dir)
+    assert sorted(p.name for p in report_dir.parent.iterdir() if p.name.startswith(f".{report_dir.name}")) == []
 
 
 def test_bad_options(run_cli, tmp_path):

@@ -53,7 +53,7 @@ from typing import Any, ClassVar, Mapping
 
 from nniquad.analysis.linear import ReducedLoop
 from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, InnerLoopGains
-from nniquad.errors import CertificateError, GainError, NniquadError, VehicleError
+from nniquad.errors import CertificateCheckError, CertificateError, GainError, NniquadError, VehicleError
 from nniquad.io import atomic_write_text
 from nniquad.model.vehicle import Vehicle
 
@@ -145,7 +145,7 @@ def check_form(cert: Any, where: str = "certificate") -> None:
     except (TypeError, ValueError) as exc:
         raise CertificateError(f"{where}: content cannot be canonicalised ({exc})") from None
     if actual != digest["value"]:
-        raise CertificateError(f"{where}: digest mismatch (content changed after signing)")
+        raise CertificateCheckError(f"{where}: digest mismatch (content changed after signing)")
 
 
 def load_certificate(path: str | Path) -> dict[str, Any]:
@@ -165,17 +165,12 @@ def load_certificate(path: str | Path) -> dict[str, Any]:
         One line naming the problem (unreadable, not JSON, wrong schema or
         version, digest mismatch).
     """
+    from nniquad.io import parse_data, read_text_file
+
     p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise CertificateError(f"cannot read certificate {p}: {getattr(exc, 'strerror', None) or exc}") from None
-    try:
-        cert = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise CertificateError(f"certificate {p} is not valid JSON ({exc.msg}, line {exc.lineno})") from None
-    except (RecursionError, ValueError) as exc:
-        raise CertificateError(f"certificate {p} cannot be decoded ({type(exc).__name__})") from None
+    # the shared reader: a regular file of bounded size, UTF-8, no duplicate keys, bounded nesting and integers
+    cert = parse_data(read_text_file(p, what="certificate", error=CertificateError), "json",
+                      where=f"certificate {p}", error=CertificateError)
     check_form(cert, str(p))
     return cert
 

@@ -9,7 +9,7 @@ from nniquad.certificates.build import build_certificate
 from nniquad.certificates.certificate import Certificate
 from nniquad.certificates.verify import Verification, verify_certificate
 from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, InnerLoopGains
-from nniquad.errors import CertificateError, NniquadError
+from nniquad.errors import CertificateCheckError, CertificateError, NniquadError
 from nniquad.model.vehicle import PAPER_VEHICLE, Vehicle
 
 __all__ = ["certify", "verify", "unsettled_reference_run"]
@@ -87,7 +87,7 @@ def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLo
     check = verify_certificate(cert)
     if not check.ok:
         bad = check.first_failure
-        raise CertificateError(f"certificate failed its own verification ({bad.name}: {bad.detail}); "
+        raise CertificateCheckError(f"certificate failed its own verification ({bad.name}: {bad.detail}); "
                                "nothing certified")
     return cert
 

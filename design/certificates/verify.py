@@ -18,7 +18,7 @@ import numpy as np
 from nniquad.analysis.lmi import checks as K
 from nniquad.analysis.lmi.roa import axis_acceleration_limit
 from nniquad.certificates.certificate import TOLERANCES, Certificate, read_certificate
-from nniquad.errors import CertificateError, NniquadError
+from nniquad.errors import CertificateCheckError, CertificateError, NniquadError
 
 __all__ = ["Check", "Verification", "verify_certificate", "ni_storage_check"]
 
@@ -163,7 +163,7 @@ def verify_certificate(cert: Certificate | Mapping[str, Any] | str | Path, *, si
     elif not isinstance(cert, Certificate):
         cert = Certificate.from_json(cert)
     if not cert.signature_ok:
-        raise CertificateError("certificate: digest mismatch (content changed after signing)")
+        raise CertificateCheckError("certificate: digest mismatch (content changed after signing)")
     try:
         return _verify(cert, simulate, progress or (lambda msg: None))
     except (TypeError, ValueError, KeyError, IndexError, np.linalg.LinAlgError) as exc:

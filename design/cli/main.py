@@ -5,8 +5,24 @@ exposes ``HELP`` (one line), ``DESCRIPTION`` (the ``--help`` text),
 ``add_arguments(parser)`` and ``run(args) -> int``.  Modules are imported only
 when their command runs, so ``nniquad --help`` stays fast.
 
-User errors (:class:`nniquad.errors.NniquadError`, bad files) end in a one-line
-message on stderr and exit status 2; no traceback is shown for them.
+Exit status, the same for every command (:data:`EXIT_STATUS_HELP`, printed by
+``nniquad --help``)::
+
+    0    done; every check the command ran passed
+    1    a check ran and failed: 'verify' found a recomputed number that does
+         not match, or a certificate whose digest does not match its content
+         (wherever a certificate is read); 'prove --strict' found a claim that
+         does not hold; 'certify'/'report' issued a certificate that failed its
+         own verification (nothing is written)
+    2    a user error: a bad option or value, an unreadable or malformed input
+         file, an output path that cannot be written, a request too large for
+         this machine; nothing is written and no work is started
+    3    an internal error (a bug in nniquad); the only case with a traceback
+    130  interrupted (Ctrl-C); 'montecarlo' keeps its finished batches
+
+Every error ends in one line on stderr, ``nniquad COMMAND: error: ...``.
+Output paths declared by a command (``--json``, ``--out``, ...) are checked
+before its work starts.
 """
 
 from __future__ import annotations
@@ -14,13 +30,32 @@ from __future__ import annotations
 import argparse
 import importlib
 import importlib.util
+import os
 import sys
+import traceback
 from typing import Sequence
 
 from nniquad import __version__
-from nniquad.errors import NniquadError
+from nniquad.errors import (EXIT_CHECK_FAILED, EXIT_INTERNAL_ERROR, EXIT_INTERRUPTED, EXIT_OK, EXIT_USER_ERROR,
+                            NniquadError)
 
-__all__ = ["main", "COMMANDS", "build_parser"]
+__all__ = ["main", "COMMANDS", "build_parser", "EXIT_STATUS_HELP"]
+
+#: The exit-status scheme, shown at the end of every ``--help``.
+EXIT_STATUS_HELP = (
+    f"exit status: {EXIT_OK} done (every check passed); {EXIT_CHECK_FAILED} a check failed (verify, a certificate "
+    f"digest mismatch, prove --strict); {EXIT_USER_ERROR} user error (bad option, input file or output path, "
+    f"request too large; nothing written); {EXIT_INTERNAL_ERROR} internal error (a bug, with traceback); "
+    f"{EXIT_INTERRUPTED} interrupted (Ctrl-C)."
+)
+
+
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose usage errors are one line (exit status 2), like every other user error."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        message = " ".join(str(message).split())
+        self.exit(EXIT_USER_ERROR, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
 
 #: sub-command name -> (module under nniquad.cli.commands, one-line help)
 COMMANDS: dict[str, tuple[str, str]] = {
@@ -50,8 +85,9 @@ def _available_commands() -> dict[str, tuple[str, str]]:
 
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     """Build the argument parser; only ``command``'s module is imported (all when ``None``)."""
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="nniquad",
+        epilog=EXIT_STATUS_HELP,
         description=(
             "Velocity-free horizontal position control of a quadrotor by nonlinear "
             "negative-imaginary (NNI) theory: a checked derivation, an audit of the "
@@ -70,6 +106,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
             name,
             help=help_,
             description=getattr(mod, "DESCRIPTION", help_),
+            epilog=EXIT_STATUS_HELP,
             formatter_class=argparse.RawDescriptionHelpFormatter,
         )
         mod.add_arguments(p)
@@ -77,8 +114,13 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     return parser
 
 
+def _one_line(text: object) -> str:
+    """A message as one line (a newline in a user's file name must not split it)."""
+    return " ".join(str(text).split()) or "(no message)"
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the console script; returns the exit status."""
+    """Entry point of the console script; returns the exit status (see the module docstring)."""
     args_list = list(sys.argv[1:] if argv is None else argv)
     command = next((a for a in args_list if not a.startswith("-")), None)
     if command not in COMMANDS:
@@ -87,15 +129,42 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(args_list)
     if not getattr(args, "command", None):
         parser.print_help()
-        return 0
+        return EXIT_OK
+    name = f"nniquad {args.command}"
+
+    def fail(message: object, code: int = EXIT_USER_ERROR) -> int:
+        print(f"{name}: error: {_one_line(message)}", file=sys.stderr)
+        return code
+
     try:
+        from nniquad.cli.commands.common import check_declared_outputs
+
+        check_declared_outputs(args)  # every output path, before any work
         return int(args._run(args) or 0)
     except NniquadError as exc:
-        print(f"nniquad {args.command}: error: {exc}", file=sys.stderr)
-        return 2
+        return fail(exc, getattr(exc, "exit_code", EXIT_USER_ERROR))
     except KeyboardInterrupt:
-        print(f"nniquad {args.command}: interrupted", file=sys.stderr)
-        return 130
+        print(f"{name}: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except MemoryError:
+        return fail("not enough memory for this request (reduce the horizon, samples or batch size)")
+    except RecursionError:
+        return fail("input nested too deeply to process")
+    except BrokenPipeError:
+        # the reader of our output went away (nniquad ... | head): not an error of ours
+        try:
+            sys.stdout = open(os.devnull, "w")  # noqa: SIM115 -- silence the flush at exit
+        except OSError:
+            pass
+        return EXIT_OK
+    except OSError as exc:
+        # a file system problem on a path the user gave (disk full, permission, removed folder, ...)
+        where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
+        return fail(f"{where}{exc.strerror or exc}")
+    except Exception:  # noqa: BLE001 -- anything else is a bug: say so, with the traceback
+        traceback.print_exc()
+        return fail("internal error (a bug in nniquad; please report it with the traceback above)",
+                    EXIT_INTERNAL_ERROR)
 
 
 if __name__ == "__main__":  # pragma: no cover

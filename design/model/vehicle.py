@@ -25,9 +25,7 @@ JSON files with exactly the field names below.
 
 from __future__ import annotations
 
-import json
 import math
-import tomllib
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 from typing import Any, Mapping
@@ -97,19 +95,42 @@ class Vehicle:
                 continue
             value = getattr(self, f.name)
             if isinstance(value, bool) or not isinstance(value, (int, float)):
-                raise VehicleError(f"vehicle field '{f.name}' must be a number, got {value!r}")
-            if not math.isfinite(value):
-                raise VehicleError(f"vehicle field '{f.name}' must be finite, got {value!r}")
-            if value <= 0.0:
+                raise VehicleError(f"vehicle field '{f.name}' must be a number, got {_short(value)}")
+            try:
+                v = float(value)  # an int beyond the float range (a 401-digit mass) overflows here
+            except OverflowError:
+                raise VehicleError(f"vehicle field '{f.name}' must be finite, got an integer beyond the float range "
+                                   f"({len(str(value)) if value.bit_length() < 14000 else 'thousands of'} digits)") from None
+            if not math.isfinite(v):
+                raise VehicleError(f"vehicle field '{f.name}' must be finite, got {_short(value)}")
+            if v <= 0.0:
                 raise VehicleError(
-                    f"vehicle field '{f.name}' ({DESCRIPTIONS[f.name]}) must be positive, got {value!r} {UNITS[f.name]}"
+                    f"vehicle field '{f.name}' ({DESCRIPTIONS[f.name]}) must be positive, got {_short(value)} {UNITS[f.name]}"
                 )
-            object.__setattr__(self, f.name, float(value))
+            object.__setattr__(self, f.name, v)
         a, b_, c = sorted((self.Jx, self.Jy, self.Jz))
         if c > a + b_ * (1 + 1e-12):
             raise VehicleError(
                 f"vehicle inertias Jx={self.Jx}, Jy={self.Jy}, Jz={self.Jz} violate the rigid-body triangle inequality"
             )
+        # every derived quantity the model uses must be a finite positive float (omega_max = 1e300
+        # overflows the thrust, b = 1e-300 with m = 1e300 the hover speed)
+        derived = {
+            "weight m g": lambda: self.m * self.g,
+            "maximum thrust 4 b omega_max^2": self.max_thrust,
+            "thrust-to-weight ratio": self.thrust_to_weight,
+            "hover rotor speed sqrt(m g / 4 b)": self.hover_rotor_speed,
+            "maximum drag torque d omega_max^2": lambda: self.d * self.omega_max**2,
+        }
+        for label, compute in derived.items():
+            try:
+                q = compute()
+            except (OverflowError, ZeroDivisionError):
+                q = math.inf
+            if not (math.isfinite(q) and q > 0.0):
+                raise VehicleError(f"vehicle {label} is {'not finite' if not math.isfinite(q) else 'zero'} "
+                                   f"with these values (m={self.m:g}, g={self.g:g}, b={self.b:g}, d={self.d:g}, "
+                                   f"omega_max={self.omega_max:g})")
         if self.thrust_to_weight() <= 1.0:
             raise VehicleError(
                 f"vehicle field 'omega_max' too low: thrust-to-weight {self.thrust_to_weight():.3f} <= 1, it cannot hover"
@@ -181,9 +202,9 @@ def vehicle_from_mapping(data: Mapping[str, Any], *, source: str = "vehicle") ->
     if not isinstance(data, Mapping):
         raise VehicleError(f"{source}: expected a table of fields, got {type(data).__name__}")
     known = [f.name for f in fields(Vehicle)]
-    unknown = sorted(set(data) - set(known))
+    unknown = sorted(set(data) - set(known), key=str)
     if unknown:
-        raise VehicleError(f"{source}: unknown field '{unknown[0]}' (known fields: {', '.join(known)})")
+        raise VehicleError(f"{source}: unknown field {_short(str(unknown[0]), 40)} (known fields: {', '.join(known)})")
     values = dict(data)
     values.setdefault("name", source)
     missing = [k for k in known if k not in values]
@@ -198,6 +219,9 @@ def vehicle_from_mapping(data: Mapping[str, Any], *, source: str = "vehicle") ->
 def load_vehicle(path: str | Path | None) -> Vehicle:
     """Load a vehicle from a ``.toml`` or ``.json`` file; ``None`` gives the paper's vehicle.
 
+    The file is read by :func:`nniquad.io.load_data_file` (regular file, bounded
+    size, UTF-8, no duplicate keys, bounded nesting and integers).
+
     Parameters
     ----------
     path
@@ -210,21 +234,20 @@ def load_vehicle(path: str | Path | None) -> Vehicle:
     """
     if path is None:
         return PAPER_VEHICLE
-    p = Path(path)
+    from nniquad.io import load_data_file
+
+    data = load_data_file(path, what="vehicle file", error=VehicleError, formats=("toml", "json"))
+    return vehicle_from_mapping(data, source=str(Path(path)))
+
+
+def _short(value: Any, limit: int = 60) -> str:
+    """``repr(value)`` cut to ``limit`` characters (a message stays one readable line)."""
     try:
-        text = p.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise VehicleError(f"cannot read vehicle file {p}: {exc.strerror or exc}") from None
-    try:
-        if p.suffix.lower() == ".json":
-            data = json.loads(text)
-        elif p.suffix.lower() == ".toml":
-            data = tomllib.loads(text)
-        else:
-            raise VehicleError(f"vehicle file {p}: unsupported extension '{p.suffix}' (use .toml or .json)")
-    except (json.JSONDecodeError, tomllib.TOMLDecodeError) as exc:
-        raise VehicleError(f"vehicle file {p} is not valid {p.suffix[1:].upper()}: {exc}") from None
-    return vehicle_from_mapping(data, source=str(p))
+        text = repr(value)
+    except ValueError:  # an int beyond Python's int-to-str limit
+        return f"a {type(value).__name__} too long to print"
+    text = text.replace("\n", " ")
+    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def vehicle_to_toml(vehicle: Vehicle) -> str:

@@ -16,15 +16,21 @@ and writes
 ``paper_gains.png``, ``certified_gains.png``
     x(t), y(t) on the ``linear``, ``reduced`` and ``full`` models.
 
-Every file is written atomically, and files a previous run listed in its
-``report.json`` but this run did not write are removed, so a second run into
-the same folder replaces the old results cleanly.  Numbers in ``report.md``
-are formatted by :func:`fmt` from the values stored in ``report.json``.
+``manifest.json``
+    the SHA-256 of every file above (:mod:`nniquad.reporting.folder`).
+
+The folder is built beside the target and swapped in whole
+(:class:`nniquad.reporting.folder.ReportFolder`): a second run into the same
+folder replaces the old results cleanly, a failed or interrupted run leaves
+the old folder as it was, a concurrent run into the same folder is refused,
+and only files an earlier run wrote (listed with an unchanged digest in its
+manifest) are ever deleted.  Every option is validated before any work.
+Numbers in ``report.md`` are formatted by :func:`fmt` from the values stored
+in ``report.json``.
 """
 
 from __future__ import annotations
 
-import json
 import math
 import time
 from dataclasses import dataclass, replace
@@ -36,10 +42,14 @@ from nniquad.reporting.display import markdown_table
 from nniquad.io import atomic_write_json, atomic_write_text
 from nniquad.model.vehicle import UNITS, Vehicle
 
-__all__ = ["ReportOptions", "build_report", "fmt", "REPORT_FILES"]
+from nniquad.reporting.folder import MANIFEST, ReportFolder
+
+__all__ = ["ReportOptions", "build_report", "fmt", "REPORT_FILES", "REPORT_OUTPUTS"]
 
 #: Files the report always writes (figures are added as they are made).
 REPORT_FILES = ("report.md", "report.json", "certificate.json", "audit.json", "audit.md")
+#: Every file a report folder can hold that nniquad writes (the figures and the manifest too).
+REPORT_OUTPUTS = REPORT_FILES + ("paper_gains.png", "certified_gains.png", MANIFEST)
 
 Progress = Callable[..., None]
 
@@ -127,22 +137,37 @@ def build_report(vehicle: Vehicle, options: ReportOptions, progress: Progress | 
         If the certificate cannot be issued (for example no admissible gain set)
         or does not verify; nothing of this run is left half-written.
     """
+    from nniquad.sim import SimOptions
+    from nniquad.tuning.tune import DEFAULT_ROA_RADIUS_M, TuneOptions
+
+    say = progress or (lambda stage, frac, detail="": None)
+    # every option first: a bad one is refused before any work (and before the folder is touched)
+    reach = DEFAULT_ROA_RADIUS_M if options.roa_radius_m is None else options.roa_radius_m
+    tune_opts = TuneOptions(model=options.model, gamma_max=options.gamma_max, roa_radius_m=reach,
+                            budget=options.budget, reruns=options.reruns)
+    SimOptions(horizon_s=options.paper_horizon_s)
+    with ReportFolder(options.out_dir, REPORT_OUTPUTS) as folder:
+        data = _build(vehicle, options, tune_opts, folder.path, say)
+        folder.commit(data["files"])
+    return data
+
+
+def _build(vehicle: Vehicle, options: ReportOptions, tune_opts: Any, out: Path, say: Progress) -> dict[str, Any]:
+    """Run every step and write every file into ``out`` (the build folder); return ``report.json``'s content."""
     from nniquad.proofs.claims import audit_table, audit_to_json, audit_to_markdown, run_audit
 
     from nniquad.reporting import plots
     from nniquad.analysis.bound import time_optimal_bound
     from nniquad.certificates import build_certificate, certificate_gains, certificate_inner_loop, verify_certificate, write_certificate
-    from nniquad.errors import CertificateError
+    from nniquad.errors import CertificateCheckError
     from nniquad.analysis.linear import ReducedLoop
     from nniquad.control.gains import PAPER_GAINS
     from nniquad.sim import SimOptions, paper_figure_runs
-    from nniquad.tuning.tune import DEFAULT_ROA_RADIUS_M, TuneOptions, tune
+    from nniquad.tuning.tune import tune
 
-    say = progress or (lambda stage, frac, detail="": None)
-    out = Path(options.out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     t_start = time.perf_counter()
     written: list[Path] = []
+    reach = tune_opts.roa_radius_m
 
     # 1. audit
     say("audit of the paper", 0.0)
@@ -166,9 +191,6 @@ def build_report(vehicle: Vehicle, options: ReportOptions, progress: Progress | 
     paper_rows = _model_rows(paper_runs)
 
     # 4. tune (with and without the certified-reach requirement) and certify
-    reach = DEFAULT_ROA_RADIUS_M if options.roa_radius_m is None else options.roa_radius_m
-    tune_opts = TuneOptions(model=options.model, gamma_max=options.gamma_max, roa_radius_m=reach,
-                            budget=options.budget, reruns=options.reruns)
     stage = f"tuning on the {options.model} model (certified reach {fmt(reach)} m)"
     free = None
     warm: list = []
@@ -187,7 +209,7 @@ def build_report(vehicle: Vehicle, options: ReportOptions, progress: Progress | 
     report_check = verify_certificate(cert)
     if not report_check.ok:
         failed = [c.name for c in report_check.checks if not c.ok]
-        raise CertificateError(f"the issued certificate does not verify: {', '.join(failed)}")
+        raise CertificateCheckError(f"the issued certificate does not verify: {', '.join(failed)}")
     written.append(write_certificate(cert, out / "certificate.json"))
     tradeoffs = _tradeoffs(tuned, free)
 
@@ -234,11 +256,10 @@ def build_report(vehicle: Vehicle, options: ReportOptions, progress: Progress | 
         "tradeoffs": tradeoffs,
     }
     data["wall_time_s"] = time.perf_counter() - t_start
-    files = [_relative(out, p) for p in written] + ["report.md", "report.json"]
+    files = [_relative(out, p) for p in written] + ["report.md", "report.json", MANIFEST]
     data["files"] = sorted(set(files))
 
     md = _markdown(data, audit_table(claims), report_check.table())
-    _remove_stale(out, data["files"])
     atomic_write_text(out / "report.md", md)
     atomic_write_json(out / "report.json", data)
     say("done", 1.0)
@@ -273,21 +294,6 @@ def _unique_poles(poles: Any) -> list[list[float]]:
         if not any(abs(p - q) <= 1e-9 * max(1.0, abs(q)) for q in seen):
             seen.append(p)
     return [[p.real, p.imag] for p in seen]
-
-
-def _remove_stale(out: Path, keep: list[str]) -> None:
-    """Delete files an earlier run listed in its report.json that this run did not write."""
-    old = out / "report.json"
-    if not old.exists():
-        return
-    try:
-        previous = json.loads(old.read_text(encoding="utf-8")).get("files", [])
-    except (OSError, ValueError):
-        return
-    for name in previous:
-        p = (out / name).resolve()
-        if name not in keep and p.is_file() and out.resolve() in p.parents:
-            p.unlink()
 
 
 def _markdown(d: dict[str, Any], audit_txt: str, verify_txt: str) -> str:

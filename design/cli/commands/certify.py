@@ -39,7 +39,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--attitude-zeta", type=float, default=None, metavar="Z", help="attitude damping ratio")
     g.add_argument("--attitude-accel", type=float, default=None, metavar="RAD_S2",
                    help="deceleration of the attitude error shaping in rad/s^2")
-    parser.add_argument("--out", required=True, metavar="FILE", help="certificate file to write (JSON)")
+    from .common import add_output_option
+
+    add_output_option(parser, "--out", required=True, metavar="FILE", help="certificate file to write (JSON)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -51,9 +53,7 @@ def run(args: argparse.Namespace) -> int:
     from nniquad.tuning.tune import tune
     from .common import finite_positive, vehicle_from_args
 
-    out = Path(args.out)
-    if out.is_dir():
-        raise NniquadError(f"--out {out} is a folder, expected a file name")
+    out = Path(args.out)  # checked by main before this runs (nniquad.io.check_output_path)
     vehicle = vehicle_from_args(args)
     options = tune_options_from_args(args)
     given = [args.kp, args.Gamma, args.delta]
@@ -64,8 +64,15 @@ def run(args: argparse.Namespace) -> int:
         gains = Gains(*(finite_positive(n, v) for n, v in zip(("kp", "Gamma", "delta"), given)))
         changes = {k: v for k, v in (("attitude_wn_rad_s", args.attitude_wn), ("attitude_zeta", args.attitude_zeta),
                                      ("attitude_accel_limit_rad_s2", args.attitude_accel)) if v is not None}
-        cert = certify(vehicle, gains, inner=replace(DEFAULT_INNER_LOOP_GAINS, **changes), options=options,
-                       progress=progress.message)
+        inner = replace(DEFAULT_INNER_LOOP_GAINS, **changes)
+        from nniquad.config import DT_S
+        from nniquad.errors import SimulationError
+        from nniquad.validate import check_rk4_step, inner_loop_poles
+
+        # the certificate's full-model runs use motor lag with the vehicle's time constant and the RK4 step DT_S
+        check_rk4_step(inner_loop_poles(inner, tau_motor_s=vehicle.tau_motor), DT_S, error=SimulationError,
+                       hint={"attitude": "--attitude-wn", "motor lag": "the vehicle's tau_motor"})
+        cert = certify(vehicle, gains, inner=inner, options=options, progress=progress.message)
     else:
         tuned = tune(vehicle, options, progress=progress.message)
         print_tune_result(tuned)

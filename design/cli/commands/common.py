@@ -9,11 +9,49 @@ from pathlib import Path
 from typing import Any
 
 from nniquad.errors import GainError
-from nniquad.io import atomic_write_json
+from nniquad.io import atomic_write_json, check_output_folder, check_output_paths
 from nniquad.validate import finite_number
 from nniquad.model.vehicle import Vehicle, load_vehicle
 
-__all__ = ["add_tilt_limit_option", "add_xi0_option", "add_vehicle_option", "vehicle_from_args", "add_json_option", "write_json_if_asked", "finite_positive"]
+__all__ = ["add_tilt_limit_option", "add_xi0_option", "add_vehicle_option", "vehicle_from_args", "add_json_option",
+           "write_json_if_asked", "finite_positive", "add_output_option", "check_declared_outputs", "declared_outputs"]
+
+
+def add_output_option(parser: argparse.ArgumentParser, *flags: str, kind: str = "file",
+                      group: Any = None, **kwargs: Any) -> argparse.Action:
+    """Add an option naming an output (``kind`` ``"file"`` or ``"folder"``) and declare it.
+
+    :func:`nniquad.cli.main.main` checks every declared output of the command
+    (:func:`check_declared_outputs`) before the command's work starts, so a
+    run of minutes never ends in an unwritable path.
+    """
+    if kind not in ("file", "folder"):
+        raise ValueError(f"kind must be 'file' or 'folder', got {kind!r}")
+    action = (group or parser).add_argument(*flags, **kwargs)
+    declared = list(parser.get_default("_outputs") or [])
+    declared.append((action.option_strings[0] if action.option_strings else action.dest, action.dest, kind))
+    parser.set_defaults(_outputs=declared)
+    return action
+
+
+def declared_outputs(args: argparse.Namespace) -> list[tuple[str, str, str]]:
+    """``(flag, dest, kind)`` of the outputs the command declared with :func:`add_output_option`."""
+    return list(getattr(args, "_outputs", None) or [])
+
+
+def check_declared_outputs(args: argparse.Namespace, extra: list[tuple[str, Any]] | None = None) -> None:
+    """Check every declared output path given on the command line (and ``extra`` ``(label, path)`` pairs).
+
+    Raises
+    ------
+    nniquad.errors.OutputError
+        One line naming the option and the problem; nothing is created.
+    """
+    files = [(flag, getattr(args, dest, None)) for flag, dest, kind in declared_outputs(args) if kind == "file"]
+    check_output_paths(files + list(extra or []))
+    for flag, dest, kind in declared_outputs(args):
+        if kind == "folder" and getattr(args, dest, None) is not None:
+            check_output_folder(getattr(args, dest), option=flag)
 
 
 def add_vehicle_option(parser: argparse.ArgumentParser) -> None:
@@ -49,7 +87,7 @@ def add_xi0_option(parser: argparse.ArgumentParser) -> None:
 
 def add_json_option(parser: argparse.ArgumentParser, what: str = "results") -> None:
     """Add ``--json FILE``."""
-    parser.add_argument("--json", metavar="FILE", default=None, help=f"also write the {what} as JSON to FILE")
+    add_output_option(parser, "--json", metavar="FILE", default=None, help=f"also write the {what} as JSON to FILE")
 
 
 def write_json_if_asked(args: argparse.Namespace, data: Any) -> None:

@@ -24,7 +24,9 @@ Formats: markdown (default), latex, json (sympy srepr-free plain strings)."""
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--variant", choices=("exact", "paper"), default="exact", help="rotational kinetic energy used (default: exact)")
     parser.add_argument("--format", choices=("markdown", "latex", "json"), default="markdown", help="output format (default: markdown)")
-    parser.add_argument("--out", metavar="FILE", default=None, help="write to FILE instead of standard output")
+    from .common import add_output_option
+
+    add_output_option(parser, "--out", metavar="FILE", default=None, help="write to FILE instead of standard output")
 
 
 def run(args: argparse.Namespace) -> int:

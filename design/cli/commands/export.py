@@ -25,7 +25,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
     parser.add_argument("certificate", metavar="CERT.json", help="certificate file written by 'nniquad certify'")
     parser.add_argument("--format", choices=FORMATS, default="json", help="output format (default json)")
-    parser.add_argument("--out", metavar="DIR", required=True, help="output folder (created if missing)")
+    from .common import add_output_option
+
+    add_output_option(parser, "--out", kind="folder", metavar="DIR", required=True,
+                      help="output folder (created if missing)")
     parser.add_argument("--rate", metavar="HZ", type=float, default=CONTROL_RATE_HZ,
                         help=f"control rate = position sample rate in Hz (default {CONTROL_RATE_HZ:g})")
 
@@ -34,7 +37,11 @@ def run(args: argparse.Namespace) -> int:
     from nniquad.certificates.certificate import read_certificate
     from nniquad.certificates.export import export_controller
 
+    from nniquad.io import output_transaction
+
     cert = read_certificate(args.certificate)
-    for path in export_controller(cert, args.out, args.format, args.rate):
+    with output_transaction():  # every file of the export, or none
+        written = export_controller(cert, args.out, args.format, args.rate)
+    for path in written:
         print(f"wrote {path}")
     return 0

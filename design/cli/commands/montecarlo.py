@@ -11,7 +11,6 @@ from pathlib import Path
 from typing import Any
 
 from nniquad.config import MC_STALL_TIMEOUT_S
-from nniquad.errors import NniquadError
 from nniquad.io import atomic_write_json
 
 __all__ = ["HELP", "DESCRIPTION", "add_arguments", "run", "partial_path"]
@@ -98,7 +97,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     r.add_argument("--altitude-limit", type=float, default=None, metavar="M",
                    help="altitude deviation counted as divergence, in m (default 2)")
     parser.add_argument("--worst", type=int, default=10, metavar="K", help="worst cases to list (default 10)")
-    parser.add_argument("--json", metavar="FILE", default=None,
+    from .common import add_output_option
+
+    add_output_option(parser, "--json", metavar="FILE", default=None,
                         help="write the summary and every scenario's result as JSON to FILE")
 
 
@@ -192,7 +193,10 @@ def _rerun(args: argparse.Namespace, setup, ranges) -> int:
 
 
 def run(args: argparse.Namespace) -> int:
-    from nniquad.certificates.certificate import load_certificate
+    from nniquad.certificates.certificate import certificate_inner_loop, load_certificate
+    from nniquad.io import check_output_paths
+    from nniquad.resources import check_estimate, montecarlo_estimate
+    from nniquad.validate import check_rk4_step, inner_loop_poles
     from nniquad.study import MonteCarloError, close_client, cluster_threads, connect_scheduler, study_setup
 
     if args.rerun is None:
@@ -209,13 +213,25 @@ def run(args: argparse.Namespace) -> int:
         raise MonteCarloError(f"--horizon must be a positive number of seconds, got {args.horizon:g}")
     if args.stall_timeout is not None and not args.stall_timeout > 0:  # nan fails too
         raise MonteCarloError(f"--stall-timeout must be a positive number of seconds, got {args.stall_timeout:g}")
-    if args.json is not None and Path(args.json).is_dir():
-        raise NniquadError(f"--json {args.json} is a folder, expected a file name")
+    if args.json is not None:
+        # --json itself is checked by main; an interrupted study writes FILE.partial.json beside it
+        check_output_paths([("--json", args.json), ("--json's partial file", partial_path(args.json, args.seed))])
     ranges = _ranges(args)
     cert = load_certificate(args.certificate)
     setup = study_setup(cert, ranges, horizon_s=args.horizon)
+    # RK4 step against the fastest inner-loop pole the ranges can draw (strongest attitude gain, fastest motor)
+    check_rk4_step(inner_loop_poles(certificate_inner_loop(cert), attitude_gain_scale=ranges.attitude_gain_factor[1],
+                                    tau_motor_s=ranges.tau_motor_s[0]),
+                   setup.dt_s, error=MonteCarloError,
+                   hint={"attitude": "--attitude-gain-range", "motor lag": "--tau-motor-range"})
     if args.rerun is not None:
         return _rerun(args, setup, ranges)
+    workers = 1 if args.scheduler else (args.workers or os.cpu_count() or 1)
+    check_estimate(montecarlo_estimate(args.samples, setup.horizon_s, setup.dt_s, setup.output_dt_s, workers),
+                   option=" ".join([f"--samples {args.samples}"]
+                                   + ([f"--horizon {args.horizon:g}"] if args.horizon != 20.0 else [])
+                                   + ([f"--workers {args.workers}"] if args.workers is not None else [])),
+                   error=MonteCarloError)
 
     from nniquad.progress import Progress
     from nniquad.study import StudyFailedError, catch_interrupts

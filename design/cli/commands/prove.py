@@ -26,8 +26,10 @@ any claim is not 'holds'; 2 on a usage error (e.g. an unknown claim id)."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--json", metavar="FILE", default=None, help="write the audit as JSON to FILE")
-    parser.add_argument("--markdown", metavar="FILE", default=None, help="write the Markdown report to FILE")
+    from .common import add_output_option
+
+    add_output_option(parser, "--json", metavar="FILE", default=None, help="write the audit as JSON to FILE")
+    add_output_option(parser, "--markdown", metavar="FILE", default=None, help="write the Markdown report to FILE")
     parser.add_argument("--only", metavar="ID,...", default=None,
                         help="comma-separated claim ids to run (default: all; see --list)")
     parser.add_argument("--list", action="store_true", help="list the claim ids and exit")
@@ -43,19 +45,21 @@ def run(args: argparse.Namespace) -> int:
     from nniquad.proofs.audit import audit
     from nniquad.proofs.claims import HOLDS, claim_ids
 
-    from nniquad.io import atomic_write_json, atomic_write_text
+    from nniquad.io import atomic_write_json, atomic_write_text, output_transaction
 
     if args.list:
         print("\n".join(claim_ids()))
         return 0
     results = audit(_ids(args.only))
     print(results.table())
-    if args.json:
-        atomic_write_json(args.json, results.to_json())
-        print(f"wrote {Path(args.json)}", file=sys.stderr)
-    if args.markdown:
-        atomic_write_text(args.markdown, results.markdown())
-        print(f"wrote {Path(args.markdown)}", file=sys.stderr)
+    with output_transaction():  # both files or neither
+        if args.json:
+            atomic_write_json(args.json, results.to_json())
+        if args.markdown:
+            atomic_write_text(args.markdown, results.markdown())
+    for path in (args.json, args.markdown):
+        if path:
+            print(f"wrote {Path(path)}", file=sys.stderr)
     if args.strict and any(r.verdict != HOLDS for r in results):
         return 1
     return 0

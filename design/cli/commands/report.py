@@ -8,7 +8,7 @@ from pathlib import Path
 from nniquad.config import GAMMA_MAX
 from nniquad.progress import Progress
 
-from .common import add_vehicle_option, finite_positive, vehicle_from_args
+from .common import add_output_option, add_vehicle_option, finite_positive, vehicle_from_args
 
 HELP = "the main job: audit, certificate, figures and report.md"
 DESCRIPTION = """Run the whole design study on one vehicle and write one folder:
@@ -21,13 +21,21 @@ DESCRIPTION = """Run the whole design study on one vehicle and write one folder:
   audit.json/.md     the claim-by-claim audit of the paper
   paper_gains.png    the paper's gains on the linear, reduced and full models
   certified_gains.png  the certified gains on the same three models
+  manifest.json      the SHA-256 of every file above
 
-Running it again into the same folder replaces the old results cleanly."""
+Every option is checked before any work starts.  The folder is built beside
+--out and swapped in whole when everything is written: running it again
+into the same folder replaces the old results cleanly, a failed or
+interrupted run leaves the old folder as it was, and a second run into the
+same folder while one is running is refused.  Only files an earlier run wrote
+(listed, unchanged, in its manifest.json) are ever deleted; other files in
+the folder are kept, and a file of yours with the name of a report output
+makes the run refuse to start."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_vehicle_option(parser)
-    parser.add_argument("--out", metavar="DIR", default="out", help="output folder (default: out)")
+    add_output_option(parser, "--out", kind="folder", metavar="DIR", default="out", help="output folder (default: out)")
     parser.add_argument("--model", choices=("full", "reduced"), default="full",
                         help="model the certified gains are tuned on (default: full)")
     parser.add_argument("--gamma-max", type=float, default=GAMMA_MAX,

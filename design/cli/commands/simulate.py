@@ -10,8 +10,8 @@ from nniquad.config import ALTITUDE_LIMIT_M, XI0_M
 from nniquad.errors import GainError, NniquadError
 from nniquad.format import fmt
 from nniquad.progress import Progress
-from .common import (add_json_option, add_tilt_limit_option, add_vehicle_option, add_xi0_option, vehicle_from_args,
-                     write_json_if_asked)
+from .common import (add_json_option, add_output_option, add_tilt_limit_option, add_vehicle_option, add_xi0_option,
+                     vehicle_from_args)
 
 __all__ = ["HELP", "DESCRIPTION", "add_arguments", "run", "gains_from_certificate"]
 
@@ -76,9 +76,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     d.add_argument("--attitude-zeta", type=float, default=None, metavar="Z",
                    help="attitude-loop damping ratio (full model; default 0.8, or the certificate's)")
     add_json_option(parser, "metrics, gains, options and the trajectory file path")
-    parser.add_argument("--trajectory", metavar="FILE", default=None,
+    add_output_option(parser, "--trajectory", metavar="FILE", default=None,
                         help="write the trajectory here (.npz or .csv); default with --json: JSON name + .traj.npz")
-    parser.add_argument("--plot", metavar="FILE.png", default=None, help="plot the run to a PNG file")
+    add_output_option(parser, "--plot", metavar="FILE.png", default=None, help="plot the run to a PNG file")
 
 
 def gains_from_certificate(path: str | Path):
@@ -150,16 +150,24 @@ def run(args: argparse.Namespace) -> int:
         true_mass_kg=args.true_mass,
         inner=_inner(args),
     )
-    for name in ("json", "trajectory", "plot"):
-        value = getattr(args, name)
-        if value is not None and Path(value).is_dir():
-            raise NniquadError(f"--{name} {value} is a folder, expected a file name")
+    from nniquad.errors import SimulationError
+    from nniquad.io import check_output_paths, output_transaction
+    from nniquad.resources import check_estimate, simulation_estimate
+    from nniquad.validate import check_rk4_step, inner_loop_poles
+
     traj_path = args.trajectory
     if traj_path is None and args.json:
         j = Path(args.json)
         traj_path = str(j.with_name(j.stem + ".traj.npz"))
+        check_output_paths([("--json", args.json), ("--json's trajectory file", traj_path), ("--plot", args.plot)])
     if traj_path is not None and Path(traj_path).suffix.lower() not in (".npz", ".csv"):
         raise NniquadError(f"--trajectory must end in .npz or .csv, got {traj_path}")
+    if options.model == "full":
+        tau = (options.tau_motor_s or vehicle.tau_motor) if options.motor_lag else None
+        check_rk4_step(inner_loop_poles(options.inner, tau_motor_s=tau), options.dt_s, error=SimulationError,
+                       hint={"attitude": "--attitude-wn or --dt", "motor lag": "--tau-motor or --dt"})
+    check_estimate(simulation_estimate(options.model, options.horizon_s, options.dt_s, options.output_dt_s),
+                   option=f"--horizon {options.horizon_s:g}", error=SimulationError)
 
     progress = Progress("simulate")
     progress.note(f"{args.model} model, {options.horizon_s:g} s simulated")
@@ -187,29 +195,33 @@ def run(args: argparse.Namespace) -> int:
     for name, value, note in rows:
         print(f"{name:<26} {value:>16}  {note}")
 
-    written = None
-    if traj_path is not None:
-        written = traj.save(traj_path)
-        print(f"wrote {written}", file=sys.stderr)
-    if args.plot:
-        from nniquad.reporting.plots import trajectory_plot
+    from nniquad.io import atomic_write_json
 
-        trajectory_plot(traj, args.plot)
-        print(f"wrote {args.plot}", file=sys.stderr)
-    data = {
-        "model": args.model,
-        "settling_s": m.settling_s,
-        "overshoot_pct": m.overshoot_pct,
-        "peak_tilt_deg": m.peak_tilt_deg,
-        "diverged": m.diverged,
-        "altitude_lost": m.altitude_lost,
-        "failure": m.failure,
-        "horizon_s": m.horizon_s,
-        "trajectory": None if written is None else str(written),
-        "metrics": m.to_json(),
-        "gains": gains.as_dict(),
-        "vehicle": vehicle.as_dict(),
-        "options": options.to_json(),
-    }
-    write_json_if_asked(args, data)
+    # every output or none: a failed plot must not leave the trajectory file behind
+    with output_transaction():
+        written = None if traj_path is None else traj.save(traj_path)
+        if args.plot:
+            from nniquad.reporting.plots import trajectory_plot
+
+            trajectory_plot(traj, args.plot)
+        data = {
+            "model": args.model,
+            "settling_s": m.settling_s,
+            "overshoot_pct": m.overshoot_pct,
+            "peak_tilt_deg": m.peak_tilt_deg,
+            "diverged": m.diverged,
+            "altitude_lost": m.altitude_lost,
+            "failure": m.failure,
+            "horizon_s": m.horizon_s,
+            "trajectory": None if written is None else str(written),
+            "metrics": m.to_json(),
+            "gains": gains.as_dict(),
+            "vehicle": vehicle.as_dict(),
+            "options": options.to_json(),
+        }
+        if args.json:
+            atomic_write_json(args.json, data)
+    for path in (written, args.plot, args.json):
+        if path is not None:
+            print(f"wrote {path}", file=sys.stderr)
     return 0

@@ -6,7 +6,7 @@ import argparse
 
 from nniquad.io import atomic_write_text
 from nniquad.model.vehicle import vehicle_to_toml
-from .common import add_vehicle_option, vehicle_from_args
+from .common import add_output_option, add_vehicle_option, vehicle_from_args
 
 HELP = "show or write a vehicle parameter file, with units"
 DESCRIPTION = """Show the vehicle parameters with units and derived ratios.
@@ -17,7 +17,7 @@ With --write FILE, write them as a TOML template (units as comments) that
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_vehicle_option(parser)
-    parser.add_argument("--write", metavar="FILE.toml", default=None, help="write the vehicle as a TOML template")
+    add_output_option(parser, "--write", metavar="FILE.toml", default=None, help="write the vehicle as a TOML template")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -20,9 +20,12 @@ inclusion conditions and the certified reach); and a re-simulation of the
 reduced and full reference runs that must reproduce the stated settling time,
 overshoot and peak tilt within the certificate's tolerances.
 
-Prints one row per check and exits 0 only if every check passes; a malformed
-or tampered certificate gets a one-line reason and exit status 1 (2 when the
-file cannot be read as a certificate at all)."""
+Prints one row per check.  Exit status: 0 when every check passes; 1 when a
+check fails, including a digest that does not match the content (a
+certificate changed after signing), with the failed check named; 2 when the
+file cannot be read as a certificate at all (unreadable, not UTF-8 JSON,
+wrong schema or version, a missing or malformed field), with a one-line
+reason."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -1,0 +1,166 @@
+"""Resource estimates, the RK4 step bound of the inner loops, and the one exit-status scheme of the CLI."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from nniquad.config import RK4_STEP_LIMIT
+from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, InnerLoopGains
+from nniquad.errors import (EXIT_CHECK_FAILED, EXIT_INTERNAL_ERROR, EXIT_INTERRUPTED, EXIT_USER_ERROR,
+                            ResourceError, SimulationError)
+from nniquad.resources import (MODEL_SIZES, Estimate, available_memory_bytes, check_estimate, montecarlo_estimate,
+                               simulation_estimate)
+from nniquad.validate import check_rk4_step, inner_loop_poles
+
+CERT = Path(__file__).resolve().parents[1] / "notebooks" / "data" / "full_model_certificate.json"
+
+
+# ============================================================================ memory and time
+
+
+def test_model_sizes_match_the_simulator():
+    from nniquad.sim import OUTPUT_NAMES, STATE_NAMES
+
+    assert MODEL_SIZES == {m: (len(STATE_NAMES[m]), len(OUTPUT_NAMES[m])) for m in STATE_NAMES}
+
+
+@pytest.mark.parametrize("model", ["linear", "full"])
+def test_memory_estimate_equals_the_arrays_a_run_allocates(model):
+    """The formula against the arrays a real run holds: states + outputs per sample, 5 inputs per step."""
+    from nniquad.control.gains import PAPER_GAINS
+    from nniquad.model.vehicle import PAPER_VEHICLE
+    from nniquad.sim import SimOptions, exogenous_inputs, simulate
+
+    opts = SimOptions(model=model, horizon_s=0.5)
+    traj = simulate(PAPER_VEHICLE, PAPER_GAINS, opts)[0]
+    actual = traj.state.nbytes + traj.outputs.nbytes + exogenous_inputs(opts).nbytes
+    assert simulation_estimate(model, 0.5, opts.dt_s, opts.output_dt_s).memory_bytes == actual
+
+
+def test_the_issue_numbers():
+    # horizon 1e6 s on the full model: the exogenous array alone is 1e9 steps x 5 x 8 B = 37.3 GiB
+    est = simulation_estimate("full", 1e6, 1e-3, 1e-2)
+    assert est.memory_bytes >= 1e9 * 5 * 8 and est.memory_bytes / 2**30 == pytest.approx(58.9, abs=0.1)
+    assert simulation_estimate("full", 1e9, 1e-3, 1e-2).memory_bytes >= 36 * 2**40
+    assert montecarlo_estimate(10**12, 20.0, 1e-3, 1e-2, 2).memory_bytes > 2**50
+
+
+def test_check_estimate_limits():
+    small = Estimate("x", memory_bytes=1e6, seconds=1.0)
+    assert check_estimate(small, option="--x", available_bytes=2**30) is small
+    with pytest.raises(ResourceError, match=r"--x: .*needs about 1.86 GiB .* 1 GiB available"):
+        check_estimate(Estimate("x", 2e9, 1.0), option="--x", available_bytes=2**30)
+    with pytest.raises(ResourceError, match="more than the 30 days"):
+        check_estimate(Estimate("x", 1.0, 1e9), option="--x", available_bytes=2**30)
+
+
+def test_available_memory_is_the_machines():
+    physical = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    assert 0 < available_memory_bytes() <= physical
+
+
+# ============================================================================ RK4 step bound
+
+
+def _rk4_amplification(z: complex) -> float:
+    return abs(1 + z + z**2 / 2 + z**3 / 6 + z**4 / 24)
+
+
+def test_rk4_bound_is_inside_the_stability_region():
+    """|z| <= RK4_STEP_LIMIT is stable in every left-half-plane direction (the claim the check rests on)."""
+    angles = np.linspace(np.pi / 2, np.pi, 721)
+    radii = np.linspace(1e-3, RK4_STEP_LIMIT, 400)
+    worst = max(_rk4_amplification(r * np.exp(1j * a)) for a in angles for r in radii)
+    assert worst <= 1.0 + 1e-12
+    assert _rk4_amplification(-2.8) > 1  # and the real-axis limit 2.785 is right beyond it
+
+
+def test_inner_loop_poles_are_the_roots_of_the_loop_polynomials():
+    inner = InnerLoopGains(attitude_wn_rad_s=40.0, attitude_zeta=1.7, attitude_gain_scale=1.3)
+    poles = inner_loop_poles(inner, tau_motor_s=0.01)
+    s = 1.3
+    expected = max(abs(r) for r in np.roots([1.0, 2 * 1.7 * 40.0 * s, s * 40.0**2]))
+    assert poles["attitude"] == pytest.approx(expected)
+    assert poles["yaw"] == pytest.approx(max(abs(r) for r in np.roots([1.0, 2 * 0.8 * 8.0 * s, s * 64.0])))
+    assert poles["altitude"] == 3.0 and poles["motor lag"] == 100.0
+
+
+def test_step_check_accepts_the_defaults_and_refuses_the_fast_loop():
+    check_rk4_step(inner_loop_poles(DEFAULT_INNER_LOOP_GAINS, tau_motor_s=0.005), 1e-3)
+    wn = RK4_STEP_LIMIT / 1e-3  # a complex pair of modulus wn sits exactly on the bound
+    check_rk4_step(inner_loop_poles(InnerLoopGains(attitude_wn_rad_s=wn * (1 - 1e-9))), 1e-3)
+    with pytest.raises(SimulationError, match="attitude pole"):
+        check_rk4_step(inner_loop_poles(InnerLoopGains(attitude_wn_rad_s=wn * (1 + 1e-9))), 1e-3,
+                       error=SimulationError)
+
+
+# ============================================================================ exit status
+
+
+def test_help_documents_the_scheme(run_cli):
+    for argv in (["--help"], ["verify", "--help"], ["montecarlo", "--help"]):
+        code, out, _ = run_cli(*argv)
+        assert code == 0
+        text = " ".join(out.split())
+        assert "exit status: 0" in text and "1 a check failed" in text and "2 user error" in text
+        assert "130 interrupted" in text
+
+
+def test_readme_documents_the_scheme():
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    for code in ("| 0 |", "| 1 |", "| 2 |", "| 3 |", "| 130 |"):
+        assert code in readme
+
+
+def test_verify_exit_status(run_cli, tmp_path):
+    text = CERT.read_text()
+    tampered = tmp_path / "t.json"
+    tampered.write_text(text.replace('"tilt_limit_deg": 30.0', '"tilt_limit_deg": 30.5', 1))
+    code, _, err = run_cli("verify", str(tampered), "--no-simulate")
+    assert code == EXIT_CHECK_FAILED and "digest mismatch" in err
+    broken = tmp_path / "b.json"
+    broken.write_text(text[:100])
+    assert run_cli("verify", str(broken))[0] == EXIT_USER_ERROR
+    assert run_cli("verify", str(CERT), "--no-simulate")[0] == 0
+
+
+@pytest.mark.parametrize("exc, code, word", [
+    (KeyboardInterrupt(), EXIT_INTERRUPTED, "interrupted"),
+    (MemoryError(), EXIT_USER_ERROR, "not enough memory"),
+    (RecursionError(), EXIT_USER_ERROR, "nested too deeply"),
+    (OSError(28, "No space left on device", "out.json"), EXIT_USER_ERROR, "out.json: No space left"),
+    (PermissionError(13, "Permission denied", "/x/y"), EXIT_USER_ERROR, "Permission denied"),
+    (RuntimeError("a bug"), EXIT_INTERNAL_ERROR, "internal error"),
+])
+def test_main_maps_every_failure_to_its_status(run_cli, monkeypatch, exc, code, word):
+    import nniquad.cli.commands.vehicle as vehicle_cmd
+
+    def boom(args):
+        raise exc
+
+    monkeypatch.setattr(vehicle_cmd, "run", boom)
+    rc, _, err = run_cli("vehicle")
+    assert rc == code and word in err
+    lines = [line for line in err.splitlines() if line.startswith("nniquad")]
+    assert len(lines) == 1
+    assert ("Traceback" in err) == (code == EXIT_INTERNAL_ERROR)  # only a bug shows one
+
+
+def test_usage_errors_are_one_line(run_cli):
+    code, _, err = run_cli("simulate", "--horizon", "soon")
+    assert code == EXIT_USER_ERROR and len(err.strip().splitlines()) == 1 and "invalid float value" in err
+
+
+def test_json_output_is_still_written(run_cli, tmp_path):
+    out = tmp_path / "v.toml"
+    code, _, _ = run_cli("vehicle", "--write", str(out))
+    assert code == 0 and out.is_file()
+    code, _, _ = run_cli("bound", "--json", str(tmp_path / "deep" / "b.json"))
+    assert code == 0 and json.loads((tmp_path / "deep" / "b.json").read_text())["enter_band_s"] > 0
+    assert math.isfinite(json.loads((tmp_path / "deep" / "b.json").read_text())["a_max_m_s2"])
