@@ -250,7 +250,7 @@ def test_montecarlo_numeric_options(run_cli, stubbed, options):
 
 @SETTINGS
 @given(flag=st.sampled_from(["--mass-range", "--inertia-range", "--attitude-gain-range", "--tau-motor-range",
-                             "--noise-range", "--wind-range"]),
+                             "--tau-motor-factor-range", "--noise-range", "--wind-range", "--wind-fraction-range"]),
        lo=st.floats(allow_nan=True, allow_infinity=True), hi=st.floats(allow_nan=True, allow_infinity=True))
 def test_montecarlo_range_options(run_cli, stubbed, flag, lo, hi):
     _check_outcome(*run_cli("montecarlo", "--certificate", str(CERT), "--samples", "4", flag, repr(lo), repr(hi)))

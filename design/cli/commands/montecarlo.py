@@ -220,10 +220,12 @@ def run(args: argparse.Namespace) -> int:
     cert = load_certificate(args.certificate)
     setup = study_setup(cert, ranges, horizon_s=args.horizon)
     # RK4 step against the fastest inner-loop pole the ranges can draw (strongest attitude gain, fastest motor)
+    tau_lo = (ranges.tau_motor_s[0] if ranges.tau_motor_s is not None
+              else setup.base.plant.tau_motor * ranges.tau_motor_factor[0])
     check_rk4_step(inner_loop_poles(certificate_inner_loop(cert), attitude_gain_scale=ranges.attitude_gain_factor[1],
-                                    tau_motor_s=ranges.tau_motor_s[0]),
+                                    tau_motor_s=tau_lo),
                    setup.dt_s, error=MonteCarloError,
-                   hint={"attitude": "--attitude-gain-range", "motor lag": "--tau-motor-range"})
+                   hint={"attitude": "--attitude-gain-range", "motor lag": "--tau-motor-range or --tau-motor-factor-range"})
     if args.rerun is not None:
         return _rerun(args, setup, ranges)
     workers = 1 if args.scheduler else (args.workers or os.cpu_count() or 1)
