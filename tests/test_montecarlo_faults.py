@@ -103,17 +103,22 @@ def _pool_children():
 
 
 def test_catch_interrupts_turns_sigint_into_a_request_and_restores_the_handler():
-    before = signal.getsignal(signal.SIGINT)
-    with mc.catch_interrupts(repeat_message="") as stop:
-        assert not stop.requested
-        os.kill(os.getpid(), signal.SIGINT)
-        os.kill(os.getpid(), signal.SIGINT)
-        time.sleep(0.05)  # the handler runs between bytecodes; no KeyboardInterrupt must arrive
-    assert stop.requested and stop.signals == 2
-    assert signal.getsignal(signal.SIGINT) is before
-    with pytest.raises(KeyboardInterrupt):  # outside, Ctrl-C means what it always meant
-        os.kill(os.getpid(), signal.SIGINT)
-        time.sleep(0.05)
+    # a test runner started in the background inherits SIGINT ignored: start from Python's own handler
+    inherited = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        before = signal.getsignal(signal.SIGINT)
+        with mc.catch_interrupts(repeat_message="") as stop:
+            assert not stop.requested
+            os.kill(os.getpid(), signal.SIGINT)
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.05)  # the handler runs between bytecodes; no KeyboardInterrupt must arrive
+        assert stop.requested and stop.signals == 2
+        assert signal.getsignal(signal.SIGINT) is before
+        with pytest.raises(KeyboardInterrupt):  # outside, Ctrl-C means what it always meant
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.05)
+    finally:
+        signal.signal(signal.SIGINT, inherited)
 
 
 def test_double_sigint_on_a_real_process_keeps_every_finished_scenario(cert_path, tmp_path):
