@@ -337,11 +337,17 @@ def check_output_path(path: str | os.PathLike[str], *, option: str = "output") -
         folder = _nearest_existing_folder(p, option)
     except OSError as exc:
         raise OutputError(f"cannot write {option} {p}: {exc.strerror or exc}") from None
+    _probe_or_refuse(folder, option, p)
+    return p
+
+
+def _probe_or_refuse(folder: Path, option: str, target: Path) -> None:
+    """Refuse ``target`` (an :class:`OutputError` naming ``option``) unless a file can be created in ``folder``."""
     try:
         _probe(folder)
     except OSError as exc:
-        raise OutputError(f"cannot write {option} {p}: cannot create a file in {folder} ({exc.strerror or exc})") from None
-    return p
+        raise OutputError(f"cannot write {option} {target}: cannot create a file in {folder} "
+                          f"({exc.strerror or exc})") from None
 
 
 def check_output_folder(path: str | os.PathLike[str], *, option: str = "--out") -> Path:
@@ -358,10 +364,7 @@ def check_output_folder(path: str | os.PathLike[str], *, option: str = "--out") 
         base = p if st is not None else _nearest_existing_folder(p, option)
     except OSError as exc:
         raise OutputError(f"cannot write {option} {p}: {exc.strerror or exc}") from None
-    try:
-        _probe(base)
-    except OSError as exc:
-        raise OutputError(f"cannot write {option} {p}: cannot create a file in {base} ({exc.strerror or exc})") from None
+    _probe_or_refuse(base, option, p)
     return p
 
 
