@@ -25,6 +25,7 @@ __all__ = [
     "TAU_MOTOR_FACTOR_RANGE",
     "WIND_WEIGHT_FRACTION_RANGE",
     "ATTITUDE_GAIN_MARGIN",
+    "CASCADE_BANDWIDTH_RATIO",
     "SETTLING_HOLD_MIN_S",
     "SETTLING_HOLD_FACTOR",
     "MC_STALL_TIMEOUT_S",
@@ -74,6 +75,10 @@ WIND_WEIGHT_FRACTION_RANGE: tuple[float, float] = (0.0, 0.06)
 #: Gain margin (a factor on the motor time constant, 2 = 6 dB) the attitude loop keeps at the
 #: slowest motor of TAU_MOTOR_FACTOR_RANGE (nniquad.control.inner_loops.attitude_wn_limit).
 ATTITUDE_GAIN_MARGIN: float = 2.0
+#: The tuner's search box keeps the horizontal loop's natural frequency sqrt(kp) this factor below the
+#: fastest attitude natural frequency the vehicle's motors allow (the usual 3-5x time-scale separation of a
+#: cascade, at its permissive end; nniquad.tuning.coordinates.gain_limits).
+CASCADE_BANDWIDTH_RATIO: float = 3.0
 #: A settling time s counts only if the run is shown to stay in the band for
 #: max(SETTLING_HOLD_MIN_S, SETTLING_HOLD_FACTOR * s) after it (else: did not settle).
 SETTLING_HOLD_MIN_S: float = 5.0

@@ -338,3 +338,95 @@ def test_decay_lmis_reject_a_positive_matrix_that_certifies_no_decay(monkeypatch
     monkeypatch.setattr(module, "solve", _lying_solver(_identity))
     r = run()
     assert r.status == "optimal" and not r.feasible
+
+
+# ------------------------------------------------------------------------------ scaling of the ROA LMI (issue 14, 9a)
+
+def _box_edge_loop():
+    """The gains the quick tuner reached at the edge of the old search box: kp = 2000, Gamma = 6152, delta on the
+    sector bound (u = 0).  Unscaled and unpolished, Clarabel's 'optimal' answer failed the re-check by 3e-5."""
+    from nniquad.config import GAMMA_MAX
+    from nniquad.model.vehicle import PAPER_VEHICLE
+
+    kp = 2000.0
+    return ReducedLoop.from_vehicle(PAPER_VEHICLE, Gains(kp, 6152.0, 1.0 / (GAMMA_MAX * PAPER_VEHICLE.m * kp)))
+
+
+def test_region_of_attraction_at_the_box_edge_is_certified_and_confirmed_independently():
+    from scipy.integrate import solve_ivp
+
+    from nniquad.analysis.lmi import checks
+
+    loop = _box_edge_loop()
+    u0 = lmi.axis_acceleration_limit(loop.g)
+    A0, B, K = loop.saturation_split()
+    assert np.max(np.linalg.eigvals(A0 + B @ K).real) < 0  # Hurwitz: a positive reach must exist
+    r = lmi.region_of_attraction(loop, u0)
+    assert r.feasible  # the solver's answer passed the numpy re-check in the original variables
+    reach = r.values["max_displacement_m"]
+    # positive, and beyond the linear zone u0/kp of the saturation (else the saturation would never act)
+    assert reach > u0 / loop.gains.kp
+    # the numpy re-check, recomputed here from the returned P, G, T alone (original variables)
+    P, G, T = r.matrices["P"], r.matrices["G"], r.matrices["T"]
+    assert checks.eigmin(P) > 0 and T[0, 0] > 0
+    assert checks.eigmax(checks.roa_decrease_matrix(A0 + B @ K, B, P, G, T)) < 0
+    assert checks.roa_inclusion_margin(K, G, np.linalg.inv(P), u0) >= 0
+    assert checks.ellipsoid_level(P, [reach, 0.0, 0.0]) <= 1.0
+    # and by simulation of the saturated loop from the certified start: stays in the ellipsoid and converges
+    def f(_t, x):
+        return A0 @ x + B[:, 0] * np.clip(K @ x, -u0, u0)[0]
+
+    x0 = np.array([reach, 0.0, 0.0]) * (1 - 1e-6)
+    assert abs(K @ x0)[0] > u0  # the start saturates the command
+    sol = solve_ivp(f, (0.0, 20.0), x0, method="LSODA", rtol=1e-9, atol=1e-12, dense_output=True)
+    X = sol.sol(np.linspace(0.0, 20.0, 4001))
+    V = np.einsum("it,ij,jt->t", X, P, X)
+    assert V.max() <= 1.0 + 1e-6 and V[-1] < 1e-3
+    # the tuner's one number agrees
+    assert lmi.certified_reach(loop) == pytest.approx(reach, rel=1e-9)
+
+
+@pytest.mark.parametrize("scaling", ["balanced", "physical"])
+def test_region_of_attraction_scaling_changes_no_answer_for_well_scaled_gains(scaling):
+    """Paper gains and the committed full-model certificate's gains: the scaled problem's reach equals the
+    unscaled one (the scaling is a congruence: exact up to the solver's tolerance)."""
+    from nniquad.model.vehicle import PAPER_VEHICLE
+
+    u0 = lmi.axis_acceleration_limit(PAPER_VEHICLE.g)
+    for gains in (PAPER_GAINS, Gains(33.01, 88.46, 0.0757)):
+        loop = ReducedLoop.from_vehicle(PAPER_VEHICLE, gains)
+        plain = lmi.region_of_attraction(loop, u0, scaling="none")
+        scaled = lmi.region_of_attraction(loop, u0, scaling=scaling)
+        assert plain.feasible and scaled.feasible
+        assert scaled.margin == pytest.approx(plain.margin, rel=1e-4)
+        assert f"scaling {scaling}" in scaled.note
+
+
+def test_region_of_attraction_is_certified_at_every_corner_of_the_old_search_box():
+    import itertools
+    import math
+
+    from nniquad.config import GAMMA_MAX
+    from nniquad.model.vehicle import PAPER_VEHICLE as V
+
+    u0 = lmi.axis_acceleration_limit(V.g)
+    for kp, u, gd in itertools.product((0.5, 2000.0), (0.0, 4.0), (0.05, 2500.0)):
+        delta = math.exp(u) / (GAMMA_MAX * V.m * kp)
+        r = lmi.region_of_attraction(ReducedLoop.from_vehicle(V, Gains(kp, gd / delta, delta)), u0)
+        assert r.feasible and r.margin > u0 / kp, (kp, u, gd, r.note)
+
+
+def test_region_of_attraction_scaling_names_are_checked():
+    with pytest.raises(GainError, match="scaling"):
+        lmi.region_of_attraction(PAPER_LOOP, 5.0, scaling="tilted")
+    scalings = lmi.roa.roa_scalings(*[np.asarray(m) for m in _split(PAPER_LOOP)], 5.0)
+    assert set(scalings) == set(lmi.roa.ROA_SCALINGS)
+    d, omega, psi = scalings["physical"]
+    kp, m = PAPER_LOOP.gains.kp, PAPER_LOOP.m
+    np.testing.assert_allclose(d, 5.0 / kp * np.array([1.0, np.sqrt(kp), m * kp]))
+    assert omega == pytest.approx(np.sqrt(kp)) and psi == 5.0
+
+
+def _split(loop):
+    A0, B, K = loop.saturation_split()
+    return A0 + B @ K, B, K

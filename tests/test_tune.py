@@ -210,3 +210,60 @@ def test_decode_caps_the_attitude_bandwidth_at_the_slowest_motor():
     assert inner.attitude_wn_rad_s == pytest.approx(cap)
     _, free = decode(q, V.m, 0.8)
     assert free.attitude_wn_rad_s == pytest.approx(150.0)
+
+
+# ----------------------------------------------------------------------------- the box a vehicle can realise (9a)
+
+def _vehicle_file(name):
+    from pathlib import Path
+
+    from nniquad.model.vehicle import load_vehicle
+
+    return load_vehicle(Path(__file__).resolve().parents[1] / "notebooks" / "data" / "vehicles" / f"{name}.toml")
+
+
+@pytest.mark.parametrize("name", ["paper", "crazyflie2", "iris"])
+def test_search_box_is_bounded_by_what_the_vehicle_can_realise(name):
+    """kp: sqrt(kp) three times below the fastest attitude frequency the motor allows (0.75/tau at zeta 1.5),
+    and kp x 5 cm band <= g tan 30 deg; Gamma delta below the 100 Hz Nyquist frequency. Worked out by hand."""
+    from nniquad.tuning.coordinates import gain_limits
+
+    vehicle = V if name == "paper" else _vehicle_file(name)
+    wn_a = min(150.0, 2 * 1.5 / (2.0 * 2.0 * vehicle.tau_motor))  # attitude_wn_limit at zeta 1.5, factor 2, margin 2
+    kp_att = (wn_a / 3.0) ** 2
+    kp_band = vehicle.g * math.tan(math.radians(30.0)) / (0.02 * 2.5)
+    lim = gain_limits(vehicle)
+    assert lim["kp_max_attitude"] == pytest.approx(kp_att, rel=1e-12)
+    assert lim["kp_max_band"] == pytest.approx(kp_band, rel=1e-12)
+    assert lim["gamma_delta_max"] == pytest.approx(math.pi * 100.0, rel=1e-12)  # < 2.5/dt = 2500
+    for model in ("reduced", "full"):
+        options = TuneOptions(model=model, roa_radius_m=0)
+        lo, hi = search_box(options, vehicle=vehicle)
+        assert math.exp(hi[0]) == pytest.approx(min(kp_att, kp_band), rel=1e-12)
+        assert math.exp(hi[2]) == pytest.approx(math.pi * 100.0, rel=1e-12)
+        old_lo, old_hi = search_box(options)  # the vehicle-free box (old signature) keeps kp <= 2000
+        assert math.exp(old_hi[0]) == pytest.approx(2000.0) and np.all(lo == old_lo) and np.all(hi[3:] == old_hi[3:])
+    # the paper vehicle: kp <= 113 (the band), Iris: kp <= 100 (its 25 ms motor)
+    expected = {"paper": kp_band, "crazyflie2": kp_band, "iris": 100.0}[name]
+    assert lim["kp_max"] == pytest.approx(expected, rel=1e-9)
+
+
+def test_search_box_refuses_a_vehicle_whose_motors_allow_no_horizontal_loop():
+    from dataclasses import replace
+
+    slow = replace(V, tau_motor=2.0)  # attitude wn <= 0.375 rad/s -> kp <= 0.016 < 0.5
+    with pytest.raises(NniquadError, match="motor lag.*tau_motor = 2 s"):
+        search_box(TuneOptions(model="full", roa_radius_m=0), vehicle=slow)
+
+
+def test_reduced_tune_stays_inside_the_realisable_box(quick_reduced):
+    """The quick reduced tuner used to run to kp = 2000 (certified reach 5 mm, full model not settling)."""
+    from nniquad.tuning.coordinates import gain_limits
+
+    assert quick_reduced.gains.kp <= gain_limits(V)["kp_max"] * (1 + 1e-12)
+    assert quick_reduced.gains.Gamma * quick_reduced.gains.delta <= math.pi * 100.0 * (1 + 1e-12)
+    # a realisable design: the full model (attitude loop, motor lag) settles with it
+    from nniquad.sim import SimOptions, simulate
+
+    run = simulate(V, quick_reduced.gains, SimOptions(model="full", horizon_s=20.0, motor_lag=True))[0]
+    assert run.metrics().settling_s is not None

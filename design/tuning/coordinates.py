@@ -12,6 +12,7 @@ from nniquad import config
 from nniquad.config import DT_S
 from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, InnerLoopGains
 from nniquad.control.inner_loops import attitude_wn_limit
+from nniquad.errors import NniquadError
 from nniquad.model.vehicle import Vehicle
 from nniquad.tuning.options import TuneOptions
 
@@ -19,25 +20,113 @@ from nniquad.tuning.options import TuneOptions
 # ----------------------------------------------------------------------------- coordinates
 
 
-def search_box(options: TuneOptions, dt_s: float = DT_S) -> tuple[np.ndarray, np.ndarray]:
+#: Bounds of the NNI coordinates that do not depend on the vehicle: kp [1/s^2], u, Gamma delta [1/s].
+KP_RANGE: tuple[float, float] = (0.5, 2000.0)
+U_RANGE: tuple[float, float] = (0.0, 4.0)
+GAMMA_DELTA_MIN: float = 0.05
+#: Bounds of the attitude coordinates (``full``): ω_a [rad/s], ζ_a, α/α_avail.
+ATTITUDE_WN_RANGE: tuple[float, float] = (10.0, 150.0)
+ATTITUDE_ZETA_RANGE: tuple[float, float] = (0.5, 1.5)
+ATTITUDE_ALPHA_RANGE: tuple[float, float] = (0.1, 1.0)
+
+
+def gain_limits(vehicle: Vehicle, tilt_limit_deg: float = config.TILT_LIMIT_DEG, dt_s: float = DT_S,
+                control_rate_hz: float = config.CONTROL_RATE_HZ) -> dict[str, float]:
+    """The largest NNI gains a vehicle can realise: the upper ends of the search box.
+
+    * ``kp`` (the horizontal loop ``ξ'' = -kp ξ + z/m`` runs at ``sqrt(kp)`` rad/s):
+
+      - **attitude bandwidth**: the attitude loop realises the commanded tilt, so
+        ``sqrt(kp)`` stays ``config.CASCADE_BANDWIDTH_RATIO`` (3) times below the
+        fastest attitude natural frequency the tuner may choose,
+        ``min(ATTITUDE_WN_RANGE[1], attitude_wn_cap(τ_m, ζ_max))`` (the motor-lag cap
+        at the largest damping of the box);
+      - **tilt-limited acceleration**: ``kp`` times the settling band
+        (``BAND_FRACTION × ‖ξ0‖``, 5 cm) must not exceed ``g tan(tilt limit)``,
+        so that the loop is linear inside the band it has to hold: a larger ``kp``
+        commands the full tilt for a 5 cm error and holds the band as a bang-bang
+        limit cycle of the tilt saturation, which no attitude loop follows.
+
+      The old box went to kp = 2000 (``sqrt(kp)`` = 45 rad/s, full tilt for a 3 mm
+      error); the quick reduced tuner ran to that edge (issue 14, item 9a), where
+      the certified reach is 5 mm and the full model does not settle.
+    * ``Γδ`` (the controller pole, 1/s): below the Nyquist frequency ``π f_s`` of the
+      position sample rate ``config.CONTROL_RATE_HZ`` (a pole faster than half a sample
+      period cannot be realised by the sampled controller), and inside the RK4
+      step's stability region (``config.RK4_STEP_LIMIT / dt``).
+
+    Parameters
+    ----------
+    vehicle
+        The vehicle (motor time constant ``tau_motor``, ``g``).
+    tilt_limit_deg
+        Tilt limit [deg].
+    dt_s
+        RK4 step [s].
+    control_rate_hz
+        Position sample rate of the controller [Hz].
+
+    Returns
+    -------
+    dict
+        ``kp_max`` and ``gamma_delta_max`` (the bounds used) and the terms they are
+        the smaller of: ``kp_max_attitude``, ``kp_max_band``, ``gamma_delta_max_sampling``,
+        ``gamma_delta_max_rk4``; ``attitude_wn_max`` [rad/s].
+    """
+    wn_a = min(ATTITUDE_WN_RANGE[1], attitude_wn_cap(vehicle.tau_motor, ATTITUDE_ZETA_RANGE[1]))
+    kp_att = (wn_a / config.CASCADE_BANDWIDTH_RATIO) ** 2
+    a_max = vehicle.g * math.tan(math.radians(tilt_limit_deg))
+    kp_band = a_max / (config.BAND_FRACTION * config.XI0_NORM_M)
+    gd_sampling = math.pi * control_rate_hz
+    gd_rk4 = config.RK4_STEP_LIMIT / dt_s
+    return {"kp_max": min(KP_RANGE[1], kp_att, kp_band), "kp_max_attitude": kp_att, "kp_max_band": kp_band,
+            "attitude_wn_max": wn_a, "gamma_delta_max": min(gd_sampling, gd_rk4),
+            "gamma_delta_max_sampling": gd_sampling, "gamma_delta_max_rk4": gd_rk4}
+
+
+def search_box(options: TuneOptions, dt_s: float = DT_S, vehicle: Vehicle | None = None
+               ) -> tuple[np.ndarray, np.ndarray]:
     """Lower and upper bounds of the search coordinates (see the module docstring).
 
-    kp in [0.5, 2000] 1/s², u in [0, 4] (γ from γ_max down to γ_max e⁻⁴),
-    Γδ in [0.05, 2.5/dt] 1/s; ω_a in [10, 150] rad/s, ζ_a in [0.5, 1.5],
-    α/α_avail in [0.1, 1].
+    kp in [0.5, kp_max] 1/s², u in [0, 4] (γ from γ_max down to γ_max e⁻⁴),
+    Γδ in [0.05, Γδ_max] 1/s; ω_a in [10, 150] rad/s, ζ_a in [0.5, 1.5],
+    α/α_avail in [0.1, 1].  With a ``vehicle`` the upper ends are
+    :func:`gain_limits` (what the vehicle's attitude loop, its tilt-limited
+    acceleration and the controller's sample rate can realise: kp ≤ 113 1/s²,
+    Γδ ≤ 314 1/s for the paper's vehicle); without one, kp ≤ 2000 and
+    Γδ ≤ min(2.5/dt, π × ``config.CONTROL_RATE_HZ``).
 
     Parameters
     ----------
     options
-        The tuning options (the model decides the dimension).
+        The tuning options (the model decides the dimension, the tilt limit the kp bound).
     dt_s
-        RK4 step [s]; bounds the controller pole Gamma delta <= 2.5/dt.
+        RK4 step [s]; bounds the controller pole Γδ ≤ 2.5/dt.
+    vehicle
+        The vehicle whose realisable gains bound the box (:func:`gain_limits`), or ``None``.
+
+    Raises
+    ------
+    NniquadError
+        If the vehicle's bound on kp lies below the box's lower end (no gain set
+        to search: its motors are too slow for any horizontal loop of this box).
     """
-    lo = [math.log(0.5), 0.0, math.log(0.05)]
-    hi = [math.log(2000.0), 4.0, math.log(2.5 / dt_s)]
+    if vehicle is None:
+        kp_max = KP_RANGE[1]
+        gd_max = min(config.RK4_STEP_LIMIT / dt_s, math.pi * config.CONTROL_RATE_HZ)
+    else:
+        limits = gain_limits(vehicle, options.tilt_limit_deg, dt_s)
+        kp_max, gd_max = limits["kp_max"], limits["gamma_delta_max"]
+        if kp_max <= KP_RANGE[0]:
+            raise NniquadError(
+                f"vehicle {vehicle.name!r}: its motor lag (tau_motor = {vehicle.tau_motor:g} s) allows an attitude "
+                f"bandwidth of at most {limits['attitude_wn_max']:.3g} rad/s, so kp <= {kp_max:.3g} 1/s^2, below the "
+                f"smallest kp searched ({KP_RANGE[0]:g}); nothing to tune")
+    lo = [math.log(KP_RANGE[0]), U_RANGE[0], math.log(GAMMA_DELTA_MIN)]
+    hi = [math.log(kp_max), U_RANGE[1], math.log(gd_max)]
     if options.dims == 6:
-        lo += [math.log(10.0), 0.5, 0.1]
-        hi += [math.log(150.0), 1.5, 1.0]
+        lo += [math.log(ATTITUDE_WN_RANGE[0]), ATTITUDE_ZETA_RANGE[0], ATTITUDE_ALPHA_RANGE[0]]
+        hi += [math.log(ATTITUDE_WN_RANGE[1]), ATTITUDE_ZETA_RANGE[1], ATTITUDE_ALPHA_RANGE[1]]
     return np.array(lo), np.array(hi)
 
 

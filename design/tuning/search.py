@@ -36,7 +36,7 @@ class _Search:
     def __init__(self, vehicle: Vehicle, options: TuneOptions, horizon_s: float,
                  progress: Callable[[str], None] | None) -> None:
         self.vehicle, self.options, self.horizon_s = vehicle, options, horizon_s
-        self.lo, self.hi = search_box(options)
+        self.lo, self.hi = search_box(options, vehicle=vehicle)
         self.n_sim = 0
         self.n_lmi = 0
         self._reach: dict[tuple, float] = {}

@@ -20,8 +20,8 @@ from nniquad.analysis.lmi.solver import LMIResult, as_data, cpsym, result_fail, 
 from nniquad.config import TILT_LIMIT_DEG, XI0_M
 from nniquad.errors import GainError, SolverError
 
-__all__ = ["axis_acceleration_limit", "region_of_attraction", "certified_region", "certified_reach", "reach_of",
-           "start_certified"]
+__all__ = ["ROA_SCALINGS", "axis_acceleration_limit", "roa_scalings", "region_of_attraction", "certified_region",
+           "certified_reach", "reach_of", "start_certified"]
 
 
 def axis_acceleration_limit(g: float, tilt_limit_deg: float = TILT_LIMIT_DEG, split: str = "norm") -> float:
@@ -68,8 +68,112 @@ def _cp():
     return cp
 
 
+#: The scalings :func:`region_of_attraction` tries by default, in this order (see :func:`roa_scalings`).
+ROA_SCALINGS: tuple[str, ...] = ("balanced", "physical", "none")
+
+
+def roa_scalings(A_cl: np.ndarray, B: np.ndarray, K: np.ndarray, u0: float) -> dict[str, tuple[np.ndarray, float, float]]:
+    """Candidate scalings ``(d, omega, psi)`` of the region-of-attraction LMI of one axis.
+
+    The LMI is solved for ``x~ = D^{-1} x`` (``D = diag(d)``), in the time
+    ``t~ = omega t`` and with the dead-zone output measured in units of ``psi``.
+    Every scaling is exact (a congruence of each LMI), so it changes no answer in
+    exact arithmetic; it only decides whether Clarabel's tolerances (about 1e-8,
+    absolute) are small against the problem's numbers.  Unscaled, a loop at the
+    edge of the tuner's box (``kp = 2000``: the linear zone of the saturation is
+    ``u0/kp = 3 mm``, the controller state is ``m kp = 1000`` times the position,
+    the loop runs at ``sqrt(kp) = 45 rad/s``) has entries from 1e-3 to 1e7 and the
+    solver's "optimal" answer fails the numpy re-check by 3e-5 (issue 14, item 9a).
+
+    * ``'balanced'``: ``d`` from :func:`scipy.linalg.matrix_balance` of ``A_cl``
+      (rows and columns of equal norm), normalised so that ``d[0] = u0/|K[0]|``,
+      the displacement at which the position term alone saturates the command;
+      ``omega = sqrt(|K[0] B[1]|)``, the natural frequency of the inner loop
+      (``sqrt(kp)``); ``psi = u0``.  The reach is then of order 1 in these units.
+    * ``'physical'``: the same position unit and time scale, the velocity in units
+      of ``omega d[0]`` and the controller state in units of ``|K[0]/K[2]| d[0]``
+      (``m kp`` times the position: the state whose term ``z/m`` balances ``kp xi``).
+    * ``'none'``: the original variables (``d = 1``, ``omega = 1``, ``psi = 1``).
+
+    Parameters
+    ----------
+    A_cl, B, K
+        The closed loop, the saturation input and the acceleration command row
+        (:meth:`nniquad.analysis.linear.ReducedLoop.saturation_split`).
+    u0
+        Acceleration limit [m/s^2].
+
+    Returns
+    -------
+    dict
+        ``{name: (d, omega, psi)}`` for every name of :data:`ROA_SCALINGS`.
+    """
+    from scipy.linalg import matrix_balance
+
+    k_pos = abs(float(K[0, 0]))
+    if k_pos == 0.0 or not math.isfinite(k_pos):
+        ones = np.ones(A_cl.shape[0])
+        return {"balanced": (ones, 1.0, 1.0), "physical": (ones, 1.0, 1.0), "none": (ones, 1.0, 1.0)}
+    length = u0 / k_pos
+    omega = math.sqrt(k_pos * abs(float(B[1, 0])))
+    _, (s, _) = matrix_balance(A_cl, permute=False, separate=True)
+    balanced = np.asarray(s, dtype=float) / float(s[0]) * length
+    k_z = abs(float(K[0, 2]))
+    physical = length * np.array([1.0, omega, k_pos / k_z if k_z > 0 else 1.0])
+    return {"balanced": (balanced, omega, u0), "physical": (physical, omega, u0),
+            "none": (np.ones(A_cl.shape[0]), 1.0, 1.0)}
+
+
+def _roa_scaled(A_cl: np.ndarray, B: np.ndarray, Kc: np.ndarray, u0: float, d: np.ndarray, omega: float,
+                psi: float, r_cap: float, eta: float, name: str):
+    """Solve the region-of-attraction LMI in one scaling; the answer in the original variables, or None.
+
+    Returns ``(status, answer)`` with ``answer = (W, Z, S, r)`` (``W = P^{-1}``,
+    ``Z = G W``, ``S = T^{-1}``, the reach ``r`` in m) or ``None`` when the solver
+    gave no solution.  The solver's point is first *polished* in the scaled
+    variables: the decrease LMI is homogeneous in ``(W, Z, S)``, so scaling all
+    three by the factor that makes the inclusion LMI exactly active (less 1e-9)
+    keeps the decrease and removes the solver's inclusion residual; the reach is
+    then the start level that the polished ``P`` really certifies.  The numpy
+    re-check of the caller decides whether the answer certifies anything.
+    """
+    cp = _cp()
+    n = A_cl.shape[0]
+    D, Di = np.diag(d), np.diag(1.0 / d)
+    At = Di @ A_cl @ D / omega
+    Bt = psi * (Di @ B) / omega
+    Kt = (Kc @ D) / psi
+    ut = u0 / psi
+    e1 = np.zeros((n, 1))
+    e1[0, 0] = 1.0
+    W = cp.Variable((n, n), symmetric=True, name="W")
+    Z = cp.Variable((1, n), name="Z")
+    S = cp.Variable((1, 1), name="S")
+    rho = cp.Variable(name="rho")  # the reach in units of d[0]: x~(0) = rho e1
+    dec = cp.bmat([[At @ W + W @ At.T, -Bt @ S + Z.T], [Z - S @ Bt.T, -2 * S]])
+    inc = cp.bmat([[W, (Kt @ W - Z).T], [Kt @ W - Z, np.array([[ut**2]])]])
+    start = cp.bmat([[W, rho * e1], [rho * e1.T, np.ones((1, 1))]])
+    rho_cap = r_cap / float(d[0])
+    cons = [cpsym(dec) << -eta * np.eye(n + 1), cpsym(inc) >> 0, cpsym(start) >> 0, S >= eta, rho >= 0,
+            rho <= rho_cap]
+    status = solve(cp.Problem(cp.Maximize(rho), cons), name)
+    if not solved(status) or W.value is None:
+        return status, None
+    Wt, Zt, St, rho_v = K.sym(np.asarray(W.value)), np.asarray(Z.value), np.asarray(S.value), float(rho.value)
+    if K.eigmin(Wt) > 0:
+        Gt = Zt @ np.linalg.inv(Wt)
+        q = float(((Kt - Gt) @ Wt @ (Kt - Gt).T)[0, 0])
+        if q > 0 and St[0, 0] > 0:
+            c = (1.0 - 1e-9) * ut**2 / q
+            Wt, Zt, St = c * Wt, c * Zt, c * St
+            rho_v = min((1.0 - 1e-9) / math.sqrt(float(np.linalg.solve(Wt, e1)[0, 0])), rho_cap)
+    # back to the original variables: W = D W~ D, G = psi G~ D^{-1} (so Z = G W = psi Z~ D),
+    # T = omega T~ / psi^2 (so S = psi^2 S~ / omega); the decrease matrix is a congruence of the scaled one
+    return status, (K.sym(D @ Wt @ D), psi * (Zt @ D), (psi**2 / omega) * St, rho_v * float(d[0]))
+
+
 def region_of_attraction(loop: ReducedLoop, u0: float, *, axis: str = "x", name: str = "region_of_attraction",
-                         r_cap: float = 1e4) -> LMIResult:
+                         r_cap: float = 1e4, scaling: str | Sequence[str] = ROA_SCALINGS) -> LMIResult:
     """Certified ellipsoidal region of attraction of one axis under acceleration saturation.
 
     Model (one axis): ``x = [xi, xi_dot, z]``, ``x' = A0 x + B sat_u0(K x)`` with
@@ -86,7 +190,15 @@ def region_of_attraction(loop: ReducedLoop, u0: float, *, axis: str = "x", name:
     * ``[[W, r e1], [r e1', 1]] >= 0``  (start ``x0 = [r, 0, 0]`` inside ``x'Px <= 1``),
 
     and ``r`` is maximised: the largest initial displacement from rest (with
-    ``z(0) = 0``) that is certified to converge.
+    ``z(0) = 0``) that is certified to converge.  A Hurwitz ``A_cl`` always has a
+    positive ``r`` (a small enough level set of any Lyapunov function of ``A_cl``
+    stays in the linear zone).
+
+    The LMIs are solved in a scaled state, time and saturation unit
+    (:func:`roa_scalings`; exact congruences); the scalings of ``scaling`` are
+    tried in turn and the first answer that passes the numpy re-check in the
+    *original* variables is returned, so the scaling changes how reliably the
+    answer is found, never what it certifies.
 
     Parameters
     ----------
@@ -100,6 +212,9 @@ def region_of_attraction(loop: ReducedLoop, u0: float, *, axis: str = "x", name:
         Name of the result.
     r_cap
         Upper bound on the displacement [m] (keeps the problem bounded).
+    scaling
+        One name or a sequence of names of :data:`ROA_SCALINGS` (default: all,
+        in that order); ``'none'`` is the unscaled problem.
 
     Returns
     -------
@@ -107,31 +222,59 @@ def region_of_attraction(loop: ReducedLoop, u0: float, *, axis: str = "x", name:
         ``matrices['P']`` the ellipsoid, ``values['max_displacement_m']`` = r (m),
         ``values['u0']`` the per-axis acceleration limit (m/s^2).
     """
-    cp = _cp()
     A0, B, Kc = loop.saturation_split(axis)
     A_cl = A0 + B @ Kc
     as_data(name, A=A_cl, u0=np.array([u0]))
     if u0 <= 0:
         raise GainError(f"acceleration limit must be positive, got {u0}")
-    n = 3
+    names = (scaling,) if isinstance(scaling, str) else tuple(scaling)
+    table = roa_scalings(A_cl, B, Kc, u0)
+    unknown = [s for s in names if s not in table]
+    if unknown or not names:
+        raise GainError(f"scaling must be one or more of {', '.join(ROA_SCALINGS)}; got {scaling!r}")
+    n = A_cl.shape[0]
     e1 = np.zeros((n, 1))
     e1[0, 0] = 1.0
-    W = cp.Variable((n, n), symmetric=True, name="W")
-    Z = cp.Variable((1, n), name="Z")
-    S = cp.Variable((1, 1), name="S")
-    r = cp.Variable(name="r")
-    eta = 1e-7
-    dec = cp.bmat([[A_cl @ W + W @ A_cl.T, -B @ S + Z.T], [Z - S @ B.T, -2 * S]])
-    inc = cp.bmat([[W, (Kc @ W - Z).T], [Kc @ W - Z, np.array([[u0**2]])]])
-    start = cp.bmat([[W, r * e1], [r * e1.T, np.ones((1, 1))]])
-    cons = [cpsym(dec) << -eta * np.eye(n + 1), cpsym(inc) >> 0, cpsym(start) >> 0, S >= eta, r >= 0, r <= r_cap]
-    status = solve(cp.Problem(cp.Maximize(r), cons), name)
     data = {"A_cl": A_cl, "B": B, "K": Kc}
     note = (f"generalised sector condition, saturation at u0 = {u0:.4g} m/s^2; "
             "ellipsoid x'Px <= 1 invariant and attractive; margin = max initial displacement from rest (m)")
-    if not solved(status):
-        return result_fail(name, status, data, note + f"; solver: {status}", K.RTOL, values={"u0": u0})
-    Wv, Zv, Sv, rv = K.sym(W.value), np.asarray(Z.value), np.asarray(S.value), float(r.value)
+    last: LMIResult | None = None
+    error: SolverError | None = None
+    for label in names:
+        d, omega, psi = table[label]
+        # eta: strictness of the decrease LMI, relative to the scaled problem's O(1) numbers
+        # (1e-7 absolute in the original variables, as before, when unscaled)
+        eta = 1e-7 if label == "none" else 1e-6
+        try:
+            status, answer = _roa_scaled(A_cl, B, Kc, u0, d, omega, psi, r_cap, eta, name)
+        except SolverError as exc:
+            error = exc
+            continue
+        if answer is None:
+            last = result_fail(name, status, data, note + f"; solver: {status} (scaling {label})", K.RTOL,
+                               values={"u0": u0})
+            continue
+        last = _roa_recheck(name, status, answer, data, u0, r_cap, note + f"; scaling {label}")
+        if last.feasible:
+            return last
+    if last is None:
+        assert error is not None
+        raise error
+    return last
+
+
+def _roa_recheck(name: str, status: str, answer, data: dict[str, np.ndarray], u0: float, r_cap: float,
+                 note: str) -> LMIResult:
+    """The numpy re-check of one answer ``(W, Z, S, r)`` in the original variables (see :func:`region_of_attraction`)."""
+    A_cl, B, Kc = data["A_cl"], data["B"], data["K"]
+    n = A_cl.shape[0]
+    e1 = np.zeros((n, 1))
+    e1[0, 0] = 1.0
+    Wv, Zv, Sv, rv = answer
+    if not (np.all(np.isfinite(Wv)) and np.all(np.isfinite(Zv)) and np.all(np.isfinite(Sv))) or K.eigmin(Wv) <= 0 \
+            or Sv[0, 0] == 0:
+        return LMIResult(name, False, status, {"W": Wv, **data}, {}, rv, K.RTOL,
+                         note + "; solver reported a solution but the numpy re-check failed", {"u0": u0})
     Pv = K.sym(np.linalg.inv(Wv))
     Gv = Zv @ Pv
     # numpy re-check in the original (P, G, T) variables
