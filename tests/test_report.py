@@ -115,3 +115,49 @@ def test_bad_options(run_cli, tmp_path):
     code, _, err = run_cli("report", "--out", str(tmp_path / "r"), "--gamma-max", "1.2")
     assert code == 2 and "gamma" in err and "Traceback" not in err
     assert not (tmp_path / "r").exists()
+
+
+@pytest.mark.parametrize("earlier_report", [False, True], ids=["first-run", "over-an-earlier-report"])
+def test_a_failed_own_verification_leaves_no_files(run_cli, tmp_path, monkeypatch, earlier_report):
+    """Issue 14, 9b: ``report`` whose issued certificate fails its own verification (here the check the issue
+    names, ``lmi.region_of_attraction``) exits 1 with one line and writes nothing: no new folder, an earlier
+    report untouched, no build folder or lock file left.  The tuner is replaced by the committed certificate's
+    gains (the rest of the report, the certificate and its verification, runs for real)."""
+    from pathlib import Path
+    from types import SimpleNamespace
+
+    import nniquad.tuning.tune as tune_module
+    from nniquad.certificates import certificate_gains, certificate_inner_loop, verify
+    from nniquad.reporting.folder import ReportFolder
+
+    committed = load_certificate(Path(__file__).resolve().parents[1] / "notebooks" / "data" /
+                                 "full_model_certificate.json")
+    stub = SimpleNamespace(gains=certificate_gains(committed), inner=certificate_inner_loop(committed), roa_radius_m=0.0,
+                           to_json=lambda: {"stub": True})
+    monkeypatch.setattr(tune_module, "tune", lambda *args, **kwargs: stub)
+    calls = []
+
+    def failing_roa_check(cert, tol):
+        calls.append(1)
+        return verify.Check("lmi.region_of_attraction", False, "forced failure")
+
+    monkeypatch.setattr(verify, "_roa_check", failing_roa_check)
+    out = tmp_path / "r"
+    (tmp_path / "unrelated.txt").write_text("the user's\n")
+    before = {}
+    if earlier_report:
+        with ReportFolder(out, ("report.md", "report.json")) as folder:
+            for name in ("report.md", "report.json"):
+                (folder.path / name).write_text(f"earlier {name}\n")
+            folder.commit(["report.md", "report.json"])
+        before = {p.name: p.read_bytes() for p in out.iterdir()}
+    code, _, err = run_cli("report", "--out", str(out), *QUICK)
+    assert calls, "the report never ran its own verification"
+    assert code == 1, err
+    last = err.strip().splitlines()[-1]
+    assert "does not verify" in last and "lmi.region_of_attraction" in last and "Traceback" not in err
+    if earlier_report:
+        assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+    else:
+        assert not out.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["unrelated.txt"] + (["r"] if earlier_report else []))
