@@ -37,6 +37,7 @@ __all__ = [
     "simulation_estimate",
     "montecarlo_estimate",
     "check_estimate",
+    "usable_cpu_count",
 ]
 
 #: RK4 steps per second of one run on one core (measured: linear 2.9e6, reduced 2.4e6, full 3.5e5; rounded down).
@@ -148,3 +149,26 @@ def check_estimate(estimate: Estimate, *, option: str, available_bytes: int | No
         raise error(f"{option}: the request ({estimate.what}) needs {estimate.describe()}, more than the "
                     f"{format_duration(RUN_TIME_LIMIT_S)} accepted; reduce the request")
     return estimate
+
+
+def usable_cpu_count() -> int:
+    """CPUs this process may actually use: its affinity mask, capped by a cgroup v2 CPU quota.
+
+    ``os.cpu_count()`` counts the machine's CPUs even when the process is
+    restricted (``taskset``, a container's cpuset, ``cpu.max``); threads and
+    worker processes beyond the usable CPUs only take turns.  The affinity mask is
+    ``os.sched_getaffinity(0)`` where the platform has it; the quota is
+    ``/sys/fs/cgroup/cpu.max`` (``QUOTA PERIOD``, rounded up), when set.
+    """
+    try:
+        n = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        n = os.cpu_count() or 1
+    try:
+        with open("/sys/fs/cgroup/cpu.max", encoding="ascii") as fh:
+            quota, period = fh.read().split()[:2]
+        if quota != "max" and float(period) > 0:
+            n = min(n, max(1, math.ceil(float(quota) / float(period))))
+    except (OSError, ValueError):
+        pass
+    return max(1, int(n))

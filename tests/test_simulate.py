@@ -535,3 +535,36 @@ def test_parameter_layout_is_generated_from_the_typed_blocks():
     assert values["gains.kpy"] == 3.0 and values["gains.Gamma"] == 20.0 and values["nominal.Jz"] == V.Jz
     assert values["run.tilt_limit"] == pytest.approx(math.radians(20.0)) and values["run.wind_y"] == 0.2
     assert values["inner.attitude_wn_rad_s"] == InnerLoopGains().attitude_wn_rad_s
+
+
+def test_batch_threads_follow_the_usable_cpus_and_do_not_change_results(monkeypatch):
+    """The batch's thread count is the process's usable CPUs (affinity mask), not the machine's; a pool worker's
+    cap (set_batch_threads) changes the threads only, never a number."""
+    import os
+
+    from nniquad.control.gains import PAPER_GAINS, Gains
+    from nniquad.model.vehicle import PAPER_VEHICLE
+    from nniquad.resources import usable_cpu_count
+    from nniquad.sim import SimOptions, simulate
+    from nniquad.sim import runner
+
+    if hasattr(os, "sched_getaffinity"):
+        assert usable_cpu_count() <= len(os.sched_getaffinity(0))
+        monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0})  # a process restricted to one CPU
+        assert usable_cpu_count() == 1 and runner.batch_threads(100) == 1
+        monkeypatch.undo()
+    gains = [PAPER_GAINS, Gains(4.0, 120.0, 0.7), Gains(6.0, 200.0, 0.5)]
+    o = SimOptions(model="full", horizon_s=1.0)
+    try:
+        runner.set_batch_threads(1)
+        assert runner.batch_threads(100) == 1
+        one = simulate(PAPER_VEHICLE, gains, o)
+        runner.set_batch_threads(2)
+        assert runner.batch_threads(100) == 2 and runner.batch_threads(1) == 1
+        two = simulate(PAPER_VEHICLE, gains, o)
+    finally:
+        runner.set_batch_threads(None)
+    for a, b in zip(one, two):
+        np.testing.assert_array_equal(a.state, b.state)
+    with pytest.raises(SimulationError, match="batch threads"):
+        runner.set_batch_threads(0)

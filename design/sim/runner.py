@@ -25,7 +25,6 @@ with motor lag ``dt/τ_m ≤ 2.5`` (motor pole), checked before every run.
 from __future__ import annotations
 
 import math
-import os
 from functools import lru_cache
 from typing import Any, Callable, Mapping, Sequence
 
@@ -46,9 +45,40 @@ __all__ = ["simulate", "run_batch", "exogenous_inputs", "initial_state", "paper_
            "PAPER_FIGURE_HORIZON_S"]
 
 
-@lru_cache(maxsize=64)
+#: Threads of one batched call; ``None``: every usable CPU (:func:`set_batch_threads`).
+_BATCH_THREADS: int | None = None
+
+
+def set_batch_threads(n: int | None) -> None:
+    """Cap the threads of a batched simulation at ``n`` (``None``: every usable CPU of this process).
+
+    A process pool of ``W`` workers on ``C`` CPUs gives each worker ``C // W``
+    threads (:mod:`nniquad.study.executors`), so that the workers' batches do not
+    take turns on the same cores.
+    """
+    global _BATCH_THREADS
+    if n is not None and (isinstance(n, bool) or not isinstance(n, int) or n < 1):
+        raise SimulationError(f"batch threads must be a positive integer or None, got {n!r}")
+    _BATCH_THREADS = n
+
+
+def batch_threads(runs: int) -> int:
+    """Threads a batch of ``runs`` runs uses: at most one per run and per usable CPU (or the cap)."""
+    from nniquad.resources import usable_cpu_count
+
+    cap = usable_cpu_count() if _BATCH_THREADS is None else _BATCH_THREADS
+    return max(1, min(int(runs), cap))
+
+
 def _segment_function(model: str, K: int, M: int, B: int, shared_exo: bool, controller: str = "nni") -> ca.Function:
     """``M`` output samples of ``B`` runs: ``seg(x0[nx x B], E[5 x K M (B)], p[np x B]) -> (X, Y)``."""
+    return _segment_function_threads(model, K, M, B, shared_exo, controller, batch_threads(B))
+
+
+@lru_cache(maxsize=64)
+def _segment_function_threads(model: str, K: int, M: int, B: int, shared_exo: bool, controller: str,
+                              nthreads: int) -> ca.Function:
+    """:func:`_segment_function` with its thread count (part of the cache key)."""
     chunk = chunk_function(model, K, controller)
     acc = chunk.mapaccum("samples", M)
     nx = chunk.size1_in(0)
@@ -61,7 +91,6 @@ def _segment_function(model: str, K: int, M: int, B: int, shared_exo: bool, cont
     seg = ca.Function(f"seg_{model}{sfx}_{K}_{M}", [x, E, p], [Xs, Ys], ["x0", "E", "p"], ["X", "Y"])
     if B == 1:
         return seg
-    nthreads = max(1, min(B, os.cpu_count() or 1))
     reduce_in = [1] if shared_exo else []
     return seg.map(f"batch_{model}{sfx}_{K}_{M}_{B}", "thread" if nthreads > 1 else "serial", B, reduce_in, [],
                    {"n_threads": nthreads} if nthreads > 1 else {})

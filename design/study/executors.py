@@ -37,6 +37,7 @@ import numpy as np
 
 from nniquad.config import MC_STALL_TIMEOUT_S, MC_STARTUP_GRACE_S
 from nniquad.errors import MonteCarloError, StudyFailedError
+from nniquad.resources import usable_cpu_count
 from nniquad.study.runs import ScenarioResult, run_scenarios
 from nniquad.study.scenarios import Scenario
 
@@ -195,8 +196,13 @@ def catch_interrupts(stop: StopRequest | None = None,
         signal.signal(signal.SIGINT, previous if previous is not None else signal.SIG_DFL)
 
 
-def _ignore_sigint() -> None:  # pool initializer: Ctrl-C is the parent's business
+def _ignore_sigint(batch_threads: int | None = None) -> None:
+    """Pool initializer: Ctrl-C is the parent's business; the worker's share of the CPUs for its batches."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if batch_threads is not None:
+        from nniquad.sim.runner import set_batch_threads
+
+        set_batch_threads(batch_threads)
 
 
 def _first_line(exc: BaseException, limit: int = 120) -> str:
@@ -363,7 +369,7 @@ def run_study(
     scenarios
         From :func:`draw_scenarios`.
     workers
-        Local worker processes (default ``os.cpu_count()``); 1 runs in this
+        Local worker processes (default: the usable CPUs, :func:`nniquad.resources.usable_cpu_count`); 1 runs in this
         process.  Ignored with a scheduler.
     scheduler
         Address of a running Dask scheduler (``tcp://host:port``).
@@ -441,7 +447,7 @@ def run_study(
         n_workers = max(1, cluster_threads(client))
         executor = f"dask {getattr(client.scheduler, 'address', scheduler)}"
     else:
-        n_workers = int(workers or os.cpu_count() or 1)
+        n_workers = int(workers or usable_cpu_count())
         executor = "in-process" if n_workers == 1 else "local process pool"
     bs = auto_batch_size(total, n_workers) if batch_size is None else int(batch_size)
     batches = make_batches(scenarios, bs)
@@ -516,9 +522,11 @@ def _run_pool(n_workers: int, batches: list[list[Scenario]], add: Callable[[list
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
     from concurrent.futures.process import BrokenProcessPool
 
-    pool = ProcessPoolExecutor(max_workers=min(n_workers, len(batches)),
+    n_procs = min(n_workers, len(batches))
+    # each worker's batches get its share of the usable CPUs: W workers x C threads would take turns
+    pool = ProcessPoolExecutor(max_workers=n_procs,
                                mp_context=multiprocessing.get_context("spawn"),
-                               initializer=_ignore_sigint)
+                               initializer=_ignore_sigint, initargs=(max(1, usable_cpu_count() // n_procs),))
     pending: set[Any] = set()
     seen: dict[int, Any] = {}  # every worker process, to say which one died and how
     finished = False

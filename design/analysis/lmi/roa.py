@@ -72,7 +72,8 @@ def _cp():
 ROA_SCALINGS: tuple[str, ...] = ("balanced", "physical", "none")
 
 
-def roa_scalings(A_cl: np.ndarray, B: np.ndarray, K: np.ndarray, u0: float) -> dict[str, tuple[np.ndarray, float, float]]:
+def roa_scalings(A_cl: np.ndarray, B: np.ndarray, K: np.ndarray,
+                 u0: float) -> dict[str, tuple[np.ndarray, float, float]]:
     """Candidate scalings ``(d, omega, psi)`` of the region-of-attraction LMI of one axis.
 
     The LMI is solved for ``x~ = D^{-1} x`` (``D = diag(d)``), in the time
@@ -265,7 +266,7 @@ def region_of_attraction(loop: ReducedLoop, u0: float, *, axis: str = "x", name:
 
 def _roa_recheck(name: str, status: str, answer, data: dict[str, np.ndarray], u0: float, r_cap: float,
                  note: str) -> LMIResult:
-    """The numpy re-check of one answer ``(W, Z, S, r)`` in the original variables (see :func:`region_of_attraction`)."""
+    """The numpy re-check of one answer ``(W, Z, S, r)`` in the original variables (:func:`region_of_attraction`)."""
     A_cl, B, Kc = data["A_cl"], data["B"], data["K"]
     n = A_cl.shape[0]
     e1 = np.zeros((n, 1))

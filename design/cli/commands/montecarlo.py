@@ -12,6 +12,7 @@ from typing import Any
 
 from nniquad.config import MC_STALL_TIMEOUT_S
 from nniquad.io import atomic_write_json
+from nniquad.resources import usable_cpu_count
 
 __all__ = ["HELP", "DESCRIPTION", "add_arguments", "run", "partial_path"]
 
@@ -68,7 +69,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     x.add_argument("--scheduler", metavar="ADDRESS", default=None,
                    help="Dask scheduler address, e.g. tcp://10.0.0.5:8786 (default: local process pool)")
     x.add_argument("--workers", type=int, default=None, metavar="N",
-                   help=f"local worker processes (default: all cores, {os.cpu_count()} here; 1 runs in-process)")
+                   help=f"local worker processes (default: usable CPUs, {usable_cpu_count()} here; 1 runs in-process)")
     x.add_argument("--batch-size", type=int, default=None, metavar="N",
                    help="scenarios per batch, the unit of work (default: about 4 batches per worker, at most 50)")
     x.add_argument("--stall-timeout", type=float, default=None, metavar="S",
@@ -228,7 +229,7 @@ def run(args: argparse.Namespace) -> int:
                    hint={"attitude": "--attitude-gain-range", "motor lag": "--tau-motor-range or --tau-motor-factor-range"})
     if args.rerun is not None:
         return _rerun(args, setup, ranges)
-    workers = 1 if args.scheduler else (args.workers or os.cpu_count() or 1)
+    workers = 1 if args.scheduler else (args.workers or usable_cpu_count())
     check_estimate(montecarlo_estimate(args.samples, setup.horizon_s, setup.dt_s, setup.output_dt_s, workers),
                    option=" ".join([f"--samples {args.samples}"]
                                    + ([f"--horizon {args.horizon:g}"] if args.horizon != 20.0 else [])
@@ -254,7 +255,7 @@ def run(args: argparse.Namespace) -> int:
                 print("[montecarlo] note: the simulator holds the GIL, so a Dask worker runs one scenario at a "
                       "time whatever its threads; start workers with --nworkers N --nthreads 1", file=sys.stderr)
         else:
-            where = f"{args.workers or os.cpu_count() or 1} local worker(s)"
+            where = f"{args.workers or usable_cpu_count()} local worker(s)"
         progress = Progress("montecarlo")
         progress.note(f"{args.samples} scenarios of {setup.horizon_s:g} s on {where}")
         # From here until the finished scenarios are on disk, Ctrl-C only asks the study to stop: a second
