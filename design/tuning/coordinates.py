@@ -12,7 +12,6 @@ from nniquad import config
 from nniquad.config import DT_S
 from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, InnerLoopGains
 from nniquad.control.inner_loops import attitude_wn_limit
-from nniquad.errors import NniquadError
 from nniquad.model.vehicle import Vehicle
 from nniquad.tuning.options import TuneOptions
 
@@ -107,21 +106,20 @@ def search_box(options: TuneOptions, dt_s: float = DT_S, vehicle: Vehicle | None
 
     Raises
     ------
-    NniquadError
-        If the vehicle's bound on kp lies below the box's lower end (no gain set
-        to search: its motors are too slow for any horizontal loop of this box).
+    VehicleError
+        If no design can fly the vehicle (:func:`nniquad.tuning.feasibility.check_feasible`:
+        thrust at the tilt limit, motor lag against the attitude bandwidth, wind
+        against the tilt limit), naming the limit.
     """
     if vehicle is None:
         kp_max = KP_RANGE[1]
         gd_max = min(config.RK4_STEP_LIMIT / dt_s, math.pi * config.CONTROL_RATE_HZ)
     else:
+        from nniquad.tuning.feasibility import check_feasible
+
+        check_feasible(vehicle, options.tilt_limit_deg)  # one line naming the limit, before any search
         limits = gain_limits(vehicle, options.tilt_limit_deg, dt_s)
         kp_max, gd_max = limits["kp_max"], limits["gamma_delta_max"]
-        if kp_max <= KP_RANGE[0]:
-            raise NniquadError(
-                f"vehicle {vehicle.name!r}: its motor lag (tau_motor = {vehicle.tau_motor:g} s) allows an attitude "
-                f"bandwidth of at most {limits['attitude_wn_max']:.3g} rad/s, so kp <= {kp_max:.3g} 1/s^2, below the "
-                f"smallest kp searched ({KP_RANGE[0]:g}); nothing to tune")
     lo = [math.log(KP_RANGE[0]), U_RANGE[0], math.log(GAMMA_DELTA_MIN)]
     hi = [math.log(kp_max), U_RANGE[1], math.log(gd_max)]
     if options.dims == 6:
