@@ -55,6 +55,11 @@ def set_batch_threads(n: int | None) -> None:
     A process pool of ``W`` workers on ``C`` CPUs gives each worker ``C // W``
     threads (:mod:`nniquad.study.executors`), so that the workers' batches do not
     take turns on the same cores.
+
+    Parameters
+    ----------
+    n
+        Largest number of threads, or ``None``.
     """
     global _BATCH_THREADS
     if n is not None and (isinstance(n, bool) or not isinstance(n, int) or n < 1):
@@ -63,7 +68,13 @@ def set_batch_threads(n: int | None) -> None:
 
 
 def batch_threads(runs: int) -> int:
-    """Threads a batch of ``runs`` runs uses: at most one per run and per usable CPU (or the cap)."""
+    """Threads a batch of ``runs`` runs uses: at most one per run and per usable CPU (or the cap).
+
+    Parameters
+    ----------
+    runs
+        Number of runs in the batch.
+    """
     from nniquad.resources import usable_cpu_count
 
     cap = usable_cpu_count() if _BATCH_THREADS is None else _BATCH_THREADS
