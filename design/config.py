@@ -26,6 +26,7 @@ __all__ = [
     "WIND_WEIGHT_FRACTION_RANGE",
     "ATTITUDE_GAIN_MARGIN",
     "CASCADE_BANDWIDTH_RATIO",
+    "TUNING_SCENARIO_SEED",
     "SETTLING_HOLD_MIN_S",
     "SETTLING_HOLD_FACTOR",
     "MC_STALL_TIMEOUT_S",
@@ -79,6 +80,9 @@ ATTITUDE_GAIN_MARGIN: float = 2.0
 #: fastest attitude natural frequency the vehicle's motors allow (the usual 3-5x time-scale separation of a
 #: cascade, at its permissive end; nniquad.tuning.coordinates.gain_limits).
 CASCADE_BANDWIDTH_RATIO: float = 3.0
+#: Seed of the robust tuner's fixed scenario set (nniquad.tuning.scenarios). A benchmark Monte Carlo
+#: study of a tuned design must use another seed, or it re-measures the scenarios it was tuned on.
+TUNING_SCENARIO_SEED: int = 14014
 #: A settling time s counts only if the run is shown to stay in the band for
 #: max(SETTLING_HOLD_MIN_S, SETTLING_HOLD_FACTOR * s) after it (else: did not settle).
 SETTLING_HOLD_MIN_S: float = 5.0

@@ -42,7 +42,16 @@ def test_certificate_verifies_and_states_independent_numbers(cert, tmp_path):
     assert res.ok, res.table()
     names = {c.name for c in res.checks}
     assert {"digest", "sector", "poles", "lmi.plant_ni", "lmi.controller_ni", "lmi.closed_loop",
-            "lmi.robust_mass", "lmi.region_of_attraction", "performance.reduced", "performance.full"} <= names
+            "lmi.robust_mass", "lmi.region_of_attraction", "performance.reduced", "performance.full",
+            "margins"} <= names
+    # the margins section: both break points, against python-control on the same linearised cascade
+    from nniquad.analysis.cascade import linearise_cascade
+    from nniquad.analysis.margins import cascade_margins
+
+    ref = cascade_margins(linearise_cascade(V, GAINS, INNER), 100.0)
+    for bp in ("horizontal", "attitude"):
+        assert cert["margins"]["break_points"][bp]["pm_deg"] == pytest.approx(ref[bp].pm_deg, abs=1e-6)
+    assert cert["margins"]["rate_hz"] == 100.0 and cert["margins"]["meets_requirement"] is False
     # hand formulas: gamma = 1/(m kp delta); the plant's NI storage is P = diag(m kp, m)/... -> P > 0 checked above
     assert cert["sector"]["gamma"] == pytest.approx(1.0 / (V.m * GAINS.kp * GAINS.delta), rel=1e-12)
     poles = np.roots([1, GAINS.Gamma * GAINS.delta, GAINS.kp, GAINS.Gamma * (GAINS.kp * GAINS.delta - 1 / V.m)])
@@ -72,12 +81,32 @@ def _tamper_rate(c):
     c["lmi"]["robust_mass"]["decay_rate_1_s"] *= 1.2
 
 
+def _tamper_phase_margin(c):
+    c["margins"]["break_points"]["horizontal"]["pm_deg"] += 1.0
+
+
+def _tamper_gain_margin(c):
+    c["margins"]["break_points"]["attitude"]["gm_lower_db"] -= 0.5
+
+
+def _tamper_margin_verdict(c):
+    c["margins"]["meets_requirement"] = True
+
+
+def _tamper_inner_loop(c):
+    c["inner_loop"]["attitude_zeta"] *= 1.05  # the margins (and the full run) depend on the inner loops
+
+
 @pytest.mark.parametrize("tamper, failing", [
     (_tamper_gain, {"sector", "poles"}),
     (_tamper_matrix, {"lmi.closed_loop"}),
     (_tamper_roa, {"lmi.region_of_attraction"}),
     (_tamper_performance, {"performance.full"}),
     (_tamper_rate, {"lmi.robust_mass"}),
+    (_tamper_phase_margin, {"margins"}),
+    (_tamper_gain_margin, {"margins"}),
+    (_tamper_margin_verdict, {"margins"}),
+    (_tamper_inner_loop, {"margins"}),
 ])
 def test_resigned_tampering_fails_the_recomputation(cert, tamper, failing):
     c = copy.deepcopy(cert)
@@ -118,7 +147,7 @@ def test_broken_json_and_missing_file(tmp_path, run_cli, cert):
 def test_cli_verify_table_and_failure_exit(cert, tmp_path, run_cli):
     good = write_certificate(cert, tmp_path / "good.json")
     code, out, _ = run_cli("verify", str(good))
-    assert code == 0 and "all 10 checks pass" in out and "lmi.robust_mass" in out
+    assert code == 0 and "all 11 checks pass" in out and "lmi.robust_mass" in out and "margins" in out
     c = copy.deepcopy(cert)
     _tamper_matrix(c)
     bad = tmp_path / "resigned.json"

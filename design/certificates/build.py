@@ -16,7 +16,7 @@ from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, InnerLoopGain
 from nniquad.errors import CertificateError
 from nniquad.model.vehicle import Vehicle
 
-__all__ = ["build_certificate", "performance_runs"]
+__all__ = ["build_certificate", "performance_runs", "margins_section", "MARGIN_FIELDS", "sector_pm_ceiling_deg"]
 
 
 def _software() -> dict[str, str]:
@@ -61,6 +61,54 @@ def performance_runs(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, t
         out[model] = {"settling_s": met.settling_s, "overshoot_pct": met.overshoot_pct,
                       "peak_tilt_deg": met.peak_tilt_deg, "diverged": met.diverged, "settings": opts.to_json()}
     return out
+
+
+#: The per-break-point numbers of the ``margins`` section (units in the names).
+MARGIN_FIELDS = ("gm_db", "gm_lower_db", "pm_deg", "w_gc_rad_s", "w_pc_rad_s", "stable", "meets_requirement")
+
+
+def sector_pm_ceiling_deg(gamma_max: float) -> float:
+    """Largest phase margin of the NNI law on a pure double integrator under the sector bound [deg].
+
+    ``a_h = -k_p ξ + z/m``, ``z' = -Γδ z + Γ ξ`` is a lead compensator
+    ``k_p (s + a)/(s + b)`` with ``a/b = 1 - 1/(m k_p δ)``; the sector bound
+    ``m k_p δ >= 1/γ_max`` limits ``b/a`` to ``1/(1 - γ_max)``, so the phase lead, and
+    with the double integrator's -180° the phase margin, is at most
+    ``asin(γ_max/(2 - γ_max))``: 41.8° at γ_max = 0.8.  The cascade's attitude loop,
+    motor lag and sampling only take phase away, so PM >= 45° at the horizontal
+    break point is out of reach of every admissible gain set of this law.
+    """
+    g = float(gamma_max)
+    return math.degrees(math.asin(g / (2.0 - g)))
+
+
+def margins_section(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, tilt_limit_deg: float = TILT_LIMIT_DEG,
+                    gamma_max: float = GAMMA_MAX, rate_hz: float | None = None) -> dict[str, Any]:
+    """The certificate's ``margins`` section: classical margins of the linearised cascade.
+
+    :func:`nniquad.analysis.margins.cascade_margins` (python-control ``stability_margins``
+    on the exact frequency response) at ``config.CONTROL_RATE_HZ``, the NNI controller in
+    discrete time, Padé order 2 for the sampling delays; the horizontal break point also
+    exactly in discrete time (``horizontal_zoh``).  ``verify`` recomputes all of it.
+    """
+    from nniquad.analysis.cascade import linearise_cascade
+    from nniquad.analysis.margins import cascade_margins
+    from nniquad.config import CONTROL_RATE_HZ, REQUIRED_GM_DB, REQUIRED_PM_DEG
+
+    rate = CONTROL_RATE_HZ if rate_hz is None else float(rate_hz)
+    cas = linearise_cascade(vehicle, gains, inner, tilt_limit_deg=tilt_limit_deg)
+    ms = cascade_margins(cas, rate, controller="discrete", pade_order=2)
+    points = {}
+    for name, m in ms.items():
+        d = m.to_json()
+        points[name] = {k: d[k] for k in MARGIN_FIELDS}
+    return {
+        "rate_hz": rate, "controller": "discrete", "pade_order": 2, "method": "linearised cascade at hover",
+        "required": {"gm_db": REQUIRED_GM_DB, "pm_deg": REQUIRED_PM_DEG},
+        "break_points": points,
+        "meets_requirement": all(p["meets_requirement"] for p in points.values()),
+        "horizontal_pm_ceiling_deg": sector_pm_ceiling_deg(gamma_max),
+    }
 
 
 def build_certificate(vehicle: Vehicle, gains: Gains, *, inner: InnerLoopGains = DEFAULT_INNER_LOOP_GAINS,
@@ -131,6 +179,8 @@ def build_certificate(vehicle: Vehicle, gains: Gains, *, inner: InnerLoopGains =
     pd = loop.poles_and_damping()
     reach = reach_of(region)
     u0 = float(roa.values["u0"])
+    say("computing the classical margins")
+    margins = margins_section(vehicle, gains, inner, tilt_limit_deg=tilt_limit_deg, gamma_max=gamma_max)
     say("simulating the reference runs")
     perf = performance_runs(vehicle, gains, inner, tilt_limit_deg=tilt_limit_deg, xi0=xi0)
     bound = time_optimal_bound(vehicle, xi0=xi0, tilt_limit_deg=tilt_limit_deg)
@@ -171,5 +221,6 @@ def build_certificate(vehicle: Vehicle, gains: Gains, *, inner: InnerLoopGains =
         tolerances=dict(TOLERANCES),
         tuning=dict(tuning) if tuning is not None else None,
         software=_software(),
+        margins=margins,
     )
     return cert.signed()

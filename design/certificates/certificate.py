@@ -86,6 +86,9 @@ TOLERANCES: dict[str, float] = {
     "settling_abs_s": 2e-3,      # re-simulated settling time vs stated
     "overshoot_abs_pct": 0.05,   # re-simulated overshoot vs stated (percentage points)
     "tilt_abs_deg": 0.02,        # re-simulated peak tilt vs stated
+    "margin_db_abs": 0.05,       # recomputed classical gain margins vs stated [dB]
+    "margin_deg_abs": 0.05,      # recomputed phase margins vs stated [deg]
+    "margin_freq_relative": 1e-3,  # recomputed crossover frequencies vs stated
 }
 
 #: Default horizon of the certificate's performance runs [s].
@@ -311,6 +314,11 @@ class Certificate:
         Whether ``xi0_m`` lies in the certified region of attraction.
     tuning
         How the gains were found (``None`` if not recorded).
+    margins
+        Classical margins of the linearised cascade at both break points
+        (:func:`nniquad.certificates.build.margins_section`); ``None`` in a
+        certificate written before they were stated (it then has no such field,
+        so its digest is unchanged).
     signature
         The SHA-256 digest (hex) the certificate was signed with.
     """
@@ -336,10 +344,11 @@ class Certificate:
     tuning: Mapping[str, Any] | None
     software: Mapping[str, Any]
     signature: str = ""
+    margins: Mapping[str, Any] | None = None
 
     def __post_init__(self) -> None:
         for f in fields(self):
-            if f.name in _SECTIONS or f.name == "tuning":
+            if f.name in _SECTIONS or f.name in ("tuning", "margins"):
                 object.__setattr__(self, f.name, _freeze(getattr(self, f.name)))
         object.__setattr__(self, "xi0_m", tuple(float(v) for v in self.xi0_m))
 
@@ -347,7 +356,7 @@ class Certificate:
 
     def body(self) -> dict[str, Any]:
         """The signed content: every field but the digest, as plain JSON data."""
-        return {
+        body = {
             "schema": SCHEMA,
             "schema_version": SCHEMA_VERSION,
             "model": self.model,
@@ -368,6 +377,9 @@ class Certificate:
             "tuning": _thaw(self.tuning),
             "software": _thaw(self.software),
         }
+        if self.margins is not None:  # optional: older certificates have none and keep their digest
+            body["margins"] = _thaw(self.margins)
+        return body
 
     def to_json(self) -> dict[str, Any]:
         """The JSON document: :meth:`body` plus ``digest = {'algorithm': 'sha256', 'value': signature}``."""
@@ -410,12 +422,14 @@ class Certificate:
         data = dict(data) if isinstance(data, Mapping) else data
         check_form(data, where)
         missing = [k for k in _ALL_FIELDS if k not in data]
-        extra = [k for k in data if k not in _ALL_FIELDS and k not in ("schema", "schema_version", "digest")]
+        extra = [k for k in data if k not in _ALL_FIELDS and k not in ("schema", "schema_version", "digest", "margins")]
         if missing or extra:
             what = f"lacks '{missing[0]}'" if missing else f"has an unknown field '{extra[0]}'"
             raise CertificateError(f"{where}: {what}")
         for key in _SECTIONS:
             _get(data, key)
+        if "margins" in data and not isinstance(data["margins"], Mapping):
+            raise CertificateError(f"{where}: 'margins' must be an object")
         if data["tuning"] is not None and not isinstance(data["tuning"], Mapping):
             raise CertificateError(f"{where}: 'tuning' must be an object or null")
         if not isinstance(data["model"], str) or not isinstance(data["start_certified"], bool):
@@ -431,7 +445,7 @@ class Certificate:
             model=data["model"], vehicle=certificate_vehicle(data), gains=certificate_gains(data),
             inner_loop=certificate_inner_loop(data), tilt_limit_deg=float(data["tilt_limit_deg"]),
             xi0_m=tuple(xi0), start_certified=data["start_certified"], tuning=data["tuning"],
-            signature=data["digest"]["value"], **{k: data[k] for k in _SECTIONS},
+            signature=data["digest"]["value"], margins=data.get("margins"), **{k: data[k] for k in _SECTIONS},
         )
         # the typed fields must serialise back to exactly what was signed
         body = cert.body()

@@ -241,6 +241,8 @@ def _verify(cert: Certificate, simulate: bool, say: Callable[[str], None]) -> Ve
                                                f"on 201 masses in [{lo:g}, {hi:g}] kg"))
 
     checks.append(_roa_check(cert, tol["lmi_relative"]))
+    if cert.margins is not None:
+        checks.append(_margins_check(cert, tol))
 
     if simulate:
         say("re-simulating the reference runs")
@@ -273,6 +275,63 @@ def _roa_check(cert: Certificate, tol: float) -> Check:
     return Check("lmi.region_of_attraction", ok,
                  f"decrease max eig {dec_rel:.2e} (relative, <= {tol:g}), inclusion margin {incl:.3g}, reach {r:.4g} m "
                  f"at level {level:.6f} <= 1, start_certified = {start} consistent: {consistent}")
+
+
+def _same_margin(stated: Any, computed: Any, tol: float, relative: bool = False) -> bool:
+    """A stated margin number (or ``"inf"``/``"-inf"``/``"nan"`` string, or bool) against the recomputed one."""
+    if isinstance(computed, bool) or isinstance(stated, bool):
+        return stated is computed
+    if isinstance(computed, str) or isinstance(stated, str):
+        return isinstance(stated, str) and isinstance(computed, str) and stated == computed
+    if not isinstance(stated, (int, float)):
+        return False
+    err = abs(float(stated) - float(computed))
+    return err <= (tol * max(abs(float(computed)), 1e-12) if relative else tol)
+
+
+def _margins_check(cert: Certificate, tol: Mapping[str, float]) -> Check:
+    """Recompute the classical margins from the vehicle, the gains and the inner loops (never stored matrices)."""
+    from nniquad.certificates.build import MARGIN_FIELDS, margins_section, sector_pm_ceiling_deg
+
+    stated = cert.margins
+    try:
+        rate = float(stated["rate_hz"])
+        gamma_max = float(cert.sector["gamma_max"])
+    except (KeyError, TypeError, ValueError):
+        raise CertificateError("certificate 'margins' needs a number 'rate_hz'") from None
+    if stated.get("controller") != "discrete" or stated.get("pade_order") != 2:
+        return Check("margins", False, "margins stated for another sampling model than the one recomputed")
+    fresh = margins_section(cert.vehicle, cert.gains, cert.inner_loop, tilt_limit_deg=cert.tilt_limit_deg,
+                            gamma_max=gamma_max, rate_hz=rate)
+    ok = True
+    bad: list[str] = []
+    points = stated.get("break_points")
+    if not isinstance(points, Mapping) or set(points) != set(fresh["break_points"]):
+        return Check("margins", False, "margins: the break points stated differ from the recomputed ones")
+    for name, comp in fresh["break_points"].items():
+        st = points[name]
+        for key in MARGIN_FIELDS:
+            if key.endswith("_db"):
+                same = _same_margin(st.get(key), comp[key], tol["margin_db_abs"])
+            elif key.endswith("_deg"):
+                same = _same_margin(st.get(key), comp[key], tol["margin_deg_abs"])
+            elif key.endswith("_rad_s"):
+                same = _same_margin(st.get(key), comp[key], tol["margin_freq_relative"], relative=True)
+            else:
+                same = _same_margin(st.get(key), comp[key], 0.0)
+            if not same:
+                ok = False
+                bad.append(f"{name}.{key} {st.get(key)!r} (recomputed {comp[key]!r})")
+    ok = ok and stated.get("meets_requirement") is fresh["meets_requirement"]
+    ok = ok and isinstance(stated.get("required"), Mapping) and dict(stated["required"]) == fresh["required"]
+    ok = ok and _close(stated.get("horizontal_pm_ceiling_deg"), sector_pm_ceiling_deg(gamma_max), 1e-12)
+    h, a = fresh["break_points"]["horizontal"], fresh["break_points"]["attitude"]
+    detail = (f"horizontal GM +{h['gm_db']}/{h['gm_lower_db']} dB PM {h['pm_deg']} deg; attitude GM +{a['gm_db']}/"
+              f"{a['gm_lower_db']} dB PM {a['pm_deg']} deg at {rate:g} Hz; meets GM >= {fresh['required']['gm_db']:g} dB, "
+              f"PM >= {fresh['required']['pm_deg']:g} deg: {fresh['meets_requirement']}")
+    if bad:
+        detail += "; differs: " + ", ".join(bad[:3])
+    return Check("margins", ok, detail)
 
 
 def _performance_checks(cert: Certificate, tol: Mapping[str, float]) -> list[Check]:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -11,7 +12,8 @@ from nniquad.analysis.verdicts import Metrics
 from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, InnerLoopGains
 from nniquad.model.vehicle import Vehicle
 from nniquad.tuning.coordinates import attitude_accel_headroom, decode
-from nniquad.tuning.options import ALTITUDE_CAP_M, MARGIN_NOISE_M, MARGIN_TAU_FACTOR, TILT_SLACK_DEG, TuneOptions
+from nniquad.tuning.options import (ALTITUDE_CAP_M, MARGIN_NOISE_M, MARGIN_TAU_FACTOR, ROBUST_QUANTILE, TILT_SLACK_DEG,
+                                    TuneOptions)
 
 
 # ----------------------------------------------------------------------------- evaluation
@@ -122,20 +124,49 @@ def _tau_cap(vehicle: Vehicle, options: TuneOptions) -> float | None:
 
 def evaluate(vehicle: Vehicle, points: np.ndarray, options: TuneOptions, horizon_s: float,
              inner: InnerLoopGains = DEFAULT_INNER_LOOP_GAINS) -> tuple[np.ndarray, list[Metrics]]:
-    """Cost and nominal metrics of many points in search coordinates, one batched simulation.
+    """Cost and nominal metrics of many points in search coordinates, batched simulations.
+
+    Nominal objective: the worst :func:`_cost` over the nominal scenario and the
+    ``mass_range`` / ``margin`` scenarios.  Robust objective
+    (``options.objective == "robust"``): additionally the fixed tuning set
+    (:func:`robust_costs`), simulated only for the candidates whose nominal cost is
+    admissible (a candidate that fails its nominal run pays the penalty anyway);
+    the cost is then :func:`robust_cost` of all scenario costs.  With
+    ``options.require_margins`` every candidate that is otherwise admissible has
+    its classical margins checked (:func:`margin_penalty`, lazily: only those).
 
     Returns
     -------
     cost : ndarray (B,)
-        Worst cost over the scenarios (:func:`_cost`).
+        The cost (admissible values are settling times below the horizon; every
+        penalty lies above the horizon).
     metrics : list of Metrics
         Of the nominal scenario.
+    """
+    details = evaluate_details(vehicle, points, options, horizon_s, inner)
+    return np.array([d["cost"] for d in details]), [d["metrics"] for d in details]
+
+
+def _decode_all(vehicle: Vehicle, pts: np.ndarray, options: TuneOptions, inner: InnerLoopGains) -> list:
+    alpha = attitude_accel_headroom(vehicle, options.tilt_limit_deg)
+    return [decode(q, vehicle.m, options.gamma_max, inner, alpha, _tau_cap(vehicle, options)) for q in pts]
+
+
+def evaluate_details(vehicle: Vehicle, points: np.ndarray, options: TuneOptions, horizon_s: float,
+                     inner: InnerLoopGains = DEFAULT_INNER_LOOP_GAINS, *, full_report: bool = False) -> list[dict]:
+    """What :func:`evaluate` computes, per candidate, as a dictionary.
+
+    Keys: ``cost``, ``metrics`` (nominal), ``nominal_cost`` (worst of the
+    nominal-objective scenarios), ``scenario_costs`` (robust, in the order of
+    :func:`robust_scenarios`; ``None`` if not simulated), ``robust_settling_s``
+    (the quantile, or ``None``), ``margins`` (``None`` if not computed).
+    ``full_report`` simulates the robust set and computes the margins even for
+    a candidate that fails earlier (for the report of the winner).
     """
     from nniquad.sim import simulate
 
     pts = np.atleast_2d(points)
-    alpha = attitude_accel_headroom(vehicle, options.tilt_limit_deg)
-    decoded = [decode(q, vehicle.m, options.gamma_max, inner, alpha, _tau_cap(vehicle, options)) for q in pts]
+    decoded = _decode_all(vehicle, pts, options, inner)
     base = simulation_options(options, horizon_s, inner)
     tilt_cap = options.tilt_limit_deg + TILT_SLACK_DEG if options.model == "full" else None
     xi0_norm = math.hypot(*base.xi0)
@@ -148,4 +179,177 @@ def evaluate(vehicle: Vehicle, points: np.ndarray, options: TuneOptions, horizon
             worst[b] = max(worst[b], _cost(met, xy_end[b], xi0_norm, horizon_s, tilt_cap))
             if k == 0:
                 nominal.append(met)
-    return worst, nominal
+    out = [{"cost": float(worst[b]), "metrics": nominal[b], "nominal_cost": float(worst[b]), "scenario_costs": None,
+            "robust_settling_s": None, "margins": None, "margin_penalty": 0.0, "cost_without_margins": float(worst[b])}
+           for b in range(len(pts))]
+    if options.robust:
+        todo = [b for b in range(len(pts)) if full_report or worst[b] < horizon_s]
+        if todo:
+            costs = robust_costs(vehicle, [decoded[b] for b in todo], options, horizon_s)
+            for b, c in zip(todo, costs):
+                allc = np.concatenate([[worst[b]], c])
+                out[b]["scenario_costs"] = [float(worst[b])] + [None if np.isnan(v) else float(v) for v in c]
+                out[b]["cost"] = robust_cost(allc, horizon_s)
+                out[b]["robust_settling_s"] = out[b]["cost"] if out[b]["cost"] < horizon_s else None
+                out[b]["cost_without_margins"] = out[b]["cost"]
+    if options.require_margins:
+        for b in range(len(pts)):
+            if full_report or out[b]["cost"] < horizon_s:
+                short, margins = margin_penalty(vehicle, *decoded[b], options, horizon_s)
+                out[b]["margins"] = margins
+                if short > 0:
+                    s_adm = out[b]["cost"]
+                    if short >= 12.0 * horizon_s:  # unstable cascade
+                        cost = short + s_adm
+                    elif s_adm < horizon_s:
+                        f = short / (1.0 + short) + 1e-3 * s_adm / horizon_s
+                        cost = horizon_s + MARGIN_PENALTY_WIDTH_S * min(f, 0.999)
+                    else:  # a failure already (full report): keep its rank
+                        cost = s_adm
+                    out[b]["margin_penalty"] = cost - s_adm
+                    out[b]["margin_shortfall"] = short
+                    out[b]["cost"] = cost
+    return out
+
+
+# ----------------------------------------------------------------------------- robust objective
+
+
+_SCENARIO_CACHE: dict[tuple, list] = {}
+
+
+def robust_scenarios(vehicle: Vehicle, options: TuneOptions) -> list:
+    """The fixed tuning set of these options (:func:`nniquad.tuning.scenarios.tuning_scenarios`), cached.
+
+    The first entry is the nominal scenario (simulated by the nominal objective);
+    the same list, and so the same plants, noise sequences, winds and start
+    points, is used for every candidate (common random numbers).
+    """
+    from nniquad.tuning.scenarios import tuning_scenarios
+
+    key = (vehicle, options.scenario_seed, options.roa_radius_m, options.noise_sigma_m)
+    if key not in _SCENARIO_CACHE:
+        _SCENARIO_CACHE.clear()
+        _SCENARIO_CACHE[key] = tuning_scenarios(vehicle, seed=options.scenario_seed,
+                                                roa_radius_m=options.roa_radius_m, noise_sigma_m=options.noise_sigma_m)
+    return _SCENARIO_CACHE[key]
+
+
+#: Largest number of runs in one robust ``simulate`` call: the per-run noise inputs of a 14 s run take
+#: about 0.55 MB, so 240 runs hold about 130 MB.
+ROBUST_BATCH_RUNS = 240
+
+
+def robust_costs(vehicle: Vehicle, designs: list, options: TuneOptions, horizon_s: float) -> np.ndarray:
+    """:func:`_cost` of every design on every perturbed scenario of the tuning set (the nominal one excluded).
+
+    A scenario's settling is measured as in the Monte Carlo study: from the static
+    equilibrium under its wind, in the band of 2 % of the nominal ‖ξ_h(0)‖; the
+    honest-settling rule, the altitude cap and the tilt cap (limit + 1°) are those
+    of the nominal cost.  All designs × scenarios run in as few batched
+    :func:`nniquad.sim.simulate` calls as memory allows (:data:`ROBUST_BATCH_RUNS`).
+
+    Parameters
+    ----------
+    designs
+        ``(Gains, InnerLoopGains)`` pairs.
+
+    The corners run first; the other scenarios only for designs that pass every
+    corner (a design that fails one pays the penalty whatever the rest give), so
+    their entries stay ``nan`` otherwise.
+
+    Returns
+    -------
+    ndarray (len(designs), n_scenarios - 1)
+    """
+
+    scen = robust_scenarios(vehicle, options)[1:]
+    out = np.full((len(designs), len(scen)), np.nan)
+    # stage 1: the corners (where failures happen); stage 2: the rest, only for designs that pass every corner
+    corners = [i for i, s in enumerate(scen) if s.label.startswith("corner")]
+    rest = [i for i in range(len(scen)) if i not in corners]
+    _simulate_scenarios(vehicle, designs, options, horizon_s, scen, [(d, s) for d in range(len(designs))
+                                                                    for s in corners], out)
+    alive = [d for d in range(len(designs)) if np.all(out[d, corners] < horizon_s)]
+    _simulate_scenarios(vehicle, designs, options, horizon_s, scen, [(d, s) for d in alive for s in rest], out)
+    return out
+
+
+def _simulate_scenarios(vehicle: Vehicle, designs: list, options: TuneOptions, horizon_s: float, scen: list,
+                        jobs: list[tuple[int, int]], out: np.ndarray) -> None:
+    """Fill ``out[d, s]`` with :func:`_cost` for the ``(design, scenario)`` jobs, in batched calls."""
+    from nniquad.analysis.metrics import settling_time_batch
+    from nniquad.analysis.verdicts import compute_metrics
+    from nniquad.config import BAND_FRACTION, XI0_NORM_M
+    from nniquad.sim import simulate
+
+    tilt_cap = options.tilt_limit_deg + TILT_SLACK_DEG
+    for lo in range(0, len(jobs), ROBUST_BATCH_RUNS):
+        chunk = jobs[lo:lo + ROBUST_BATCH_RUNS]
+        pairs = [scen[s].params(vehicle, designs[d][0], designs[d][1], horizon_s, options.tilt_limit_deg,
+                                motor_lag=options.motor_lag) for d, s in chunk]
+        with np.errstate(all="ignore"):
+            res = simulate(None, None, [o for o, _ in pairs], params=[p for _, p in pairs])
+        xy, phi, theta, z = res.xy, res.phi, res.theta, res.z_ned  # computed once (properties)
+        for i, (d, s) in enumerate(chunk):
+            eq = np.asarray(scen[s].equilibrium_m(vehicle, designs[d][0]))
+            rel = xy[i] - eq
+            with np.errstate(all="ignore"):
+                met = compute_metrics(res.t, xy[i], phi=phi[i], theta=theta[i], tilt_limit_deg=options.tilt_limit_deg,
+                                      z=z[i], z_ref=0.0)
+                st = float(settling_time_batch(res.t, rel[None], BAND_FRACTION, XI0_NORM_M)[0])
+            met = replace(met, settling_s=st if math.isfinite(st) and not met.diverged else None)
+            start = max(math.hypot(*scen[s].xi0_m), BAND_FRACTION * XI0_NORM_M)
+            out[d, s] = _cost(met, rel[-1], start, horizon_s, tilt_cap)
+
+
+def robust_cost(costs: np.ndarray, horizon_s: float, quantile: float = ROBUST_QUANTILE) -> float:
+    """The robust cost of one candidate from its scenario costs (:func:`_cost` each).
+
+    Every scenario admissible (cost below the horizon): the ``quantile`` of the
+    settling times (``numpy.quantile``, linear interpolation).  Otherwise a
+    ranked penalty above every admissible cost: the worst scenario's penalty
+    plus one horizon per further failing scenario.
+    """
+    c = np.asarray(costs, float)
+    c = c[~np.isnan(c)]  # scenarios not simulated after a failed corner (robust_costs)
+    bad = c >= horizon_s
+    if np.any(bad) or not np.all(np.isfinite(c)):
+        return float(np.max(c) + horizon_s * (np.count_nonzero(bad) - 1))
+    return float(np.quantile(c, quantile))
+
+
+# ----------------------------------------------------------------------------- margins
+
+
+#: Width [s] of the cost window ``[horizon, horizon + width)`` of the designs that miss only the margins.
+MARGIN_PENALTY_WIDTH_S = 0.5
+
+
+def margin_penalty(vehicle: Vehicle, gains, inner: InnerLoopGains, options: TuneOptions,
+                   horizon_s: float) -> tuple[float, dict | None]:
+    """Penalty of a design that misses the classical-margin requirement, and its margins.
+
+    Only a design that is otherwise admissible (cost ``s < horizon``) is checked
+    (lazily: a linearisation and two fast margin evaluations, ~25 ms).  A design
+    that misses the requirement gets the cost
+    ``horizon + MARGIN_PENALTY_WIDTH_S × f`` with ``f = shortfall/(1 + shortfall)``
+    (:func:`nniquad.analysis.fast_margins.margin_shortfall`, plus a 1e-3 × s/horizon
+    tie-break): above every admissible cost, ranked by how far it misses, and below
+    the simulation failures (whose penalties start at ``horizon`` plus a settling
+    time: the smallest seen is several seconds), so that when no design can meet
+    the requirement the search still ends on the best attainable margins of a design
+    that settles.  The returned penalty is that cost minus ``s``; an unstable or
+    non-linearisable cascade costs ``12 horizon``.
+    """
+    from nniquad.analysis.fast_margins import design_margins, margin_shortfall
+    from nniquad.errors import CascadeError
+
+    try:
+        margins = design_margins(vehicle, gains, inner, tilt_limit_deg=options.tilt_limit_deg)
+    except CascadeError:
+        return 12.0 * horizon_s, None
+    short = margin_shortfall(margins)
+    if not math.isfinite(short):
+        return 12.0 * horizon_s, margins
+    return short, margins

@@ -6,7 +6,7 @@ from dataclasses import asdict, dataclass
 from typing import Any
 
 
-from nniquad.config import GAMMA_MAX, TILT_LIMIT_DEG, XI0_NORM_M
+from nniquad.config import GAMMA_MAX, TILT_LIMIT_DEG, TUNING_SCENARIO_SEED, XI0_NORM_M
 from nniquad.errors import GainError, NniquadError, VehicleError
 from nniquad.validate import finite_number
 
@@ -37,6 +37,12 @@ SECTOR_FACE_SHARE = 0.5
 
 #: Largest altitude deviation a ``full`` candidate may show [m].
 ALTITUDE_CAP_M = 0.5
+
+#: The robust objective minimises this quantile of the settling times over the tuning scenarios.
+ROBUST_QUANTILE = 0.95
+
+#: The objectives (:attr:`TuneOptions.objective`).
+OBJECTIVES = ("robust", "nominal")
 
 
 @dataclass(frozen=True)
@@ -78,6 +84,22 @@ class TuneOptions:
         is the worse of the two runs.  The default design sits at the edge of the
         nominal motor lag (``nniquad montecarlo`` shows it); this buys margin for
         settling time.
+    objective
+        ``"robust"``: minimise the :data:`ROBUST_QUANTILE` quantile of the honest
+        settling time over the fixed tuning scenario set
+        (:mod:`nniquad.tuning.scenarios`), every scenario required to settle without
+        altitude loss, divergence or actual tilt above the limit + 1°; ``"nominal"``:
+        the single nominal scenario (and ``mass_range`` / ``margin``).  ``None``
+        (default) is ``"robust"`` for ``full`` and ``"nominal"`` for ``reduced``
+        (the reduced model has no plant to perturb).
+    scenario_seed
+        Seed of the robust scenario set (default :data:`nniquad.config.TUNING_SCENARIO_SEED`);
+        a benchmark Monte Carlo study must use a different seed.
+    require_margins
+        ``full`` only: demand gain margin >= ``config.REQUIRED_GM_DB`` both ways and phase
+        margin >= ``config.REQUIRED_PM_DEG`` at both break points of the linearised
+        cascade (:mod:`nniquad.analysis.fast_margins`); a candidate that misses them is
+        ranked above every admissible one.  ``None`` (default) is on for ``full``.
     """
 
     model: str = "reduced"
@@ -93,6 +115,9 @@ class TuneOptions:
     tune_attitude: bool = True
     reruns: int | None = None
     margin: bool = False
+    objective: str | None = None
+    scenario_seed: int = TUNING_SCENARIO_SEED
+    require_margins: bool | None = None
 
     def __post_init__(self) -> None:
         if self.model not in ("reduced", "full"):
@@ -121,6 +146,19 @@ class TuneOptions:
             raise NniquadError(f"seed must be a non-negative integer, got {self.seed!r}")
         if self.reruns is not None and (not isinstance(self.reruns, int) or self.reruns < 0):
             raise NniquadError(f"reruns must be a non-negative integer, got {self.reruns!r}")
+        if self.objective is None:
+            object.__setattr__(self, "objective", "robust" if self.model == "full" else "nominal")
+        if self.objective not in OBJECTIVES:
+            raise NniquadError(f"objective must be one of {', '.join(OBJECTIVES)}, got {self.objective!r}")
+        if self.objective == "robust" and self.model != "full":
+            raise NniquadError("the robust objective perturbs the full vehicle: use model 'full' or objective 'nominal'")
+        if isinstance(self.scenario_seed, bool) or not isinstance(self.scenario_seed, int) or self.scenario_seed < 0:
+            raise NniquadError(f"scenario seed must be a non-negative integer, got {self.scenario_seed!r}")
+        if self.require_margins is None:
+            object.__setattr__(self, "require_margins", self.model == "full")
+        if self.require_margins and self.model != "full":
+            raise NniquadError("the margin requirement applies to the full cascade: use model 'full'")
+        object.__setattr__(self, "require_margins", bool(self.require_margins))
         object.__setattr__(self, "gamma_max", g)
         object.__setattr__(self, "roa_radius_m", r)
 
@@ -128,6 +166,11 @@ class TuneOptions:
     def dims(self) -> int:
         """Number of search coordinates (3, or 6 with the attitude loop)."""
         return 6 if (self.model == "full" and self.tune_attitude) else 3
+
+    @property
+    def robust(self) -> bool:
+        """Whether the robust objective is used."""
+        return self.objective == "robust"
 
     def to_json(self) -> dict[str, Any]:
         d = asdict(self)

@@ -71,11 +71,13 @@ from nniquad.analysis.linear import ReducedLoop
 from nniquad.analysis.lmi.roa import certified_reach
 from nniquad.analysis.verdicts import Metrics
 from nniquad.control.gains import Gains, InnerLoopGains
+from nniquad.config import BAND_FRACTION, XI0_NORM_M
 from nniquad.errors import NniquadError
 from nniquad.model.vehicle import PAPER_VEHICLE, Vehicle
 from nniquad.tuning.coordinates import attitude_accel_headroom, attitude_wn_cap, decode, encode, search_box
-from nniquad.tuning.objective import (_tau_cap, evaluate, honest_horizon_s, required_hold_s, settling_shown, simulation_options)
-from nniquad.tuning.options import (ALTITUDE_CAP_M, BUDGETS, DEFAULT_ROA_RADIUS_M, LONGEST_SETTLING_BANDS, SECTOR_FACE_SHARE, TILT_SLACK_DEG, TuneOptions)
+from nniquad.tuning.objective import (_tau_cap, evaluate, evaluate_details, honest_horizon_s, required_hold_s, robust_scenarios,
+                                      settling_shown, simulation_options)
+from nniquad.tuning.options import (ROBUST_QUANTILE, ALTITUDE_CAP_M, BUDGETS, DEFAULT_ROA_RADIUS_M, LONGEST_SETTLING_BANDS, SECTOR_FACE_SHARE, TILT_SLACK_DEG, TuneOptions)
 from nniquad.tuning.search import Candidate, _global, _local, _Search, _starts, initial_design
 
 __all__ = [
@@ -99,6 +101,8 @@ __all__ = [
     "BUDGETS",
     "TILT_SLACK_DEG",
     "ALTITUDE_CAP_M",
+    "ROBUST_QUANTILE",
+    "default_horizon_s",
 ]
 
 
@@ -133,6 +137,23 @@ class TuneResult:
         Wall time of the tuning [s].
     tradeoffs
         Labelled key numbers for the report.
+    objective
+        ``"robust"`` or ``"nominal"`` (:attr:`TuneOptions.objective`); with ``"robust"``,
+        :attr:`settling_s` is the p95 (``options.ROBUST_QUANTILE``) over the tuning scenarios.
+    nominal_settling_s
+        Honest settling time of the nominal scenario [s] (``None`` if it is not shown).
+    scenario_count
+        Number of tuning scenarios (1 + the mass / margin ones for ``"nominal"``).
+    worst_scenario
+        ``{label, cost_s, ...}`` of the scenario with the largest cost (robust), else ``None``.
+    scenario_costs
+        ``[{label, cost_s}]`` of every robust scenario (cost = honest settling time when admissible).
+    margins
+        Fast classical margins at both break points (:mod:`nniquad.analysis.fast_margins`), JSON form;
+        ``None`` for the reduced model.
+    margins_met
+        Whether every margin requirement is met (``None`` if not required).  ``False`` means the
+        tuner fell back to the design with the smallest shortfall (no design met it).
     """
 
     vehicle: Vehicle
@@ -149,6 +170,13 @@ class TuneResult:
     n_lmi: int = 0
     elapsed_s: float = 0.0
     tradeoffs: list[dict[str, Any]] = field(default_factory=list)
+    objective: str = "nominal"
+    nominal_settling_s: float | None = None
+    scenario_count: int = 1
+    worst_scenario: dict[str, Any] | None = None
+    scenario_costs: list[dict[str, Any]] = field(default_factory=list)
+    margins: dict[str, Any] | None = None
+    margins_met: bool | None = None
 
     def __repr__(self) -> str:
         g = self.gains
@@ -196,6 +224,15 @@ class TuneResult:
             "n_lmi": self.n_lmi,
             "elapsed_s": self.elapsed_s,
             "tradeoffs": self.tradeoffs,
+            "objective": self.objective,
+            "robust_quantile": ROBUST_QUANTILE if self.objective == "robust" else None,
+            "nominal_settling_s": self.nominal_settling_s,
+            "scenario_count": self.scenario_count,
+            "scenario_seed": self.options.scenario_seed if self.objective == "robust" else None,
+            "worst_scenario": self.worst_scenario,
+            "scenario_costs": self.scenario_costs,
+            "margins": self.margins,
+            "margins_met": self.margins_met,
         }
 
 
@@ -252,8 +289,7 @@ def tune(vehicle: Vehicle = PAPER_VEHICLE, options: TuneOptions | None = None,
     t0 = time.perf_counter()
     say = progress or (lambda msg: None)
     bound = time_optimal_bound(vehicle, tilt_limit_deg=options.tilt_limit_deg)
-    horizon = options.horizon_s if options.horizon_s is not None else honest_horizon_s(
-        LONGEST_SETTLING_BANDS * bound.enter_band_s)
+    horizon = options.horizon_s if options.horizon_s is not None else default_horizon_s(vehicle, options, bound)
     search = _Search(vehicle, options, horizon, lambda msg: say(f"seed {seed}: {msg}"))
     n_reruns = BUDGETS[options.budget][3] if options.reruns is None else options.reruns
     results: list[tuple[int, Candidate]] = []
@@ -277,17 +313,73 @@ def tune(vehicle: Vehicle = PAPER_VEHICLE, options: TuneOptions | None = None,
         best = polished if polished.cost < best.cost else best
     gains, inner = decode(best.q, vehicle.m, options.gamma_max, alpha_avail=alpha,
                           tau_motor_s=_tau_cap(vehicle, options))
-    if best.cost >= horizon:
+    details = evaluate_details(vehicle, best.q[None], options, horizon, full_report=True)[0]
+    margins_met: bool | None = None
+    if options.require_margins:
+        margins_met = details["margin_penalty"] == 0.0
+    if best.cost >= horizon and not (options.require_margins and details["cost_without_margins"] < horizon):
+        if options.robust and details["nominal_cost"] < horizon and details["scenario_costs"] is not None:
+            scen = robust_scenarios(vehicle, options)
+            failed = [s.label for s, c in zip(scen, details["scenario_costs"]) if c is not None and c >= horizon]
+            raise NniquadError(
+                f"no gain set met every robust scenario on the {options.model} model within the {horizon:g} s "
+                f"horizon (settled, no altitude loss, actual tilt <= limit + {TILT_SLACK_DEG:g} deg); the best "
+                f"fails {len(failed)} of {len(scen)}: {', '.join(failed[:3])} (use a larger --budget, or --nominal)"
+            )
         raise NniquadError(
             f"no gain set settled within the {horizon:g} s horizon on the {options.model} model "
             "(best candidate did not settle)"
         )
+    if margins_met is False:
+        # no candidate met GM/PM (the horizontal PM of this law is at most asin(γ/(2-γ)), 41.8° at γ = 0.8,
+        # on the ideal double integrator): the winner is the one with the smallest shortfall, stated as such
+        say(f"no gain set meets GM >= 6 dB / PM >= 45 deg at both break points; best attainable kept "
+            f"(shortfall penalty {details['margin_penalty']:.3g} s)")
+    robust_info = _robust_summary(vehicle, options, details)
     reach = best.reach_m if best.reach_m is not None else certified_reach(ReducedLoop.from_vehicle(vehicle, gains), options.tilt_limit_deg)
     reruns = []
     for seed, cand in results:
         g, inn = decode(cand.q, vehicle.m, options.gamma_max, alpha_avail=alpha, tau_motor_s=_tau_cap(vehicle, options))
         reruns.append({"seed": seed, "settling_s": cand.cost, "gains": g.as_dict(), "inner_loop": inn.as_dict()})
-    return TuneResult(vehicle=vehicle, options=options, gains=gains, inner=inner, settling_s=best.cost,
+    settling = details["cost_without_margins"]
+    return TuneResult(vehicle=vehicle, options=options, gains=gains, inner=inner, settling_s=settling,
                       metrics=best.metrics, certified_reach_m=reach, bound=bound, horizon_s=horizon,
                       reruns=reruns, n_simulations=search.n_sim, n_lmi=search.n_lmi,
-                      elapsed_s=time.perf_counter() - t0)
+                      elapsed_s=time.perf_counter() - t0, objective=options.objective,
+                      nominal_settling_s=details["nominal_cost"] if details["nominal_cost"] < horizon else None,
+                      margins=(None if details["margins"] is None
+                               else {k: m.to_json() for k, m in details["margins"].items()}),
+                      margins_met=margins_met, **robust_info)
+
+
+def default_horizon_s(vehicle: Vehicle, options: TuneOptions, bound: BoundResult | None = None) -> float:
+    """The tuner's horizon: :func:`honest_horizon_s` of ``LONGEST_SETTLING_BANDS × enter_band_s``.
+
+    With the robust objective the scenarios start up to the displacement radius
+    (:func:`nniquad.tuning.scenarios.displacement_radius_m`), farther than the
+    nominal start when a larger reach is demanded; the time-optimal bound of the
+    farthest start then sets the horizon, so that the longest settling time that
+    can count is as long for every scenario.
+    """
+    from nniquad.study.scenarios import DEFAULT_RANGES
+    from nniquad.tuning.scenarios import displacement_radius_m
+
+    bound = time_optimal_bound(vehicle, tilt_limit_deg=options.tilt_limit_deg) if bound is None else bound
+    enter = bound.enter_band_s
+    if options.robust:
+        r = displacement_radius_m(options.roa_radius_m, DEFAULT_RANGES.max_displacement_m)
+        far = time_optimal_bound(vehicle, xi0=(r, 0.0), tilt_limit_deg=options.tilt_limit_deg,
+                                 band_fraction=BAND_FRACTION * XI0_NORM_M / r)
+        enter = max(enter, far.enter_band_s)
+    return honest_horizon_s(LONGEST_SETTLING_BANDS * enter)
+
+
+def _robust_summary(vehicle: Vehicle, options: TuneOptions, details: dict[str, Any]) -> dict[str, Any]:
+    """``scenario_count``, ``worst_scenario`` and ``scenario_costs`` of the winner (robust objective)."""
+    if not options.robust or details["scenario_costs"] is None:
+        return {"scenario_count": 1, "worst_scenario": None, "scenario_costs": []}
+    scen = robust_scenarios(vehicle, options)
+    costs = [{"label": s.label, "cost_s": c, **s.to_json()} for s, c in zip(scen, details["scenario_costs"])]
+    worst = max(costs, key=lambda d: -1.0 if d["cost_s"] is None else d["cost_s"])
+    return {"scenario_count": len(scen), "worst_scenario": worst,
+            "scenario_costs": [{"label": d["label"], "cost_s": d["cost_s"]} for d in costs]}

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from nniquad.config import GAMMA_MAX
+from nniquad.config import GAMMA_MAX, TUNING_SCENARIO_SEED
 from nniquad.format import fmt
 
 from .common import add_json_option, add_tilt_limit_option, add_vehicle_option, vehicle_from_args, write_json_if_asked
@@ -56,6 +56,15 @@ def add_tuning_options(parser: argparse.ArgumentParser) -> None:
                         help="full model: also demand the settling time with 1.5x the motor time constant and "
                              "2 mm position noise (a more robust, slower design)")
     add_vehicle_option(parser)
+    parser.add_argument("--nominal", action="store_true",
+                        help="full model: tune on the nominal scenario alone (default for full: the robust "
+                             "objective, p95 settling over a fixed set of perturbed scenarios incl. box corners)")
+    parser.add_argument("--no-margins", action="store_true",
+                        help="full model: do not require GM >= 6 dB both ways and PM >= 45 deg at the attitude "
+                             "and horizontal break points of the linearised cascade")
+    parser.add_argument("--scenario-seed", type=int, default=TUNING_SCENARIO_SEED, metavar="N",
+                        help=f"seed of the robust tuning scenarios (default {TUNING_SCENARIO_SEED}; a Monte Carlo "
+                             "study of the result should use another seed)")
 
 
 def tune_options_from_args(args: argparse.Namespace):
@@ -64,7 +73,10 @@ def tune_options_from_args(args: argparse.Namespace):
     return TuneOptions(model=args.model, gamma_max=args.gamma_max, roa_radius_m=args.roa_radius,
                        mass_range=None if args.mass_range is None else tuple(args.mass_range),
                        noise_sigma_m=args.noise, tilt_limit_deg=args.tilt_limit, budget=args.budget,
-                       seed=args.seed, reruns=args.reruns, margin=args.margin)
+                       seed=args.seed, reruns=args.reruns, margin=args.margin,
+                       objective="nominal" if (args.nominal or args.model != "full") else "robust",
+                       require_margins=args.model == "full" and not args.no_margins,
+                       scenario_seed=args.scenario_seed)
 
 
 def print_tune_result(res) -> None:
@@ -82,7 +94,9 @@ def print_tune_result(res) -> None:
                  ("attitude damping", fmt(res.inner.attitude_zeta, digits=5), "-"),
                  ("attitude deceleration (shaping)", fmt(res.inner.attitude_accel_limit_rad_s2), "rad/s^2")]
     rows += [
-        ("settling time (worst scenario)", fmt(res.settling_s, digits=5), "s"),
+        ("settling time" + (f" (p95 of {res.scenario_count} robust scenarios)" if res.objective == "robust"
+                            else " (worst scenario)"), fmt(res.settling_s, digits=5), "s"),
+        ("nominal settling time", fmt(res.nominal_settling_s, digits=5), "s"),
         ("time-optimal bound enter_band_s", fmt(res.bound.enter_band_s, digits=5), "s"),
         ("ratio to bound", fmt(res.ratio_to_bound, digits=4), "-"),
         ("overshoot", fmt(m.overshoot_pct, digits=3), "%"),
@@ -93,6 +107,14 @@ def print_tune_result(res) -> None:
         ("simulations / LMI solves", f"{res.n_simulations} / {res.n_lmi}", ""),
         ("time taken", fmt(res.elapsed_s, digits=3), "s"),
     ]
+    if res.worst_scenario is not None:
+        rows.append(("worst robust scenario", f"{res.worst_scenario['label']}: {res.worst_scenario['cost_s']:.4g}", "s"))
+    for bp, mg in (res.margins or {}).items():
+        rows.append((f"{bp} margins (linearised, 100 Hz)",
+                     f"GM +{float(mg['gm_db']):.3g}/{float(mg['gm_lower_db']):.3g} dB, PM {float(mg['pm_deg']):.3g} deg",
+                     "meets GM 6 dB / PM 45 deg" if mg["meets_requirement"] else "FAILS GM 6 dB / PM 45 deg"))
+    if res.margins_met is False:
+        rows.append(("margin requirement", "not attainable: best attainable design kept", ""))
     w = max(len(r[0]) for r in rows)
     for name, value, unit in rows:
         print(f"{name:<{w}}  {value}  {unit}".rstrip())
