@@ -174,6 +174,7 @@ def evaluate_details(vehicle: Vehicle, points: np.ndarray, options: TuneOptions,
     nominal: list[Metrics] = []
     for k, scen in enumerate(_scenario_options(options, base, vehicle)):
         res = simulate(vehicle, [g for g, _ in decoded], [scen.with_(inner=inn) for _, inn in decoded])
+        _RUNS[0] += len(decoded)
         xy_end = res.xy[:, -1]
         for b, met in enumerate(res.metrics()):
             worst[b] = max(worst[b], _cost(met, xy_end[b], xi0_norm, horizon_s, tilt_cap))
@@ -216,6 +217,14 @@ def evaluate_details(vehicle: Vehicle, points: np.ndarray, options: TuneOptions,
 
 
 _SCENARIO_CACHE: dict[tuple, list] = {}
+
+#: Runs simulated by :func:`evaluate_details` since the process started (:func:`simulations_run`).
+_RUNS = [0]
+
+
+def simulations_run() -> int:
+    """Number of single runs simulated by the objective so far (nominal and robust scenarios)."""
+    return _RUNS[0]
 
 
 def robust_scenarios(vehicle: Vehicle, options: TuneOptions) -> list:
@@ -290,6 +299,7 @@ def _simulate_scenarios(vehicle: Vehicle, designs: list, options: TuneOptions, h
                                 motor_lag=options.motor_lag) for d, s in chunk]
         with np.errstate(all="ignore"):
             res = simulate(None, None, [o for o, _ in pairs], params=[p for _, p in pairs])
+        _RUNS[0] += len(pairs)
         xy, phi, theta, z = res.xy, res.phi, res.theta, res.z_ned  # computed once (properties)
         for i, (d, s) in enumerate(chunk):
             eq = np.asarray(scen[s].equilibrium_m(vehicle, designs[d][0]))

@@ -76,7 +76,7 @@ from nniquad.errors import NniquadError
 from nniquad.model.vehicle import PAPER_VEHICLE, Vehicle
 from nniquad.tuning.coordinates import attitude_accel_headroom, attitude_wn_cap, decode, encode, search_box
 from nniquad.tuning.objective import (_tau_cap, evaluate, evaluate_details, honest_horizon_s, required_hold_s, robust_scenarios,
-                                      settling_shown, simulation_options)
+                                      settling_shown, simulation_options, simulations_run)
 from nniquad.tuning.options import (ROBUST_QUANTILE, ALTITUDE_CAP_M, BUDGETS, DEFAULT_ROA_RADIUS_M, LONGEST_SETTLING_BANDS, SECTOR_FACE_SHARE, TILT_SLACK_DEG, TuneOptions)
 from nniquad.tuning.search import Candidate, _global, _local, _Search, _starts, initial_design
 
@@ -291,6 +291,7 @@ def tune(vehicle: Vehicle = PAPER_VEHICLE, options: TuneOptions | None = None,
     bound = time_optimal_bound(vehicle, tilt_limit_deg=options.tilt_limit_deg)
     horizon = options.horizon_s if options.horizon_s is not None else default_horizon_s(vehicle, options, bound)
     search = _Search(vehicle, options, horizon, lambda msg: say(f"seed {seed}: {msg}"))
+    runs0 = simulations_run()
     n_reruns = BUDGETS[options.budget][3] if options.reruns is None else options.reruns
     results: list[tuple[int, Candidate]] = []
     pools: list[list[Candidate]] = []
@@ -344,7 +345,7 @@ def tune(vehicle: Vehicle = PAPER_VEHICLE, options: TuneOptions | None = None,
     settling = details["cost_without_margins"]
     return TuneResult(vehicle=vehicle, options=options, gains=gains, inner=inner, settling_s=settling,
                       metrics=best.metrics, certified_reach_m=reach, bound=bound, horizon_s=horizon,
-                      reruns=reruns, n_simulations=search.n_sim, n_lmi=search.n_lmi,
+                      reruns=reruns, n_simulations=max(search.n_sim, simulations_run() - runs0), n_lmi=search.n_lmi,
                       elapsed_s=time.perf_counter() - t0, objective=options.objective,
                       nominal_settling_s=details["nominal_cost"] if details["nominal_cost"] < horizon else None,
                       margins=(None if details["margins"] is None
