@@ -17,6 +17,18 @@ subject to
   displacement from rest up to ``roa_radius_m``;
 * optionally robustness: the worst settling time over the true masses
   ``mass_range`` (controller at the nominal mass) and/or under position noise.
+* by default on ``full`` (``objective="robust"``): the cost is the p95
+  (:data:`ROBUST_QUANTILE`) of the honest settling times over a fixed scenario set
+  with common random numbers (:mod:`nniquad.tuning.scenarios`: nominal, the 8
+  corners mass × motor lag × attitude gain, 11 Monte Carlo draws), every scenario
+  required to settle without altitude loss, divergence or tilt above limit + 1°
+  (:func:`nniquad.tuning.objective.robust_cost`); ``"nominal"`` restores the single run;
+* by default on ``full`` (``require_margins``): GM >= 6 dB both ways and PM >= 45°
+  at both break points of the linearised cascade
+  (:func:`nniquad.tuning.objective.margin_penalty`, lazily for otherwise admissible
+  candidates); when no candidate meets it (the horizontal PM of this law is at most
+  41.8° at γ_max = 0.8) the design with the smallest shortfall is kept and
+  ``TuneResult.margins_met`` is ``False``.
 
 Coordinates
 -----------
