@@ -14,7 +14,7 @@ from nniquad.certificates import load_certificate, verify_certificate
 from nniquad.reporting.folder import MANIFEST, MANIFEST_MARKER, file_digest
 from nniquad.reporting.report import fmt
 
-QUICK = ["--budget", "quick", "--reruns", "0", "--roa-radius", "0"]
+QUICK = ["--budget", "quick", "--reruns", "0", "--roa-radius", "0", "--nominal"]  # the robust default is tested in test_robust_objective
 
 
 @pytest.fixture(scope="module")

@@ -50,7 +50,8 @@ class Report:
 
 def report(out_dir: str | Path = "out", vehicle: Vehicle | None = None, *, model: str = "full",
            gamma_max: float = GAMMA_MAX, roa_radius_m: float | None = None, budget: str = "normal",
-           reruns: int | None = 1, progress: Callable[..., None] | None = None) -> Report:
+           reruns: int | None = 1, objective: str | None = None,
+           progress: Callable[..., None] | None = None) -> Report:
     """Run the main job: audit, bound, paper-gain runs, tuning, certificate, verification, figures, report.md.
 
     Parameters
@@ -69,6 +70,8 @@ def report(out_dir: str | Path = "out", vehicle: Vehicle | None = None, *, model
         Tuning budget (``"quick"``, ``"normal"``, ``"thorough"``).
     reruns
         Extra tuner seeds for the grid-artefact check.
+    objective
+        ``"robust"`` (default for ``full``) or ``"nominal"`` (:class:`nniquad.tuning.tune.TuneOptions`).
     progress
         Called as ``progress(stage, fraction, detail="")``.
 
@@ -81,6 +84,6 @@ def report(out_dir: str | Path = "out", vehicle: Vehicle | None = None, *, model
 
     vehicle = PAPER_VEHICLE if vehicle is None else vehicle
     options = ReportOptions(out_dir=Path(out_dir), model=model, gamma_max=gamma_max, roa_radius_m=roa_radius_m,
-                            budget=budget, reruns=reruns)
+                            budget=budget, reruns=reruns, objective=objective)
     data = build_report(vehicle, options, progress=progress)
     return Report(Path(out_dir), data)

@@ -87,6 +87,9 @@ class ReportOptions:
         Tuning budget passed to the tuner (:data:`nniquad.tuning.tune.BUDGETS`).
     reruns
         Extra tuner seeds (None: 1, which keeps the report within its time budget).
+    objective
+        Tuning objective (:attr:`nniquad.tuning.tune.TuneOptions.objective`; ``None``:
+        robust for ``full``, nominal for ``reduced``).
     """
 
     out_dir: Path
@@ -96,6 +99,7 @@ class ReportOptions:
     paper_horizon_s: float = 300.0
     budget: str = "normal"
     reruns: int | None = 1
+    objective: str | None = None
 
 
 def _relative(out_dir: Path, path: Path) -> str:
@@ -144,7 +148,7 @@ def build_report(vehicle: Vehicle, options: ReportOptions, progress: Progress | 
     # every option first: a bad one is refused before any work (and before the folder is touched)
     reach = DEFAULT_ROA_RADIUS_M if options.roa_radius_m is None else options.roa_radius_m
     tune_opts = TuneOptions(model=options.model, gamma_max=options.gamma_max, roa_radius_m=reach,
-                            budget=options.budget, reruns=options.reruns)
+                            budget=options.budget, reruns=options.reruns, objective=options.objective)
     SimOptions(horizon_s=options.paper_horizon_s)
     with ReportFolder(options.out_dir, REPORT_OUTPUTS) as folder:
         data = _build(vehicle, options, tune_opts, folder.path, say)
