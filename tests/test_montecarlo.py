@@ -365,3 +365,38 @@ def test_default_wind_is_a_fraction_of_each_vehicles_weight():
     b = draw_scenarios(20, 5, DEFAULT_RANGES, setup)
     assert all(s.describe()["wind_magnitude_N"] <= 0.1 for s in a)
     assert [s.xi0_m for s in a] == [s.xi0_m for s in b]
+
+
+# ----------------------------------------------------------------------------- PD comparison laws
+
+
+@pytest.mark.parametrize("pd_gains", [pytest.param(("pd_velocity", (4.0, 3.6)), id="pd_velocity"),
+                                      pytest.param(("pd_filtered", (4.0, 3.6, 0.05)), id="pd_filtered")])
+def test_pd_laws_run_on_the_same_scenarios(pd_gains):
+    """A PD law is studied on the NNI law's scenarios: same plant draws, its own gain layout and equilibrium.
+
+    The reference for the wind equilibrium is a direct simulation of the perturbed
+    plant with a constant wind and no noise, held until the motion has died out:
+    the static balance ``F = m̂ k_p ξ`` of a PD law (hand derivation: the derivative
+    term vanishes at rest).
+    """
+    from nniquad.control.gains import PDFilteredGains, PDGains
+    from nniquad.sim import SimOptions, simulate
+
+    law, values = pd_gains
+    gains = (PDGains if law == "pd_velocity" else PDFilteredGains)(*values)
+    setup_pd = mc.study_setup_from(PAPER_VEHICLE, gains, inner=INNER, region_m=REACH_M, horizon_s=4.0)
+    setup_nni = mc.study_setup_from(PAPER_VEHICLE, GAINS, inner=INNER, region_m=REACH_M, horizon_s=4.0)
+    assert setup_pd.controller == law and setup_pd.to_json()["controller"] == law
+    pd_s, nni_s = mc.draw_scenario(5, 9, mc.DEFAULT_RANGES, setup_pd), mc.draw_scenario(5, 9, mc.DEFAULT_RANGES, setup_nni)
+    assert pd_s.sim_params.gains == gains
+    assert pd_s.describe() == nni_s.describe()  # common random numbers across laws
+    # the wind equilibrium: F / (m̂ kp), against a 30 s windy run from rest at the origin
+    s = pd_s.with_params(run={"wind_x": 0.2, "wind_y": -0.1})
+    eq = s.equilibrium_m()
+    assert eq == pytest.approx((0.2 / (PAPER_VEHICLE.m * gains.kp), -0.1 / (PAPER_VEHICLE.m * gains.kp)))
+    res = simulate(None, None, SimOptions(model="full", horizon_s=30.0, xi0=(0.0, 0.0), sample_hold=True),
+                   params=[s.sim_params])
+    assert res.xy[0, -1] == pytest.approx(eq, abs=1e-4)
+    r = mc.run_study([mc.draw_scenario(i, 9, BENIGN, setup_pd) for i in range(3)], workers=1).results
+    assert all(x.success for x in r), r

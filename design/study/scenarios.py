@@ -160,6 +160,10 @@ class StudySetup:
         Simulated time, RK4 step and output sample period [s].
     label
         Certificate identification (digest or name) for the report.
+    controller
+        Horizontal law of :attr:`base_params` (``"nni"``, ``"pd_velocity"``,
+        ``"pd_filtered"``: :data:`nniquad.sim.CONTROLLERS`); it fixes the layout
+        of the parameter vector.
     """
 
     base_params: tuple[float, ...]
@@ -170,16 +174,18 @@ class StudySetup:
     dt_s: float = DT_S
     output_dt_s: float = OUTPUT_DT_S
     label: str = ""
+    controller: str = "nni"
 
     @property
     def base(self) -> SimParams:
-        """:attr:`base_params` as a :class:`nniquad.sim.SimParams` (NNI layout)."""
-        return SimParams.from_vector(self.base_params)
+        """:attr:`base_params` as a :class:`nniquad.sim.SimParams` (the :attr:`controller`'s layout)."""
+        return SimParams.from_vector(self.base_params, self.controller)
 
     def to_json(self) -> dict[str, Any]:
         b = self.base
         return {
             "certificate": self.label,
+            "controller": self.controller,
             "gains": b.gains.as_dict(),
             "nominal_mass_kg": b.nominal.m,
             "tilt_limit_deg": math.degrees(b.run.tilt_limit),
@@ -206,6 +212,10 @@ def study_setup_from(vehicle: Any, gains: Any, *, inner: Any = None, tilt_limit_
                      label: str = "") -> StudySetup:
     """The shared part of a study from a vehicle, a gain set and inner-loop gains (no certificate).
 
+    ``gains`` is any controller's gain block (:class:`~nniquad.control.gains.Gains`,
+    :class:`~nniquad.control.gains.PDGains`, :class:`~nniquad.control.gains.PDFilteredGains`)
+    or a mapping / tuple of NNI gains; the block's type picks the law, so the PD
+    comparison laws are studied on the same scenarios as the NNI law.
     ``region_m`` (default ``‖xi0_m‖``) is capped at ``ranges.max_displacement_m``.
     """
     h = _cert_float(horizon_s)
@@ -222,7 +232,8 @@ def study_setup_from(vehicle: Any, gains: Any, *, inner: Any = None, tilt_limit_
     if inner is not None:
         opts["inner"] = inner
     options = SimOptions(**opts)
-    base = SimParams.from_options(vehicle, to_gains(gains, "nni"), options)
+    block = gains if hasattr(gains, "controller") else to_gains(gains, "nni")
+    base = SimParams.from_options(vehicle, block, options)
     region = _cert_float(region_m)
     if region is None:
         region = math.hypot(*xi0)
@@ -235,6 +246,7 @@ def study_setup_from(vehicle: Any, gains: Any, *, inner: Any = None, tilt_limit_
         dt_s=options.dt_s,
         output_dt_s=options.output_dt_s,
         label=label,
+        controller=base.controller,
     )
 
 
@@ -314,6 +326,8 @@ class Scenario:
         Altitude deviation counted as divergence [m].
     factors
         The drawn factors (mass, inertia per axis, attitude gain), for the report.
+    controller
+        Horizontal law (the layout of :attr:`params`).
     """
 
     index: int
@@ -329,11 +343,12 @@ class Scenario:
     band_m: float
     altitude_limit_m: float
     factors: tuple[tuple[str, float], ...] = ()
+    controller: str = "nni"
 
     @property
     def sim_params(self) -> SimParams:
         """:attr:`params` as a :class:`nniquad.sim.SimParams`."""
-        return SimParams.from_vector(self.params)
+        return SimParams.from_vector(self.params, self.controller)
 
     def with_params(self, **changes: Any) -> "Scenario":
         """Copy with some parameters changed, by group (e.g. ``plant={"m": 3.0}`` for a vehicle that cannot hover).
@@ -343,11 +358,20 @@ class Scenario:
         return replace(self, params=tuple(float(v) for v in self.sim_params.with_(**changes).vector()))
 
     def equilibrium_m(self) -> tuple[float, float]:
-        """Static equilibrium under the constant wind, ``F / (m̂ k_p − 1/δ)`` per axis (origin if none)."""
+        """Static equilibrium under the constant wind, ``F / k_static`` per axis (origin if none).
+
+        The static stiffness is ``m̂ k_p − 1/δ`` for the NNI law (its state settles
+        at ``z = ξ/δ``) and ``m̂ k_p`` for the PD laws (the derivative term vanishes
+        at rest).
+        """
         p = self.sim_params
+        g = p.gains
+        if self.controller == "nni":
+            stiff = [p.nominal.m * kp - 1.0 / g.delta for kp in (g.kp, g.kp_y)]
+        else:
+            stiff = [p.nominal.m * g.kp] * 2
         out = []
-        for force, kp in ((p.run.wind_x, p.gains.kp), (p.run.wind_y, p.gains.kp_y)):
-            stiffness = p.nominal.m * kp - 1.0 / p.gains.delta
+        for force, stiffness in zip((p.run.wind_x, p.run.wind_y), stiff):
             out.append(force / stiffness if stiffness > 0 else 0.0)
         return (out[0], out[1])
 
@@ -429,6 +453,7 @@ def draw_scenario(index: int, seed: int, ranges: ScenarioRanges, setup: StudySet
         horizon_s=setup.horizon_s, dt_s=setup.dt_s, output_dt_s=setup.output_dt_s,
         band_m=setup.band_m, altitude_limit_m=ranges.altitude_limit_m,
         factors=(("mass", f_m), ("Jx", f_J[0]), ("Jy", f_J[1]), ("Jz", f_J[2]), ("attitude_gain", f_att)),
+        controller=setup.controller,
     )
 
 
