@@ -267,3 +267,81 @@ def test_reduced_tune_stays_inside_the_realisable_box(quick_reduced):
 
     run = simulate(V, quick_reduced.gains, SimOptions(model="full", horizon_s=20.0, motor_lag=True))[0]
     assert run.metrics().settling_s is not None
+
+
+# ----------------------------------------------------------------------------- PD comparison laws
+
+
+def _pd_settling_scipy(gains, horizon: float, tilt_deg: float = 30.0) -> float:
+    """Reduced model under a PD law, written out by hand and integrated with scipy (not CasADi).
+
+    ``pd_velocity``: ``a = -kp ξ - kd v``; ``pd_filtered``: ``a = -kp ξ - kd (ξ - d)/τ_f``
+    with ``d' = (ξ - d)/τ_f`` started at ``d = ξ(0)`` (zero velocity estimate);
+    the command is limited to ``g tan(tilt)`` in norm, as in the reduced model.
+    """
+    from nniquad.control.gains import PDFilteredGains
+
+    a_max = V.g * math.tan(math.radians(tilt_deg))
+    filtered = isinstance(gains, PDFilteredGains)
+
+    def f(t, x):
+        xi, v, d = x[0:2], x[2:4], x[4:6]
+        rate = (xi - d) / gains.tau_f if filtered else v
+        a = -gains.kp * xi - gains.kd * rate
+        n = np.linalg.norm(a)
+        if n > a_max:
+            a = a * (a_max / n)
+        return np.concatenate([v, a, rate if filtered else np.zeros(2)])
+
+    t = np.linspace(0.0, horizon, int(horizon / 0.001) + 1)
+    sol = solve_ivp(f, (0.0, horizon), [2.0, -1.5, 0, 0, 2.0, -1.5], method="LSODA", t_eval=t, rtol=1e-10,
+                    atol=1e-12)
+    assert sol.success
+    return settling_time(t, sol.y[0:2].T)
+
+
+@pytest.mark.parametrize("law", ["pd_velocity", "pd_filtered"])
+def test_pd_coordinates_by_hand(law):
+    """kd = 2 ζ √kp (the loop's damping on the double integrator), τ_f = e^q; encode inverts decode."""
+    from nniquad.control.gains import PDFilteredGains, PDGains
+
+    options = TuneOptions(model="full", controller=law)
+    assert options.roa_radius_m == 0  # no sector bound, no certified region
+    lo, hi = search_box(options)
+    n_law = 2 if law == "pd_velocity" else 3
+    assert options.dims == len(lo) == n_law + 3
+    q = lo + np.random.default_rng(1).random(len(lo)) * (hi - lo)
+    g, inner = decode(q, V.m, options.gamma_max, controller=law)
+    assert type(g) is (PDGains if law == "pd_velocity" else PDFilteredGains)
+    assert g.kp == pytest.approx(math.exp(q[0])) and g.kd == pytest.approx(2 * q[1] * math.sqrt(g.kp))
+    if law == "pd_filtered":
+        assert g.tau_f == pytest.approx(math.exp(q[2]))
+    assert inner.attitude_zeta == pytest.approx(q[n_law + 1])
+    np.testing.assert_allclose(encode(g, V.m, options.gamma_max, inner, 1.0), q, rtol=1e-12)
+    # no share of the sweep on a "sector face": coordinate 1 is a damping ratio here
+    pts = initial_design(64, lo, hi, seed=2, sector_face=False)
+    assert not np.any(pts[:, 1] == lo[1])
+
+
+@pytest.mark.parametrize("law", ["pd_velocity", "pd_filtered"])
+def test_quick_pd_tune_is_confirmed_by_scipy(law):
+    """The tuner's PD optimum settles as the hand-written reduced model says, and not faster than the bound."""
+    res = tune(V, TuneOptions(model="reduced", controller=law, budget="quick"))
+    assert res.gains.controller == law and math.isnan(res.certified_reach_m) and math.isnan(res.gamma)
+    assert res.to_json()["sector"] is None and res.to_json()["controller"] == law
+    assert _pd_settling_scipy(res.gains, res.horizon_s) == pytest.approx(res.settling_s, abs=0.02)
+    assert res.settling_s >= res.bound.enter_band_s
+    assert law in repr(res) or "kd=" in repr(res)
+
+
+def test_cli_tune_pd_law(run_cli, tmp_path):
+    import json
+
+    out = tmp_path / "pd.json"
+    code, stdout, err = run_cli("tune", "--controller", "pd_velocity", "--budget", "quick", "--json", str(out))
+    assert code == 0, err
+    data = json.loads(out.read_text())
+    assert data["controller"] == "pd_velocity" and set(data["gains"]) == {"kp", "kd"}
+    assert "kd" in stdout and "no sector bound" in stdout
+    code, _, err = run_cli("tune", "--controller", "pid")
+    assert code == 2 and "controller" in err and "Traceback" not in err

@@ -10,13 +10,27 @@ import numpy as np
 
 from nniquad import config
 from nniquad.config import DT_S
-from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, InnerLoopGains
+from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, ControllerGains, Gains, InnerLoopGains, PDFilteredGains, PDGains
 from nniquad.control.inner_loops import attitude_wn_limit
 from nniquad.model.vehicle import Vehicle
 from nniquad.tuning.options import TuneOptions
 
 
 # ----------------------------------------------------------------------------- coordinates
+
+#: Number of search coordinates of each horizontal law's gains (the attitude loop adds 3).
+LAW_DIMS: dict[str, int] = {"nni": 3, "pd_velocity": 2, "pd_filtered": 3}
+
+#: Damping ratio ``k_d / (2 √k_p)`` of a PD law on the double integrator: the search range.
+PD_ZETA_RANGE: tuple[float, float] = (0.3, 2.0)
+
+
+def law_dims(controller: str) -> int:
+    """Number of gain coordinates of ``controller`` (:data:`LAW_DIMS`)."""
+    try:
+        return LAW_DIMS[controller]
+    except KeyError:
+        raise ValueError(f"unknown controller {controller!r}") from None
 
 
 #: Bounds of the NNI coordinates that do not depend on the vehicle: kp [1/s^2], u, Gamma delta [1/s].
@@ -87,18 +101,22 @@ def search_box(options: TuneOptions, dt_s: float = DT_S, vehicle: Vehicle | None
                ) -> tuple[np.ndarray, np.ndarray]:
     """Lower and upper bounds of the search coordinates (see the module docstring).
 
-    kp in [0.5, kp_max] 1/s², u in [0, 4] (γ from γ_max down to γ_max e⁻⁴),
-    Γδ in [0.05, Γδ_max] 1/s; ω_a in [10, 150] rad/s, ζ_a in [0.5, 1.5],
-    α/α_avail in [0.1, 1].  With a ``vehicle`` the upper ends are
-    :func:`gain_limits` (what the vehicle's attitude loop, its tilt-limited
-    acceleration and the controller's sample rate can realise: kp ≤ 113 1/s²,
-    Γδ ≤ 314 1/s for the paper's vehicle); without one, kp ≤ 2000 and
-    Γδ ≤ min(2.5/dt, π × ``config.CONTROL_RATE_HZ``).
+    NNI law: kp in [0.5, kp_max] 1/s², u in [0, 4] (γ from γ_max down to γ_max e⁻⁴),
+    Γδ in [0.05, Γδ_max] 1/s.  PD laws (``options.controller``): kp in the same
+    range, the damping ratio ``k_d/(2√k_p)`` of the loop on the double
+    integrator in :data:`PD_ZETA_RANGE`, and for ``pd_filtered`` the filter time
+    constant τ_f in [1/f_s, 1] s (``f_s`` = ``config.CONTROL_RATE_HZ``: a filter
+    faster than the sample period only passes the sampling steps).  Then, with
+    the attitude loop: ω_a in [10, 150] rad/s, ζ_a in [0.5, 1.5], α/α_avail in [0.1, 1].
+    With a ``vehicle`` the upper ends are :func:`gain_limits` (what the vehicle's
+    attitude loop, its tilt-limited acceleration and the controller's sample rate
+    can realise: kp ≤ 113 1/s², Γδ ≤ 314 1/s for the paper's vehicle); without
+    one, kp ≤ 2000 and Γδ ≤ min(2.5/dt, π × ``config.CONTROL_RATE_HZ``).
 
     Parameters
     ----------
     options
-        The tuning options (the model decides the dimension, the tilt limit the kp bound).
+        The tuning options (the model and the law decide the dimension, the tilt limit the kp bound).
     dt_s
         RK4 step [s]; bounds the controller pole Γδ ≤ 2.5/dt.
     vehicle
@@ -120,9 +138,17 @@ def search_box(options: TuneOptions, dt_s: float = DT_S, vehicle: Vehicle | None
         check_feasible(vehicle, options.tilt_limit_deg)  # one line naming the limit, before any search
         limits = gain_limits(vehicle, options.tilt_limit_deg, dt_s)
         kp_max, gd_max = limits["kp_max"], limits["gamma_delta_max"]
-    lo = [math.log(KP_RANGE[0]), U_RANGE[0], math.log(GAMMA_DELTA_MIN)]
-    hi = [math.log(kp_max), U_RANGE[1], math.log(gd_max)]
-    if options.dims == 6:
+    law = options.controller
+    if law == "nni":
+        lo = [math.log(KP_RANGE[0]), U_RANGE[0], math.log(GAMMA_DELTA_MIN)]
+        hi = [math.log(kp_max), U_RANGE[1], math.log(gd_max)]
+    else:  # the kp bound is the vehicle's whatever the law
+        lo = [math.log(KP_RANGE[0]), PD_ZETA_RANGE[0]]
+        hi = [math.log(kp_max), PD_ZETA_RANGE[1]]
+        if law == "pd_filtered":
+            lo.append(math.log(1.0 / config.CONTROL_RATE_HZ))
+            hi.append(0.0)
+    if options.dims > law_dims(law):
         lo += [math.log(ATTITUDE_WN_RANGE[0]), ATTITUDE_ZETA_RANGE[0], ATTITUDE_ALPHA_RANGE[0]]
         hi += [math.log(ATTITUDE_WN_RANGE[1]), ATTITUDE_ZETA_RANGE[1], ATTITUDE_ALPHA_RANGE[1]]
     return np.array(lo), np.array(hi)
@@ -175,13 +201,13 @@ def attitude_wn_cap(tau_motor_s: float | None, zeta: float) -> float:
 
 def decode(q: Sequence[float], m: float, gamma_max: float,
            inner: InnerLoopGains = DEFAULT_INNER_LOOP_GAINS, alpha_avail: float = 1.0,
-           tau_motor_s: float | None = None) -> tuple[Gains, InnerLoopGains]:
-    """Search coordinates → gains (and inner-loop gains when ``q`` has 6 entries).
+           tau_motor_s: float | None = None, controller: str = "nni") -> tuple[ControllerGains, InnerLoopGains]:
+    """Search coordinates → gains (and inner-loop gains when ``q`` has the 3 attitude coordinates too).
 
     Parameters
     ----------
     q
-        Search coordinates (3, or 6 with the attitude loop).
+        Search coordinates (the law's :data:`LAW_DIMS`, plus 3 with the attitude loop).
     m
         Nominal mass [kg].
     gamma_max
@@ -192,25 +218,36 @@ def decode(q: Sequence[float], m: float, gamma_max: float,
         Attitude acceleration headroom [rad/s^2] (:func:`attitude_accel_headroom`).
     tau_motor_s
         Nominal motor time constant [s]; when given, ω_a is capped at :func:`attitude_wn_cap`.
+    controller
+        Horizontal law: ``"nni"`` (:class:`Gains`), ``"pd_velocity"`` (:class:`PDGains`)
+        or ``"pd_filtered"`` (:class:`PDFilteredGains`).
     """
+    n = law_dims(controller)
     kp = math.exp(q[0])
-    delta = math.exp(q[1]) / (gamma_max * m * kp)
-    Gamma = math.exp(q[2]) / delta
-    if len(q) > 3:
-        wn = min(math.exp(q[3]), attitude_wn_cap(tau_motor_s, float(q[4])))
-        inner = replace(inner, attitude_wn_rad_s=wn, attitude_zeta=float(q[4]),
-                        attitude_accel_limit_rad_s2=float(q[5]) * alpha_avail)
-    return Gains(kp=kp, Gamma=Gamma, delta=delta), inner
+    gains: ControllerGains
+    if controller == "nni":
+        delta = math.exp(q[1]) / (gamma_max * m * kp)
+        gains = Gains(kp=kp, Gamma=math.exp(q[2]) / delta, delta=delta)
+    elif controller == "pd_velocity":
+        gains = PDGains(kp=kp, kd=2.0 * float(q[1]) * math.sqrt(kp))
+    else:
+        gains = PDFilteredGains(kp=kp, kd=2.0 * float(q[1]) * math.sqrt(kp), tau_f=math.exp(q[2]))
+    if len(q) > n:
+        a = q[n:]
+        wn = min(math.exp(a[0]), attitude_wn_cap(tau_motor_s, float(a[1])))
+        inner = replace(inner, attitude_wn_rad_s=wn, attitude_zeta=float(a[1]),
+                        attitude_accel_limit_rad_s2=float(a[2]) * alpha_avail)
+    return gains, inner
 
 
-def encode(gains: Gains, m: float, gamma_max: float, inner: InnerLoopGains | None = None,
+def encode(gains: ControllerGains, m: float, gamma_max: float, inner: InnerLoopGains | None = None,
            alpha_avail: float = 1.0) -> np.ndarray:
-    """Inverse of :func:`decode`.
+    """Inverse of :func:`decode` (the law is the type of ``gains``).
 
     Parameters
     ----------
     gains
-        The NNI gains.
+        The gain block (:class:`Gains`, :class:`PDGains` or :class:`PDFilteredGains`).
     m
         Nominal mass [kg].
     gamma_max
@@ -220,7 +257,12 @@ def encode(gains: Gains, m: float, gamma_max: float, inner: InnerLoopGains | Non
     alpha_avail
         Attitude acceleration headroom [rad/s^2].
     """
-    q = [math.log(gains.kp), math.log(gamma_max * m * gains.kp * gains.delta), math.log(gains.Gamma * gains.delta)]
+    if isinstance(gains, Gains):
+        q = [math.log(gains.kp), math.log(gamma_max * m * gains.kp * gains.delta), math.log(gains.Gamma * gains.delta)]
+    else:
+        q = [math.log(gains.kp), gains.kd / (2.0 * math.sqrt(gains.kp))]
+        if isinstance(gains, PDFilteredGains):
+            q.append(math.log(gains.tau_f))
     if inner is not None:
         q += [math.log(inner.attitude_wn_rad_s), inner.attitude_zeta,
               inner.attitude_accel_limit_rad_s2 / alpha_avail]

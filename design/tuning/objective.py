@@ -149,7 +149,8 @@ def evaluate(vehicle: Vehicle, points: np.ndarray, options: TuneOptions, horizon
 
 def _decode_all(vehicle: Vehicle, pts: np.ndarray, options: TuneOptions, inner: InnerLoopGains) -> list:
     alpha = attitude_accel_headroom(vehicle, options.tilt_limit_deg)
-    return [decode(q, vehicle.m, options.gamma_max, inner, alpha, _tau_cap(vehicle, options)) for q in pts]
+    return [decode(q, vehicle.m, options.gamma_max, inner, alpha, _tau_cap(vehicle, options), options.controller)
+            for q in pts]
 
 
 def evaluate_details(vehicle: Vehicle, points: np.ndarray, options: TuneOptions, horizon_s: float,

@@ -77,6 +77,12 @@ class TuneOptions:
         Tune the attitude natural frequency with the gains (``full``; default on).
     reruns
         Extra seeds for the artefact check; ``None`` takes the budget's.
+    controller
+        Horizontal law to tune: ``"nni"`` (the paper's, default), or one of the
+        PD comparison laws ``"pd_velocity"`` (true velocity) and ``"pd_filtered"``
+        (filtered derivative of the measurement), tuned on the same inner loops,
+        scenarios and rules; the PD laws have no sector bound and no certified
+        reach (``roa_radius_m`` is set to 0 for them).
     margin
         ``full`` only: also demand the settling time with the motor time constant
         × :data:`MARGIN_TAU_FACTOR` and position noise :data:`MARGIN_NOISE_M`
@@ -118,8 +124,11 @@ class TuneOptions:
     objective: str | None = None
     scenario_seed: int = TUNING_SCENARIO_SEED
     require_margins: bool | None = None
+    controller: str = "nni"
 
     def __post_init__(self) -> None:
+        if self.controller not in ("nni", "pd_velocity", "pd_filtered"):
+            raise NniquadError(f"controller must be 'nni', 'pd_velocity' or 'pd_filtered', got {self.controller!r}")
         if self.model not in ("reduced", "full"):
             raise NniquadError(f"tuning model must be 'reduced' or 'full', got {self.model!r}")
         g = _finite("gamma_max", self.gamma_max)
@@ -154,18 +163,23 @@ class TuneOptions:
             raise NniquadError("the robust objective perturbs the full vehicle: use model 'full' or objective 'nominal'")
         if isinstance(self.scenario_seed, bool) or not isinstance(self.scenario_seed, int) or self.scenario_seed < 0:
             raise NniquadError(f"scenario seed must be a non-negative integer, got {self.scenario_seed!r}")
-        if self.require_margins is None:
-            object.__setattr__(self, "require_margins", self.model == "full")
+        if self.require_margins is None:  # the cascade margins are those of the NNI law's split
+            object.__setattr__(self, "require_margins", self.model == "full" and self.controller == "nni")
+        if self.require_margins and self.controller != "nni":
+            raise NniquadError("the margin requirement is computed on the NNI cascade: switch it off for a PD law")
         if self.require_margins and self.model != "full":
             raise NniquadError("the margin requirement applies to the full cascade: use model 'full'")
         object.__setattr__(self, "require_margins", bool(self.require_margins))
         object.__setattr__(self, "gamma_max", g)
-        object.__setattr__(self, "roa_radius_m", r)
+        # the PD laws have no sector bound, hence no certified region: the reach check does not apply
+        object.__setattr__(self, "roa_radius_m", r if self.controller == "nni" else 0.0)
 
     @property
     def dims(self) -> int:
-        """Number of search coordinates (3, or 6 with the attitude loop)."""
-        return 6 if (self.model == "full" and self.tune_attitude) else 3
+        """Number of search coordinates: the law's gains, plus 3 with the attitude loop (``full``)."""
+        from nniquad.tuning.coordinates import law_dims
+
+        return law_dims(self.controller) + (3 if (self.model == "full" and self.tune_attitude) else 0)
 
     @property
     def robust(self) -> bool:

@@ -114,8 +114,11 @@ class TuningScenario:
         return opts, p
 
     def equilibrium_m(self, vehicle: Vehicle, gains: Gains) -> tuple[float, float]:
-        """Static equilibrium under the wind, ``F/(m̂ k_p - 1/δ)`` per axis (as the Monte Carlo study)."""
-        stiffness = vehicle.m * gains.kp - 1.0 / gains.delta
+        """Static equilibrium under the wind, ``F/k`` per axis (as the Monte Carlo study).
+
+        ``k = m̂ k_p - 1/δ`` for the NNI law, ``m̂ k_p`` for a PD law (no derivative at rest).
+        """
+        stiffness = vehicle.m * gains.kp - (1.0 / gains.delta if isinstance(gains, Gains) else 0.0)
         if stiffness <= 0:
             return (0.0, 0.0)
         return (self.wind_N[0] / stiffness, self.wind_N[1] / stiffness)

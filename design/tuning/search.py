@@ -70,7 +70,7 @@ def _sobol(n: int, lo: np.ndarray, hi: np.ndarray, seed: int | np.random.Generat
     return lo + pts * (hi - lo)
 
 
-def initial_design(n: int, lo: np.ndarray, hi: np.ndarray, seed: int) -> np.ndarray:
+def initial_design(n: int, lo: np.ndarray, hi: np.ndarray, seed: int, sector_face: bool = True) -> np.ndarray:
     """The global sweep's points: a Sobol set in the box, and a share of them on the sector-bound face.
 
     The fastest designs sit on the face ``u = 0`` (γ = γ_max) of the box: the
@@ -89,13 +89,16 @@ def initial_design(n: int, lo: np.ndarray, hi: np.ndarray, seed: int) -> np.ndar
         The search box (:func:`search_box`); coordinate 1 is ``u``.
     seed
         Seed of the scrambling (the face set uses an independent stream of it).
+    sector_face
+        Place the share on the face (NNI law); ``False`` for a law without a
+        sector bound (PD): all points are one Sobol set in the box.
 
     Returns
     -------
     ndarray (n, d)
         The box points first, then the face points.
     """
-    n_face = int(round(SECTOR_FACE_SHARE * n))
+    n_face = int(round(SECTOR_FACE_SHARE * n)) if sector_face else 0
     box = _sobol(n - n_face, lo, hi, seed)
     face = _sobol(n_face, lo, hi, np.random.default_rng([seed, 1])) if n_face else np.empty((0, len(lo)))
     face[:, 1] = lo[1]
@@ -103,7 +106,7 @@ def initial_design(n: int, lo: np.ndarray, hi: np.ndarray, seed: int) -> np.ndar
 
 
 def _global(search: _Search, n: int, seed: int, batch: int = 256) -> list[Candidate]:
-    pts = initial_design(n, search.lo, search.hi, seed)
+    pts = initial_design(n, search.lo, search.hi, seed, sector_face=search.options.controller == "nni")
     out: list[Candidate] = []
     for i in range(0, len(pts), batch):
         out += search.evaluate(pts[i : i + batch])

@@ -72,6 +72,7 @@ Sobol grid shows up.
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 from typing import Any, Callable, Sequence
@@ -82,7 +83,7 @@ from nniquad.analysis.bound import BoundResult, time_optimal_bound
 from nniquad.analysis.linear import ReducedLoop
 from nniquad.analysis.lmi.roa import certified_reach
 from nniquad.analysis.verdicts import Metrics
-from nniquad.control.gains import Gains, InnerLoopGains
+from nniquad.control.gains import ControllerGains, Gains, InnerLoopGains
 from nniquad.config import BAND_FRACTION, XI0_NORM_M
 from nniquad.errors import NniquadError
 from nniquad.model.vehicle import PAPER_VEHICLE, Vehicle
@@ -170,7 +171,7 @@ class TuneResult:
 
     vehicle: Vehicle
     options: TuneOptions
-    gains: Gains
+    gains: ControllerGains
     inner: InnerLoopGains
     settling_s: float
     metrics: Metrics
@@ -191,10 +192,11 @@ class TuneResult:
     margins_met: bool | None = None
 
     def __repr__(self) -> str:
-        g = self.gains
-        return (f"TuneResult(model={self.options.model!r}, kp={g.kp:.5g}, Gamma={g.Gamma:.5g}, delta={g.delta:.5g}, "
-                f"settling {self.settling_s:.4g} s = {self.ratio_to_bound:.3g} x bound, "
-                f"certified reach {self.certified_reach_m:.3g} m)")
+        gains = ", ".join(f"{k}={v:.5g}" for k, v in self.gains.as_dict().items() if v is not None)
+        reach = (f", certified reach {self.certified_reach_m:.3g} m" if math.isfinite(self.certified_reach_m)
+                 else f", {self.options.controller}: no certified region")
+        return (f"TuneResult(model={self.options.model!r}, {gains}, "
+                f"settling {self.settling_s:.4g} s = {self.ratio_to_bound:.3g} x bound{reach})")
 
     @property
     def roa_radius_m(self) -> float:
@@ -206,7 +208,9 @@ class TuneResult:
 
     @property
     def gamma(self) -> float:
-        """Smallest γ the gains satisfy the sector bound with."""
+        """Smallest γ the gains satisfy the sector bound with (``nan`` for a PD law: no sector bound)."""
+        if not isinstance(self.gains, Gains):
+            return math.nan
         return ReducedLoop.from_vehicle(self.vehicle, self.gains).smallest_gamma
 
     def rerun_spread_s(self) -> float:
@@ -223,10 +227,12 @@ class TuneResult:
             "inner_loop": self.inner.as_dict(),
             "settling_s": self.settling_s,
             "metrics": self.metrics.to_json(),
-            "sector": {"gamma": self.gamma, "gamma_max": self.options.gamma_max},
+            "controller": self.options.controller,
+            "sector": ({"gamma": self.gamma, "gamma_max": self.options.gamma_max}
+                       if isinstance(self.gains, Gains) else None),
             "roa_radius_m": self.roa_radius_m,
-            "certified_reach_m": self.certified_reach_m,
-            "start_certified": self.certified_reach_m >= DEFAULT_ROA_RADIUS_M,
+            "certified_reach_m": self.certified_reach_m if math.isfinite(self.certified_reach_m) else None,
+            "start_certified": bool(self.certified_reach_m >= DEFAULT_ROA_RADIUS_M),
             "enter_band_s": self.bound.enter_band_s,
             "ratio_to_bound": self.ratio_to_bound,
             "horizon_s": self.horizon_s,
@@ -325,7 +331,7 @@ def tune(vehicle: Vehicle = PAPER_VEHICLE, options: TuneOptions | None = None,
         polished = _polish(search, pools, k, max_iter, seed)
         best = polished if polished.cost < best.cost else best
     gains, inner = decode(best.q, vehicle.m, options.gamma_max, alpha_avail=alpha,
-                          tau_motor_s=_tau_cap(vehicle, options))
+                          tau_motor_s=_tau_cap(vehicle, options), controller=options.controller)
     details = evaluate_details(vehicle, best.q[None], options, horizon, full_report=True)[0]
     margins_met: bool | None = None
     if options.require_margins:
@@ -349,10 +355,16 @@ def tune(vehicle: Vehicle = PAPER_VEHICLE, options: TuneOptions | None = None,
         say(f"no gain set meets GM >= 6 dB / PM >= 45 deg at both break points; best attainable kept "
             f"(shortfall penalty {details['margin_penalty']:.3g} s)")
     robust_info = _robust_summary(vehicle, options, details)
-    reach = best.reach_m if best.reach_m is not None else certified_reach(ReducedLoop.from_vehicle(vehicle, gains), options.tilt_limit_deg)
+    if options.controller != "nni":
+        reach = math.nan  # no sector bound, no certified region
+    elif best.reach_m is not None:
+        reach = best.reach_m
+    else:
+        reach = certified_reach(ReducedLoop.from_vehicle(vehicle, gains), options.tilt_limit_deg)
     reruns = []
     for seed, cand in results:
-        g, inn = decode(cand.q, vehicle.m, options.gamma_max, alpha_avail=alpha, tau_motor_s=_tau_cap(vehicle, options))
+        g, inn = decode(cand.q, vehicle.m, options.gamma_max, alpha_avail=alpha, tau_motor_s=_tau_cap(vehicle, options),
+                        controller=options.controller)
         reruns.append({"seed": seed, "settling_s": cand.cost, "gains": g.as_dict(), "inner_loop": inn.as_dict()})
     settling = details["cost_without_margins"]
     return TuneResult(vehicle=vehicle, options=options, gains=gains, inner=inner, settling_s=settling,

@@ -75,21 +75,24 @@ def tune_options_from_args(args: argparse.Namespace):
                        noise_sigma_m=args.noise, tilt_limit_deg=args.tilt_limit, budget=args.budget,
                        seed=args.seed, reruns=args.reruns, margin=args.margin,
                        objective="nominal" if (args.nominal or args.model != "full") else "robust",
-                       require_margins=args.model == "full" and not args.no_margins,
-                       scenario_seed=args.scenario_seed)
+                       require_margins=args.model == "full" and not args.no_margins and getattr(args, "controller", "nni") == "nni",
+                       scenario_seed=args.scenario_seed,
+                       controller=getattr(args, "controller", "nni"))
 
 
 def print_tune_result(res) -> None:
     """The tuned gains and their numbers, with units."""
     m = res.metrics
-    rows = [
-        ("model", res.options.model, ""),
-        ("kp", fmt(res.gains.kp, digits=5), "1/s^2"),
-        ("Gamma", fmt(res.gains.Gamma, digits=5), "-"),
-        ("delta", fmt(res.gains.delta, digits=5), "-"),
-        ("smallest gamma (sector)", fmt(res.gamma, digits=5), f"<= gamma_max {res.options.gamma_max:g}"),
-    ]
-    if res.options.dims > 3:
+    from dataclasses import fields
+
+    from nniquad.control.gains import field_unit
+
+    rows = [("model", res.options.model, ""), ("controller", res.options.controller, "")]
+    rows += [(f.name, fmt(getattr(res.gains, f.name), digits=5), field_unit(f)[0])
+             for f in fields(res.gains) if getattr(res.gains, f.name) is not None]
+    if res.options.controller == "nni":
+        rows.append(("smallest gamma (sector)", fmt(res.gamma, digits=5), f"<= gamma_max {res.options.gamma_max:g}"))
+    if res.options.model == "full" and res.options.tune_attitude:
         rows += [("attitude natural frequency", fmt(res.inner.attitude_wn_rad_s, digits=5), "rad/s"),
                  ("attitude damping", fmt(res.inner.attitude_zeta, digits=5), "-"),
                  ("attitude deceleration (shaping)", fmt(res.inner.attitude_accel_limit_rad_s2), "rad/s^2")]
@@ -102,7 +105,8 @@ def print_tune_result(res) -> None:
         ("overshoot", fmt(m.overshoot_pct, digits=3), "%"),
         ("peak actual tilt", fmt(m.peak_tilt_deg, digits=4), "deg"),
         ("peak rotor speed", fmt(m.peak_rotor_speed_rad_s, digits=4), "rad/s"),
-        ("certified reach (ROA LMI)", fmt(res.certified_reach_m, digits=4), f"m (required {res.roa_radius_m:g})"),
+        ("certified reach (ROA LMI)", fmt(res.certified_reach_m, digits=4) if res.options.controller == "nni"
+         else "none (no sector bound)", f"m (required {res.roa_radius_m:g})"),
         ("best settling per seed", ", ".join(f"{r['seed']}: {r['settling_s']:.4g}" for r in res.reruns), "s"),
         ("simulations / LMI solves", f"{res.n_simulations} / {res.n_lmi}", ""),
         ("time taken", fmt(res.elapsed_s, digits=3), "s"),
@@ -136,4 +140,7 @@ def run(args: argparse.Namespace) -> int:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_tuning_options(parser)
+    parser.add_argument("--controller", choices=("nni", "pd_velocity", "pd_filtered"), default="nni",
+                        help="horizontal law to tune (default nni, the paper's; the PD comparison laws are tuned "
+                             "on the same inner loops and scenarios, have no sector bound and no certificate)")
     add_json_option(parser, "tuned gains, metrics, per-seed optima and search statistics")
