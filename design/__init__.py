@@ -52,7 +52,7 @@ _export("nniquad.analysis.linear", "ReducedLoop", "PolesDamping")
 _export("nniquad.sim", "SimOptions", "SimulationResult", "Trajectory", "paper_figure_runs", "PAPER_FIGURE_HORIZON_S")
 _export("nniquad.tuning.tune", "TuneOptions", "TuneResult", "search_box", "decode", "encode",
         "attitude_accel_headroom", "attitude_wn_cap", "required_hold_s", "settling_shown", "TILT_SLACK_DEG")
-_export("nniquad.study", "ScenarioRanges", "DEFAULT_RANGES")
+_export("nniquad.study", "ScenarioRanges", "DEFAULT_RANGES", "StudySetup", "study_setup_from", "pareto_front")
 # one function per job, and its result object
 _export("nniquad.model.derivation", "derive", "Derivation")
 _export("nniquad.proofs.audit", "audit", "Audit")

@@ -84,6 +84,17 @@ def test_wilson_interval_hand_computed():
     assert lo99 < lo and hi99 > hi
 
 
+def test_pareto_front_by_hand():
+    """cost = settling [s], benefit = success; dominated, tied and non-finite points are left out."""
+    cost = [2.0, 1.5, 3.0, 1.5, None, 2.5, 1.0, float("nan")]
+    benefit = [0.9, 0.8, 1.0, 0.7, 1.0, 0.9, 0.2, 1.0]
+    # by hand: 1.0 s (0.2) -> 1.5 s (0.8; the 0.7 tie loses) -> 2.0 s (0.9; 2.5 s is no better) -> 3.0 s (1.0)
+    assert mc.pareto_front(cost, benefit) == [6, 1, 0, 2]
+    assert mc.pareto_front([], []) == []
+    with pytest.raises(ValueError):
+        mc.pareto_front([1.0], [0.5, 0.6])
+
+
 def test_quantile_ci_order_statistics():
     # classic table: for n = 10 the 95 % median interval is [x(2), x(9)] (coverage 1 - 2 * 11/1024 = 97.9 %)
     x = np.arange(1.0, 11.0)[::-1]  # order of the input must not matter

@@ -15,7 +15,7 @@ from scipy.linalg import expm
 from nniquad import sim
 from nniquad.config import XI0_M
 from nniquad.errors import GainError, SimulationError
-from nniquad.control.gains import PAPER_GAINS
+from nniquad.control.gains import PAPER_GAINS, Gains
 from nniquad.sim import SimOptions
 from nniquad.control.gains import PDFilteredGains, PDGains
 from nniquad.model.vehicle import PAPER_VEHICLE
@@ -130,3 +130,20 @@ def test_gain_conversion_and_validation():
     # the filter pole must be resolved by the RK4 step
     with pytest.raises(SimulationError, match="tau_f"):
         sim.simulate(PAPER_VEHICLE, PDFilteredGains(1.0, 1.0, 1e-4), SimOptions(model="linear", horizon_s=1.0))
+
+
+@pytest.mark.parametrize("gains", [Gains(5.0, 160.0, 0.6), PDGains(4.0, 3.0), PDFilteredGains(4.0, 3.0, 0.05)],
+                         ids=["nni", "pd_velocity", "pd_filtered"])
+def test_time_scaled_gains_run_the_same_loop_faster(gains):
+    """``gains.time_scaled(λ)`` on the linear model traces ξ(λ t): compared run against run, sample by sample."""
+    from nniquad.sim import SimOptions, simulate
+
+    lam, T = 2.0, 3.0
+    slow = simulate(None, gains, SimOptions(model="linear", horizon_s=T, output_dt_s=0.01))[0]
+    fast = simulate(None, gains.time_scaled(lam), SimOptions(model="linear", horizon_s=T / lam, output_dt_s=0.005))[0]
+    np.testing.assert_allclose(fast.xy, slow.xy, atol=1e-7)
+    assert type(gains.time_scaled(lam)) is type(gains)
+    if isinstance(gains, Gains):  # m kp delta, hence the sector bound, is invariant
+        assert gains.time_scaled(3.0).kp * gains.time_scaled(3.0).delta == pytest.approx(gains.kp * gains.delta)
+    with pytest.raises(GainError):
+        gains.time_scaled(0.0)

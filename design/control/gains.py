@@ -110,6 +110,22 @@ class Gains:
         kpy = values["kpy"]
         return cls(values["kp"], values["Gamma"], values["delta"], None if kpy == values["kp"] else kpy)
 
+    def time_scaled(self, factor: float) -> "Gains":
+        """The same loop ``factor`` times faster: ``k_p λ², Γ λ³, δ/λ²``.
+
+        With ``ξ_λ(t) = ξ(λ t)`` and ``z_λ(t) = λ² z(λ t)`` the linear loop
+        ``ξ'' = −k_p ξ + z/m``, ``z' = −Γδ z + Γ ξ`` maps onto itself; ``m k_p δ`` is
+        unchanged, so the sector bound holds for every ``λ`` if it holds for one.
+
+        Parameters
+        ----------
+        factor
+            Speed-up λ > 0 (below 1: slower).
+        """
+        lam = positive_gain("time-scale factor", factor)
+        return Gains(self.kp * lam**2, self.Gamma * lam**3, self.delta / lam**2,
+                     None if self.kpy is None else self.kpy * lam**2)
+
 
 #: The paper's gains (Table "Simulation Parameters"): kp^x = kp^y = 5, Γ = 160, δ = 0.6.
 PAPER_GAINS = Gains(kp=5.0, Gamma=160.0, delta=0.6)
@@ -158,6 +174,17 @@ class PDGains(_PlainBlock):
     kp: float = _f("1/s^2", "PD position gain")
     kd: float = _f("1/s", "PD derivative gain")
 
+    def time_scaled(self, factor: float) -> "PDGains":
+        """The same loop ``factor`` times faster: ``k_p λ², k_d λ`` (``ξ_λ(t) = ξ(λ t)``).
+
+        Parameters
+        ----------
+        factor
+            Speed-up λ > 0.
+        """
+        lam = positive_gain("time-scale factor", factor)
+        return PDGains(self.kp * lam**2, self.kd * lam)
+
 
 @dataclass(frozen=True)
 class PDFilteredGains(_PlainBlock):
@@ -180,6 +207,17 @@ class PDFilteredGains(_PlainBlock):
     kp: float = _f("1/s^2", "PD position gain")
     kd: float = _f("1/s", "PD derivative gain")
     tau_f: float = _f("s", "time constant of the derivative filter", default=DEFAULT_TAU_F_S)
+
+    def time_scaled(self, factor: float) -> "PDFilteredGains":
+        """The same loop ``factor`` times faster: ``k_p λ², k_d λ, τ_f/λ`` (``ξ_λ(t) = ξ(λ t)``).
+
+        Parameters
+        ----------
+        factor
+            Speed-up λ > 0.
+        """
+        lam = positive_gain("time-scale factor", factor)
+        return PDFilteredGains(self.kp * lam**2, self.kd * lam, self.tau_f / lam)
 
 
 #: Any horizontal-controller gain block.

@@ -83,7 +83,7 @@ from nniquad.study.executors import (CONNECT_TIMEOUT_S, StopRequest, StudyRun, a
 from nniquad.study.runs import ScenarioResult, run_scenarios
 from nniquad.study.scenarios import (DEFAULT_HORIZON_S, DEFAULT_RANGES, Scenario, ScenarioRanges, StudySetup,
                                      draw_scenario, draw_scenarios, study_setup, study_setup_from)
-from nniquad.study.statistics import Summary, quantile_ci, summarize, wilson_interval
+from nniquad.study.statistics import Summary, pareto_front, quantile_ci, summarize, wilson_interval
 
 __all__ = [
     "MonteCarloError",
@@ -111,6 +111,7 @@ __all__ = [
     "summarize",
     "wilson_interval",
     "quantile_ci",
+    "pareto_front",
     "DEFAULT_HORIZON_S",
     "CONNECT_TIMEOUT_S",
 ]

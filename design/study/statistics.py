@@ -11,7 +11,7 @@ import numpy as np
 from nniquad.errors import MonteCarloError
 from nniquad.study.runs import ScenarioResult
 
-__all__ = ["Summary", "summarize", "wilson_interval", "quantile_ci"]
+__all__ = ["Summary", "summarize", "wilson_interval", "quantile_ci", "pareto_front"]
 
 
 def wilson_interval(k: int, n: int, confidence: float = 0.95) -> tuple[float, float]:
@@ -26,6 +26,40 @@ def wilson_interval(k: int, n: int, confidence: float = 0.95) -> tuple[float, fl
     centre = (p + z * z / (2 * n)) / den
     half = z / den * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
     return (max(0.0, centre - half), min(1.0, centre + half))
+
+
+def pareto_front(cost: Sequence[float], benefit: Sequence[float]) -> list[int]:
+    """Indices of the non-dominated points of a trade-off, ordered by ``cost``.
+
+    Point ``i`` is dominated when another point has ``cost <= cost_i`` and
+    ``benefit >= benefit_i`` with at least one strict (e.g. cost = nominal
+    settling time, benefit = Monte Carlo success rate).  Non-finite costs are
+    never on the front.
+
+    Parameters
+    ----------
+    cost
+        To be small (a ``None`` or ``nan`` cost: not on the front).
+    benefit
+        To be large.
+
+    Returns
+    -------
+    list of int
+        The front, by increasing cost (ties in cost: the larger benefit only).
+    """
+    c = np.array([math.inf if v is None else float(v) for v in cost])
+    b = np.asarray(benefit, dtype=float)
+    if c.shape != b.shape:
+        raise ValueError("cost and benefit must have the same length")
+    c = np.where(np.isfinite(c), c, math.inf)
+    front: list[int] = []
+    best = -math.inf
+    for i in sorted(range(len(c)), key=lambda k: (c[k], -b[k])):
+        if math.isfinite(c[i]) and b[i] > best:
+            front.append(i)
+            best = b[i]
+    return front
 
 
 def quantile_ci(values: Sequence[float], q: float, confidence: float = 0.95) -> tuple[float, float, float]:
