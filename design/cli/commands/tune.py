@@ -70,14 +70,14 @@ def add_tuning_options(parser: argparse.ArgumentParser) -> None:
 def tune_options_from_args(args: argparse.Namespace):
     from nniquad.tuning.tune import TuneOptions
 
+    controller = getattr(args, "controller", "nni")  # tune only: certify certifies the NNI law
     return TuneOptions(model=args.model, gamma_max=args.gamma_max, roa_radius_m=args.roa_radius,
                        mass_range=None if args.mass_range is None else tuple(args.mass_range),
                        noise_sigma_m=args.noise, tilt_limit_deg=args.tilt_limit, budget=args.budget,
                        seed=args.seed, reruns=args.reruns, margin=args.margin,
                        objective="nominal" if (args.nominal or args.model != "full") else "robust",
-                       require_margins=args.model == "full" and not args.no_margins and getattr(args, "controller", "nni") == "nni",
-                       scenario_seed=args.scenario_seed,
-                       controller=getattr(args, "controller", "nni"))
+                       require_margins=args.model == "full" and not args.no_margins and controller == "nni",
+                       scenario_seed=args.scenario_seed, controller=controller)
 
 
 def print_tune_result(res) -> None:
