@@ -14,12 +14,19 @@ from nniquad.validate import finite_number
 #: ‖ξ_h(0)‖ of the paper's run [m]: the default certified reach.
 DEFAULT_ROA_RADIUS_M = XI0_NORM_M
 
-#: Search effort: (Sobol points, local starts, max. local iterations, extra seeds).
+#: Search effort: (Sobol points, distinct starts, optimiser evaluations, extra seeds).  The points and
+#: the evaluations are for the 3 coordinates of ``reduced``; the 6 of ``full`` get twice as many of both.
 BUDGETS: dict[str, tuple[int, int, int, int]] = {
-    "quick": (128, 2, 12, 0),
-    "normal": (512, 6, 50, 1),
-    "thorough": (2048, 6, 120, 4),
+    "quick": (128, 2, 200, 0),
+    "normal": (256, 4, 400, 1),
+    "thorough": (1024, 6, 2000, 4),
 }
+
+#: The optimisers behind :func:`nniquad.tuning.optimizers.minimise`: BIPOP-CMA-ES (pycma), MADS (NOMAD 4).
+OPTIMIZERS = ("cma", "nomad")
+
+#: The default optimiser: the better one of ``benchmarks/bench_optimizers.py`` (same budget, five seeds).
+DEFAULT_OPTIMIZER = "nomad"
 
 #: Actual tilt may exceed the tilt limit by this much (issue 7) [deg].
 TILT_SLACK_DEG = 1.0
@@ -66,7 +73,7 @@ class TuneOptions:
     budget
         ``"quick"``, ``"normal"`` or ``"thorough"`` (:data:`BUDGETS`).
     seed
-        Seed of the Sobol scrambling and the poll bases.
+        Seed of the Sobol scrambling and of the optimiser.
     horizon_s
         Simulated time per candidate [s]; default :func:`honest_horizon_s` of
         ``LONGEST_SETTLING_BANDS × enter_band_s`` (a settling time counts only when
@@ -106,6 +113,9 @@ class TuneOptions:
         margin >= ``config.REQUIRED_PM_DEG`` at both break points of the linearised
         cascade (:mod:`nniquad.analysis.fast_margins`); a candidate that misses them is
         ranked above every admissible one.  ``None`` (default) is on for ``full``.
+    optimizer
+        The optimiser after the sweep, one of :data:`OPTIMIZERS` (default
+        :data:`DEFAULT_OPTIMIZER`; :mod:`nniquad.tuning.optimizers`).
     """
 
     model: str = "reduced"
@@ -125,6 +135,7 @@ class TuneOptions:
     scenario_seed: int = TUNING_SCENARIO_SEED
     require_margins: bool | None = None
     controller: str = "nni"
+    optimizer: str = DEFAULT_OPTIMIZER
 
     def __post_init__(self) -> None:
         if self.controller not in ("nni", "pd_velocity", "pd_filtered"):
@@ -153,6 +164,8 @@ class TuneOptions:
             raise NniquadError(f"horizon must be positive, got {self.horizon_s!r}")
         if not isinstance(self.seed, int) or self.seed < 0:
             raise NniquadError(f"seed must be a non-negative integer, got {self.seed!r}")
+        if self.optimizer not in OPTIMIZERS:
+            raise NniquadError(f"optimizer must be one of {', '.join(OPTIMIZERS)}, got {self.optimizer!r}")
         if self.reruns is not None and (not isinstance(self.reruns, int) or self.reruns < 0):
             raise NniquadError(f"reruns must be a non-negative integer, got {self.reruns!r}")
         if self.objective is None:

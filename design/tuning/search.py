@@ -1,4 +1,7 @@
-"""The search stages: the initial design (Sobol, with a share on the sector-bound face), the sweep and the direct search."""
+"""The search stages: the initial design (Sobol, with a share on the sector-bound face), the sweep and the starts.
+
+The optimiser that follows the sweep is in :mod:`nniquad.tuning.optimizers`.
+"""
 
 from __future__ import annotations
 
@@ -126,38 +129,3 @@ def _starts(search: _Search, ranked: list[Candidate], k: int, max_checks: int = 
         if len(chosen) == k:
             break
     return chosen
-
-
-def _local(search: _Search, starts: list[Candidate], max_iter: int, seed: int,
-           step0: float = 0.15, step_min: float = 1e-3) -> list[Candidate]:
-    """Batched direct search with random orthogonal poll bases (module docstring).
-
-    Steps are fractions of the search box in each coordinate, so that the log
-    gains and the attitude damping are moved on comparable scales.
-    """
-    rng = np.random.default_rng(seed)
-    d = len(search.lo)
-    width = search.hi - search.lo
-    best = list(starts)
-    step = [step0] * len(best)
-    for it in range(max_iter):
-        active = [i for i in range(len(best)) if step[i] >= step_min]
-        if not active:
-            break
-        Q, _ = np.linalg.qr(rng.standard_normal((d, d)))
-        polls = {i: [best[i].q + s * step[i] * width * Q[:, j] for j in range(d) for s in (1.0, -1.0)]
-                 for i in active}
-        flat = [p for i in active for p in polls[i]]
-        cands = search.evaluate(np.array(flat))
-        for n_i, i in enumerate(active):
-            mine = sorted(cands[n_i * 2 * d : (n_i + 1) * 2 * d], key=lambda c: c.cost)
-            moved = False
-            for c in mine:
-                if c.cost >= best[i].cost - 1e-4:
-                    break
-                if search.admissible(c):
-                    best[i], moved = c, True
-                    break
-            step[i] = step[i] if moved else step[i] / 2.0
-        search.progress(f"refine iteration {it + 1}/{max_iter}: best {min(b.cost for b in best):.4g} s")
-    return sorted(best, key=lambda c: c.cost)

@@ -90,8 +90,9 @@ from nniquad.model.vehicle import PAPER_VEHICLE, Vehicle
 from nniquad.tuning.coordinates import attitude_accel_headroom, attitude_wn_cap, decode, encode, search_box
 from nniquad.tuning.objective import (_tau_cap, evaluate, evaluate_details, honest_horizon_s, required_hold_s, robust_scenarios,
                                       settling_shown, simulation_options, simulations_run)
-from nniquad.tuning.options import (ROBUST_QUANTILE, ALTITUDE_CAP_M, BUDGETS, DEFAULT_ROA_RADIUS_M, LONGEST_SETTLING_BANDS, SECTOR_FACE_SHARE, TILT_SLACK_DEG, TuneOptions)
-from nniquad.tuning.search import Candidate, _global, _local, _Search, _starts, initial_design
+from nniquad.tuning.options import (ROBUST_QUANTILE, ALTITUDE_CAP_M, BUDGETS, DEFAULT_OPTIMIZER, DEFAULT_ROA_RADIUS_M, OPTIMIZERS, LONGEST_SETTLING_BANDS, SECTOR_FACE_SHARE, TILT_SLACK_DEG, TuneOptions)
+from nniquad.tuning.optimizers import minimise
+from nniquad.tuning.search import Candidate, _global, _Search, _starts, initial_design
 
 __all__ = [
     "TuneOptions",
@@ -112,6 +113,9 @@ __all__ = [
     "SECTOR_FACE_SHARE",
     "DEFAULT_ROA_RADIUS_M",
     "BUDGETS",
+    "OPTIMIZERS",
+    "DEFAULT_OPTIMIZER",
+    "minimise",
     "TILT_SLACK_DEG",
     "ALTITUDE_CAP_M",
     "ROBUST_QUANTILE",
@@ -254,11 +258,15 @@ class TuneResult:
         }
 
 
-def _one_seed(search: _Search, seed: int) -> tuple[Candidate, list[Candidate]]:
-    """Sweep and refine with one seed: its optimum, and its refined starts (for the polish stage)."""
-    n_global, k, max_iter, _ = BUDGETS[search.options.budget]
-    # the attitude coordinates double the dimension: sample twice as densely
-    ranked = _global(search, n_global * (2 if len(search.lo) > 3 else 1), seed)
+def _one_seed(search: _Search, seed: int, extra: list[Candidate]) -> tuple[Candidate, list[Candidate]]:
+    """Sweep and optimise with one seed: its optimum, and the optimiser's incumbents (best first).
+
+    ``extra`` (evaluated warm starts) compete with the sweep's points for the starts.
+    """
+    n_global, k, n_evals, _ = BUDGETS[search.options.budget]
+    # the attitude coordinates double the dimension: sample twice as densely, search twice as long
+    scale = 2 if len(search.lo) > 3 else 1
+    ranked = sorted(_global(search, n_global * scale, seed) + extra, key=lambda c: c.cost)
     starts = _starts(search, ranked, k)
     if not starts:
         raise NniquadError(
@@ -266,15 +274,8 @@ def _one_seed(search: _Search, seed: int) -> tuple[Candidate, list[Candidate]]:
             f"{search.options.roa_radius_m:g} m (use a larger --budget, a smaller --roa-radius, or 0 to switch "
             "the check off)"
         )
-    refined = _local(search, starts, max_iter, seed)
-    return refined[0], refined
-
-
-def _polish(search: _Search, pools: list[list[Candidate]], k: int, max_iter: int, seed: int) -> Candidate:
-    """Refine again from the best distinct optima of all seeds together (fresh poll bases)."""
-    pooled = sorted((c for pool in pools for c in pool), key=lambda c: c.cost)
-    starts = _starts(search, pooled, k)
-    return _local(search, starts, max_iter, seed)[0] if starts else pooled[0]
+    found = minimise(search, starts, method=search.options.optimizer, max_evals=n_evals * scale, seed=seed)
+    return found[0], found
 
 
 def tune(vehicle: Vehicle = PAPER_VEHICLE, options: TuneOptions | None = None,
@@ -311,25 +312,19 @@ def tune(vehicle: Vehicle = PAPER_VEHICLE, options: TuneOptions | None = None,
     search = _Search(vehicle, options, horizon, lambda msg: say(f"seed {seed}: {msg}"))
     runs0 = simulations_run()
     n_reruns = BUDGETS[options.budget][3] if options.reruns is None else options.reruns
-    results: list[tuple[int, Candidate]] = []
-    pools: list[list[Candidate]] = []
-    for seed in [options.seed + i for i in range(n_reruns + 1)]:
-        best_seed, refined = _one_seed(search, seed)
-        results.append((seed, best_seed))
-        pools.append(refined)
-    _, best = min(results, key=lambda sc: sc[1].cost)
     alpha = attitude_accel_headroom(vehicle, options.tilt_limit_deg)
+    extra: list[Candidate] = []
     if warm_starts:
         qs = [encode(g, vehicle.m, options.gamma_max, inn if options.dims > 3 else None, alpha)
               for g, inn in warm_starts]
         inside = [q for q in qs if np.all(q >= search.lo - 1e-12) and np.all(q <= search.hi + 1e-12)]
         if inside:
-            pools.append(search.evaluate(np.array(inside)))
-    if n_reruns > 0 or warm_starts:
-        _, k, max_iter, _ = BUDGETS[options.budget]
-        seed = options.seed + n_reruns + 1
-        polished = _polish(search, pools, k, max_iter, seed)
-        best = polished if polished.cost < best.cost else best
+            extra = search.evaluate(np.array(inside))
+    results: list[tuple[int, Candidate]] = []
+    for seed in [options.seed + i for i in range(n_reruns + 1)]:
+        best_seed, _ = _one_seed(search, seed, extra)
+        results.append((seed, best_seed))
+    _, best = min(results, key=lambda sc: sc[1].cost)
     gains, inner = decode(best.q, vehicle.m, options.gamma_max, alpha_avail=alpha,
                           tau_motor_s=_tau_cap(vehicle, options), controller=options.controller)
     details = evaluate_details(vehicle, best.q[None], options, horizon, full_report=True)[0]

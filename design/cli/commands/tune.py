@@ -26,15 +26,16 @@ shaping) is tuned with the gains.
 
 Method: a scrambled Sobol sweep in the coordinates (ln kp, u = ln(gamma_max m
 kp delta) >= 0, ln Gamma delta [, attitude]), every point simulated in one
-CasADi batch, then a batched direct search with random orthogonal poll bases
-from the best distinct points; all of it rerun from other seeds to show the
-optimum is not a grid artefact.  Settling times are reported as a ratio to
+CasADi batch, then a global optimiser from the best distinct points, fed
+with batches of candidates: NOMAD 4's mesh adaptive direct search (default)
+or BIPOP-CMA-ES (--optimizer cma); all of it rerun from other seeds to show
+the optimum is not a grid artefact.  Settling times are reported as a ratio to
 the time-optimal bound (nniquad bound)."""
 
 
 def add_tuning_options(parser: argparse.ArgumentParser) -> None:
     """Options shared by ``tune`` and ``certify``."""
-    from nniquad.tuning.tune import BUDGETS, DEFAULT_ROA_RADIUS_M
+    from nniquad.tuning.tune import BUDGETS, DEFAULT_OPTIMIZER, DEFAULT_ROA_RADIUS_M, OPTIMIZERS
 
     parser.add_argument("--model", choices=("reduced", "full"), default="reduced",
                         help="model the settling time is measured on (default reduced)")
@@ -49,6 +50,9 @@ def add_tuning_options(parser: argparse.ArgumentParser) -> None:
     add_tilt_limit_option(parser)
     parser.add_argument("--budget", choices=tuple(BUDGETS), default="normal",
                         help="search effort (default normal; quick for a fast look)")
+    parser.add_argument("--optimizer", choices=OPTIMIZERS, default=DEFAULT_OPTIMIZER,
+                        help=f"optimiser after the sweep: nomad (MADS, NOMAD 4) or cma (BIPOP-CMA-ES) "
+                             f"(default {DEFAULT_OPTIMIZER})")
     parser.add_argument("--seed", type=int, default=0, metavar="N", help="seed of the sweep and the search (default 0)")
     parser.add_argument("--reruns", type=int, default=None, metavar="K",
                         help="extra seeds for the grid-artefact check (default: the budget's)")
@@ -77,7 +81,8 @@ def tune_options_from_args(args: argparse.Namespace):
                        seed=args.seed, reruns=args.reruns, margin=args.margin,
                        objective="nominal" if (args.nominal or args.model != "full") else "robust",
                        require_margins=args.model == "full" and not args.no_margins and controller == "nni",
-                       scenario_seed=args.scenario_seed, controller=controller)
+                       scenario_seed=args.scenario_seed, controller=controller,
+                       optimizer=args.optimizer)
 
 
 def print_tune_result(res) -> None:

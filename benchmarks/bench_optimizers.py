@@ -1,0 +1,73 @@
+"""The tuner's two optimisers on the same budget (issue 14 item 2): BIPOP-CMA-ES (pycma) against MADS (NOMAD 4).
+
+Each backend tunes the paper's vehicle on the ``full`` model with the reach
+check off (``TuneOptions(model="full", roa_radius_m=0, budget=B, reruns=0)``)
+from ``SEEDS`` seeds; a seed changes the Sobol sweep and the optimiser's
+random choices, and both backends get the same sweep and the same number of
+optimiser evaluations (:data:`nniquad.tuning.options.BUDGETS`).  Rows per
+backend: the best settling time of each seed, the spread ``(max - min) / best``
+of the five in % (target: within 2 % of the best of them), the wall time and
+the simulations.  The table printed to stderr is the one for the report.
+
+Environment: ``NNIQUAD_BENCH_OPT_BUDGET`` (default ``quick``: 256 sweep points
+and 400 optimiser evaluations per seed on the full model, about half a minute
+each on the 2-core reference machine), ``NNIQUAD_BENCH_OPT_SEEDS`` (default 5).
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+SPREAD_TARGET_PCT = 2.0
+
+__all__ = ["run", "SPREAD_TARGET_PCT"]
+
+
+def run() -> list[dict]:
+    from nniquad.model.vehicle import PAPER_VEHICLE
+    from nniquad.tuning.tune import OPTIMIZERS, TuneOptions, tune
+
+    budget = os.environ.get("NNIQUAD_BENCH_OPT_BUDGET", "quick")
+    n_seeds = int(os.environ.get("NNIQUAD_BENCH_OPT_SEEDS", "5"))
+    rows: list[dict] = []
+    table = [f"{'optimizer':<9} {'seed':>4} {'best [s]':>9} {'sims':>6} {'wall [s]':>8}"]
+    for method in OPTIMIZERS:
+        best, sims, wall = [], 0, 0.0
+        for seed in range(n_seeds):
+            opts = TuneOptions(model="full", roa_radius_m=0.0, budget=budget, reruns=0, seed=seed, optimizer=method)
+            t0 = time.perf_counter()
+            res = tune(PAPER_VEHICLE, opts)
+            dt = time.perf_counter() - t0
+            best.append(res.settling_s)
+            sims += res.n_simulations
+            wall += dt
+            table.append(f"{method:<9} {seed:>4} {res.settling_s:>9.4f} {res.n_simulations:>6} {dt:>8.1f}")
+            rows.append({"name": f"{method} ({budget}), seed {seed}: best settling", "value": res.settling_s,
+                         "unit": "s", "target": "", "ok": True})
+        spread = 100.0 * (max(best) - min(best)) / min(best)
+        table.append(f"{method:<9} spread (max-min)/best = {spread:.2f} %, best {min(best):.4f} s, "
+                     f"{sims} simulations, {wall:.0f} s")
+        rows += [
+            {"name": f"{method} ({budget}): spread (max-min)/best of {n_seeds} seeds", "value": spread, "unit": "%",
+             "target": f"<= {SPREAD_TARGET_PCT:g}", "ok": spread <= SPREAD_TARGET_PCT},
+            {"name": f"{method} ({budget}): best of {n_seeds} seeds", "value": min(best), "unit": "s", "target": "",
+             "ok": True},
+            {"name": f"{method} ({budget}): wall time, {n_seeds} seeds", "value": wall, "unit": "s", "target": "",
+             "ok": True},
+            {"name": f"{method} ({budget}): simulations, {n_seeds} seeds", "value": float(sims), "unit": "runs",
+             "target": "", "ok": True},
+        ]
+    print("\n".join(table), file=sys.stderr)
+    return rows
+
+
+if __name__ == "__main__":
+    for r in run():
+        print(r)
