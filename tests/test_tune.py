@@ -13,7 +13,7 @@ from nniquad.analysis.linear import ReducedLoop
 from nniquad.analysis.lmi import certified_reach
 from nniquad.control.gains import Gains
 from nniquad.analysis.metrics import settling_time
-from nniquad.tuning.tune import (SECTOR_FACE_SHARE, TuneOptions, attitude_accel_headroom, decode, encode,
+from nniquad.tuning.tune import (BUDGETS, SECTOR_FACE_SHARE, TuneOptions, attitude_accel_headroom, decode, encode,
                                 initial_design, search_box, tune)
 from nniquad.model.vehicle import PAPER_VEHICLE as V
 
@@ -129,6 +129,7 @@ def test_impossible_reach_is_a_clear_error():
     ({"budget": "huge"}, "budget"),
     ({"model": "linear"}, "model"),
     ({"horizon_s": 0.0}, "horizon"),
+    ({"optimizer": "simplex"}, "optimizer"),
 ])
 def test_bad_options(kwargs, message):
     with pytest.raises((NniquadError, GainError), match=message):
@@ -146,6 +147,8 @@ def test_cli_tune_quick(run_cli, tmp_path):
     assert data["settling_s"] == pytest.approx(data["ratio_to_bound"] * data["enter_band_s"])
     code, _, err = run_cli("tune", "--gamma-max", "1.5")
     assert code == 2 and "gamma_max" in err and "Traceback" not in err
+    code, _, err = run_cli("tune", "--optimizer", "simplex")
+    assert code == 2 and "optimizer" in err and "Traceback" not in err
 
 
 def test_mass_range_tunes_the_worst_case():
@@ -345,3 +348,14 @@ def test_cli_tune_pd_law(run_cli, tmp_path):
     assert "kd" in stdout and "no sector bound" in stdout
     code, _, err = run_cli("tune", "--controller", "pid")
     assert code == 2 and "controller" in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize("optimizer", ["nomad", "cma"])
+def test_same_seed_same_gains(optimizer):
+    """Two quick tunes with the same seed (in one process, with NOMAD's process-wide state) agree exactly."""
+    opts = TuneOptions(model="reduced", roa_radius_m=0.0, budget="quick", optimizer=optimizer, seed=3)
+    a, b = tune(V, opts), tune(V, opts)
+    assert a.gains == b.gains and a.settling_s == b.settling_s and a.n_simulations == b.n_simulations
+    n_global, _, n_evals, _ = BUDGETS["quick"]
+    assert a.n_simulations <= n_global + n_evals  # the sweep plus the optimiser's evaluation budget
+    assert a.options.optimizer == optimizer and a.to_json()["options"]["optimizer"] == optimizer
