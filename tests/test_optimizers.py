@@ -152,3 +152,19 @@ def test_bad_method_and_no_start():
         minimise(search, _starts(search), method="simplex", max_evals=10, seed=0)
     with pytest.raises(NniquadError, match="start"):
         minimise(search, [], method="cma", max_evals=10, seed=0)
+
+
+@pytest.mark.parametrize("method", OPTIMIZERS)
+def test_a_fault_in_a_batch_reaches_the_caller(method):
+    """Ctrl-C (or any error) during a batch is not swallowed by NOMAD's callback or pycma; no batch follows it."""
+
+    class Interrupted(FakeSearch):
+        def evaluate(self, pts):
+            if len(self.batches) == 2:
+                raise KeyboardInterrupt
+            return super().evaluate(pts)
+
+    search = Interrupted(quadratic, -np.ones(3), np.ones(3))
+    with pytest.raises(KeyboardInterrupt):
+        minimise(search, _starts(search), method=method, max_evals=5000, seed=0)
+    assert len(search.batches) == 2
