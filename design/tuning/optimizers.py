@@ -216,7 +216,11 @@ def _cma(tr: _Tracker, starts: list["Candidate"], seed: int) -> None:
 
 
 def _nomad(tr: _Tracker, starts: list["Candidate"], seed: int) -> None:
-    import PyNomad
+    try:
+        import PyNomad
+    except ImportError:
+        raise NniquadError("optimizer 'nomad' needs NOMAD's Python interface: pip install 'PyNomadBBO>=4.4,<5' "
+                           "(the dev extra has it), or use --optimizer cma") from None
 
     d = len(tr.lo)
     rng = np.random.default_rng([seed, 0x40AD])

@@ -26,7 +26,7 @@ BUDGETS: dict[str, tuple[int, int, int, int]] = {
 OPTIMIZERS = ("cma", "nomad")
 
 #: The default optimiser: the better one of ``benchmarks/bench_optimizers.py`` (same budget, five seeds).
-DEFAULT_OPTIMIZER = "nomad"
+DEFAULT_OPTIMIZER = "cma"
 
 #: Actual tilt may exceed the tilt limit by this much (issue 7) [deg].
 TILT_SLACK_DEG = 1.0

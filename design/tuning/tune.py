@@ -61,24 +61,30 @@ useless and a single local search stalls in a false minimum.  Two stages:
    [0, 1]^d, for a fixed number of evaluations (:data:`BUDGETS`);
    :mod:`nniquad.tuning.optimizers`, chosen with ``TuneOptions.optimizer``:
 
-   * ``"nomad"`` (default): NOMAD 4 (Le Digabel, ACM Trans. Math. Softw.
-     37(4), 2011), the Mesh Adaptive Direct Search of Audet & Dennis (SIAM J.
-     Optim. 17(1), 2006) with orthogonal 2n poll directions, whose dense poll
-     directions give convergence to Clarke-stationary points of non-smooth
-     functions; search and poll points of an iteration form one block, and a
-     converged run restarts from the next start.
-   * ``"cma"``: CMA-ES (Hansen & Ostermeier, Evol. Comput. 9(2), 2001) with
-     BIPOP restarts (Hansen, GECCO 2009): IPOP runs with doubling populations
-     (Auger & Hansen, CEC 2005) from the other starts, interleaved with
-     small-population local runs from the incumbent; one generation per batch.
+   * ``"cma"`` (default): CMA-ES (Hansen & Ostermeier, Evol. Comput. 9(2),
+     2001) with BIPOP restarts (Hansen, GECCO 2009): IPOP runs with doubling
+     populations (Auger & Hansen, CEC 2005) from the other starts,
+     interleaved with small-population local runs from the incumbent; one
+     generation per batch.
+   * ``"nomad"``: NOMAD 4 (Le Digabel, ACM Trans. Math. Softw. 37(4), 2011),
+     the Mesh Adaptive Direct Search of Audet & Dennis (SIAM J. Optim. 17(1),
+     2006) with orthogonal 2n poll directions, whose dense poll directions
+     give convergence to Clarke-stationary points of non-smooth functions;
+     search and poll points of an iteration form one block, and a converged
+     run restarts from the next start.
 
    The certified-reach LMI is solved only for a candidate that would become
    the incumbent; an inadmissible one is told to the optimiser at cost +
    horizon.  On the paper's vehicle (``full``, reach off, quick budget: 256
-   sweep points and 400 optimiser evaluations per seed) five seeds of NOMAD
-   land within 0.44 % of the best of them and five of CMA-ES within 1.2 %
-   (``benchmarks/bench_optimizers.py``; issue 14 reported single seeds of the
-   hand-written direct search this replaces between 1.36 s and 2.1 s).
+   sweep points and 400 optimiser evaluations per seed) five seeds of CMA-ES
+   land within 0.64 % of the best of them (best 2.447 s) and five of NOMAD
+   within 1.06 % (best 2.446 s), NOMAD taking 40 % more wall time for the
+   same simulations (its quadratic-model search); an earlier run of the same
+   benchmark, before the search box was bounded by the vehicle, gave 1.22 %
+   and 0.44 % (``benchmarks/bench_optimizers.py``).  The two are equal in
+   quality within the scatter of five seeds; CMA-ES is the default for its
+   speed.  Issue 14 reported single seeds of the hand-written direct search
+   this replaces between 1.36 s and 2.1 s.
 
 :func:`tune` reruns everything from other seeds (``TuneOptions.reruns``),
 keeps the best, and reports the per-seed optima and their spread, so an

@@ -27,9 +27,9 @@ shaping) is tuned with the gains.
 Method: a scrambled Sobol sweep in the coordinates (ln kp, u = ln(gamma_max m
 kp delta) >= 0, ln Gamma delta [, attitude]), every point simulated in one
 CasADi batch, then a global optimiser from the best distinct points, fed
-with batches of candidates: NOMAD 4's mesh adaptive direct search (default)
-or BIPOP-CMA-ES (--optimizer cma); all of it rerun from other seeds to show
-the optimum is not a grid artefact.  Settling times are reported as a ratio to
+with batches of candidates: BIPOP-CMA-ES (default) or NOMAD 4's mesh
+adaptive direct search (--optimizer nomad, needs PyNomadBBO); all of it
+rerun from other seeds to show the optimum is not a grid artefact.  Settling times are reported as a ratio to
 the time-optimal bound (nniquad bound)."""
 
 
@@ -51,7 +51,7 @@ def add_tuning_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--budget", choices=tuple(BUDGETS), default="normal",
                         help="search effort (default normal; quick for a fast look)")
     parser.add_argument("--optimizer", choices=OPTIMIZERS, default=DEFAULT_OPTIMIZER,
-                        help=f"optimiser after the sweep: nomad (MADS, NOMAD 4) or cma (BIPOP-CMA-ES) "
+                        help=f"optimiser after the sweep: cma (BIPOP-CMA-ES) or nomad (MADS, NOMAD 4; needs PyNomadBBO) "
                              f"(default {DEFAULT_OPTIMIZER})")
     parser.add_argument("--seed", type=int, default=0, metavar="N", help="seed of the sweep and the search (default 0)")
     parser.add_argument("--reruns", type=int, default=None, metavar="K",
