@@ -76,16 +76,21 @@ class FastMargins:
         return bool(self.stable and self.gm_db >= REQUIRED_GM_DB and self.gm_lower_db <= -REQUIRED_GM_DB
                     and self.pm_deg >= REQUIRED_PM_DEG)
 
-    def shortfall(self) -> float:
+    def shortfall(self, include_pm: bool = True) -> float:
         """How far the requirement is missed, in requirement units (0 if met; ``inf`` if unstable).
 
         ``max(0, 1 - PM/45°) + max(0, 1 - GM/6 dB) + max(0, 1 - |GM_lower|/6 dB)``: a ranked
-        penalty for the tuner.
+        penalty for the tuner (without the PM term when ``include_pm`` is false).
+
+        Parameters
+        ----------
+        include_pm
+            Count the phase-margin term.
         """
         if not self.stable:
             return math.inf
-        return (max(0.0, 1.0 - self.pm_deg / REQUIRED_PM_DEG) + max(0.0, 1.0 - self.gm_db / REQUIRED_GM_DB)
-                + max(0.0, 1.0 + self.gm_lower_db / REQUIRED_GM_DB))
+        pm = max(0.0, 1.0 - self.pm_deg / REQUIRED_PM_DEG) if include_pm else 0.0
+        return pm + max(0.0, 1.0 - self.gm_db / REQUIRED_GM_DB) + max(0.0, 1.0 + self.gm_lower_db / REQUIRED_GM_DB)
 
     def to_json(self) -> dict[str, Any]:
         """Plain dictionary; non-finite numbers as strings (``"inf"``, ``"-inf"``, ``"nan"``)."""
@@ -241,6 +246,14 @@ def design_margins(vehicle, gains, inner, *, tilt_limit_deg: float | None = None
     return fast_cascade_margins(cas, rate_hz)
 
 
-def margin_shortfall(margins: dict[str, FastMargins]) -> float:
-    """Sum of :meth:`FastMargins.shortfall` over the break points (0 when every requirement is met)."""
-    return float(sum(m.shortfall() for m in margins.values()))
+def margin_shortfall(margins: dict[str, FastMargins], include_pm: bool = True) -> float:
+    """Sum of :meth:`FastMargins.shortfall` over the break points (0 when every requirement is met).
+
+    Parameters
+    ----------
+    margins
+        The margins by break point.
+    include_pm
+        Count the phase-margin terms (``False``: the gain margins only).
+    """
+    return float(sum(m.shortfall(include_pm) for m in margins.values()))

@@ -12,7 +12,8 @@ from nniquad.analysis.verdicts import Metrics
 from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, InnerLoopGains
 from nniquad.model.vehicle import Vehicle
 from nniquad.tuning.coordinates import attitude_accel_headroom, decode
-from nniquad.tuning.options import (ALTITUDE_CAP_M, MARGIN_NOISE_M, MARGIN_TAU_FACTOR, ROBUST_QUANTILE, TILT_SLACK_DEG,
+from nniquad.tuning.options import (ALTITUDE_CAP_M, MARGIN_NOISE_M, MARGIN_TAU_FACTOR, ROBUST_QUANTILE, ROBUST_TILT_SLACK_DEG,
+                                    TILT_SLACK_DEG,
                                     TuneOptions)
 
 
@@ -255,8 +256,12 @@ def robust_costs(vehicle: Vehicle, designs: list, options: TuneOptions, horizon_
 
     A scenario's settling is measured as in the Monte Carlo study: from the static
     equilibrium under its wind, in the band of 2 % of the nominal ‖ξ_h(0)‖; the
-    honest-settling rule, the altitude cap and the tilt cap (limit + 1°) are those
-    of the nominal cost.  All designs × scenarios run in as few batched
+    honest-settling rule and the altitude cap are those of the nominal cost; the
+    actual tilt may exceed the limit by :data:`ROBUST_TILT_SLACK_DEG` (the nominal
+    run: by ``TILT_SLACK_DEG``, 1°).  The issue's requirement on every scenario is
+    to settle without altitude loss or divergence; the tilt overshoot of a
+    perturbed attitude loop is not a failure of the flight, and capping it at 1°
+    in the slow-motor corners made every design slow (FINDINGS.md §10).  All designs × scenarios run in as few batched
     :func:`nniquad.sim.simulate` calls as memory allows (:data:`ROBUST_BATCH_RUNS`).
 
     Parameters
@@ -293,7 +298,9 @@ def _simulate_scenarios(vehicle: Vehicle, designs: list, options: TuneOptions, h
     from nniquad.config import BAND_FRACTION, XI0_NORM_M
     from nniquad.sim import simulate
 
-    tilt_cap = options.tilt_limit_deg + TILT_SLACK_DEG
+    # the nominal run keeps limit + 1 deg; a perturbed plant (slow motor, low attitude gain) may overshoot its
+    # tilt command, which the Monte Carlo verdict does not count: guarded only against a flip-like excursion
+    tilt_cap = options.tilt_limit_deg + ROBUST_TILT_SLACK_DEG
     for lo in range(0, len(jobs), ROBUST_BATCH_RUNS):
         chunk = jobs[lo:lo + ROBUST_BATCH_RUNS]
         pairs = [scen[s].params(vehicle, designs[d][0], designs[d][1], horizon_s, options.tilt_limit_deg,
@@ -360,7 +367,7 @@ def margin_penalty(vehicle: Vehicle, gains, inner: InnerLoopGains, options: Tune
         margins = design_margins(vehicle, gains, inner, tilt_limit_deg=options.tilt_limit_deg)
     except CascadeError:
         return 12.0 * horizon_s, None
-    short = margin_shortfall(margins)
+    short = margin_shortfall(margins, include_pm=options.require_pm)
     if not math.isfinite(short):
         return 12.0 * horizon_s, margins
     return short, margins
