@@ -6,7 +6,7 @@ The optimiser that follows the sweep is in :mod:`nniquad.tuning.optimizers`.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable
 
 import numpy as np
@@ -45,9 +45,18 @@ class _Search:
         self._reach: dict[tuple, float] = {}
         self.progress = progress or (lambda msg: None)
 
-    def evaluate(self, pts: np.ndarray) -> list[Candidate]:
+    def evaluate(self, pts: np.ndarray, screen: bool = False) -> list[Candidate]:
+        """Candidates of the points (clipped to the box); ``screen``: on the nominal run only.
+
+        The sweep screens (a robust candidate costs the 20 tuning scenarios, a
+        nominal one a single run); its best points are evaluated again in full
+        before the optimiser starts from them.
+        """
         pts = np.clip(np.atleast_2d(pts), self.lo, self.hi)
-        cost, mets = evaluate(self.vehicle, pts, self.options, self.horizon_s)
+        options = self.options
+        if screen and (options.robust or options.require_margins):
+            options = replace(options, objective="nominal", require_margins=False, require_pm=False)
+        cost, mets = evaluate(self.vehicle, pts, options, self.horizon_s)
         self.n_sim += len(pts) * len(_scenario_options(self.options, simulation_options(self.options, 1.0),
                                                         self.vehicle))
         return [Candidate(q.copy(), float(c), m) for q, c, m in zip(pts, cost, mets)]
@@ -112,7 +121,7 @@ def _global(search: _Search, n: int, seed: int, batch: int = 256) -> list[Candid
     pts = initial_design(n, search.lo, search.hi, seed, sector_face=search.options.controller == "nni")
     out: list[Candidate] = []
     for i in range(0, len(pts), batch):
-        out += search.evaluate(pts[i : i + batch])
+        out += search.evaluate(pts[i : i + batch], screen=True)
         search.progress(f"sweep {min(i + batch, len(pts))}/{len(pts)} points")
     out.sort(key=lambda c: c.cost)
     return out

@@ -114,7 +114,7 @@ from nniquad.model.vehicle import PAPER_VEHICLE, Vehicle
 from nniquad.tuning.coordinates import attitude_accel_headroom, attitude_wn_cap, decode, encode, search_box
 from nniquad.tuning.objective import (_tau_cap, evaluate, evaluate_details, honest_horizon_s, required_hold_s, robust_scenarios,
                                       settling_shown, simulation_options, simulations_run)
-from nniquad.tuning.options import (ROBUST_QUANTILE, ALTITUDE_CAP_M, BUDGETS, DEFAULT_OPTIMIZER, DEFAULT_ROA_RADIUS_M, OPTIMIZERS, LONGEST_SETTLING_BANDS, SECTOR_FACE_SHARE, TILT_SLACK_DEG, TuneOptions)
+from nniquad.tuning.options import (ROBUST_BUDGETS, SCREEN_KEEP_PER_START, budget_of, ROBUST_QUANTILE, ALTITUDE_CAP_M, BUDGETS, DEFAULT_OPTIMIZER, DEFAULT_ROA_RADIUS_M, OPTIMIZERS, LONGEST_SETTLING_BANDS, SECTOR_FACE_SHARE, TILT_SLACK_DEG, TuneOptions)
 from nniquad.tuning.optimizers import minimise
 from nniquad.tuning.search import Candidate, _global, _Search, _starts, initial_design
 
@@ -287,10 +287,14 @@ def _one_seed(search: _Search, seed: int, extra: list[Candidate]) -> tuple[Candi
 
     ``extra`` (evaluated warm starts) compete with the sweep's points for the starts.
     """
-    n_global, k, n_evals, _ = BUDGETS[search.options.budget]
+    options = search.options
+    n_global, k, n_evals, _ = budget_of(options)
     # the attitude coordinates double the dimension: sample twice as densely, search twice as long
     scale = 2 if len(search.lo) > 3 else 1
-    ranked = sorted(_global(search, n_global * scale, seed) + extra, key=lambda c: c.cost)
+    ranked = sorted(_global(search, n_global * scale, seed), key=lambda c: c.cost)
+    if options.robust or options.require_margins:  # the sweep screened on the nominal run: rank again in full
+        ranked = search.evaluate(np.array([c.q for c in ranked[:SCREEN_KEEP_PER_START * k]]))
+    ranked = sorted(ranked + extra, key=lambda c: c.cost)
     starts = _starts(search, ranked, k)
     if not starts:
         raise NniquadError(
@@ -298,7 +302,8 @@ def _one_seed(search: _Search, seed: int, extra: list[Candidate]) -> tuple[Candi
             f"{search.options.roa_radius_m:g} m (use a larger --budget, a smaller --roa-radius, or 0 to switch "
             "the check off)"
         )
-    found = minimise(search, starts, method=search.options.optimizer, max_evals=n_evals * scale, seed=seed)
+    max_evals = n_evals if options.robust else n_evals * scale  # ROBUST_BUDGETS are final numbers
+    found = minimise(search, starts, method=options.optimizer, max_evals=max_evals, seed=seed)
     return found[0], found
 
 
@@ -335,7 +340,7 @@ def tune(vehicle: Vehicle = PAPER_VEHICLE, options: TuneOptions | None = None,
     horizon = options.horizon_s if options.horizon_s is not None else default_horizon_s(vehicle, options, bound)
     search = _Search(vehicle, options, horizon, lambda msg: say(f"seed {seed}: {msg}"))
     runs0 = simulations_run()
-    n_reruns = BUDGETS[options.budget][3] if options.reruns is None else options.reruns
+    n_reruns = budget_of(options)[3] if options.reruns is None else options.reruns
     alpha = attitude_accel_headroom(vehicle, options.tilt_limit_deg)
     extra: list[Candidate] = []
     if warm_starts:
