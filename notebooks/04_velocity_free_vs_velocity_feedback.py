@@ -81,7 +81,7 @@ CTRL_COLOR = {"nni": "tab:blue", "pd_velocity": "tab:green", "pd_filtered": "tab
 #
 # The NNI gains and the attitude loop come from the certificate
 # `notebooks/data/full_model_certificate.json`, written by `nniquad certify
-# --model full --roa-radius 0` (the tuner at the normal budget, seed 0; too
+# --model full` (the tuner's defaults: robust objective, normal budget, seed 0; too
 # slow to rerun here; notebook 3 shows why the quick budget's result is not
 # usable).  Its sector bound and certified reach are
 # recomputed.  The PD controllers get the same inner loops (and the same
@@ -90,7 +90,7 @@ CTRL_COLOR = {"nni": "tab:blue", "pd_velocity": "tab:green", "pd_filtered": "tab
 # %%
 from pathlib import Path
 
-# written by `nniquad certify --model full --roa-radius 0 --out notebooks/data/full_model_certificate.json`;
+# written by `nniquad certify --model full --out notebooks/data/full_model_certificate.json`;
 # load_certificate checks its schema and SHA-256 digest
 CERT = read_certificate(Path("data") / "full_model_certificate.json" if Path("data").is_dir()
                         else Path("notebooks") / "data" / "full_model_certificate.json")
