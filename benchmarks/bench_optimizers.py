@@ -11,7 +11,10 @@ the simulations.  The table printed to stderr is the one for the report.
 
 Environment: ``NNIQUAD_BENCH_OPT_BUDGET`` (default ``quick``: 256 sweep points
 and 400 optimiser evaluations per seed on the full model, about half a minute
-each on the 2-core reference machine), ``NNIQUAD_BENCH_OPT_SEEDS`` (default 5).
+each on the 2-core reference machine), ``NNIQUAD_BENCH_OPT_SEEDS`` (default 5),
+``NNIQUAD_BENCH_OPT_METHODS`` (default both, comma-separated).  ``TuneOptions(model="full")``
+takes the robust objective by default, so the budgets are
+:data:`nniquad.tuning.options.ROBUST_BUDGETS`.
 """
 
 from __future__ import annotations
@@ -38,7 +41,8 @@ def run() -> list[dict]:
     n_seeds = int(os.environ.get("NNIQUAD_BENCH_OPT_SEEDS", "5"))
     rows: list[dict] = []
     table = [f"{'optimizer':<9} {'seed':>4} {'best [s]':>9} {'sims':>6} {'wall [s]':>8}"]
-    for method in OPTIMIZERS:
+    methods = [m for m in os.environ.get("NNIQUAD_BENCH_OPT_METHODS", ",".join(OPTIMIZERS)).split(",") if m]
+    for method in methods:
         best, sims, wall = [], 0, 0.0
         for seed in range(n_seeds):
             opts = TuneOptions(model="full", roa_radius_m=0.0, budget=budget, reruns=0, seed=seed, optimizer=method)

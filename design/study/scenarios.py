@@ -216,7 +216,37 @@ def study_setup_from(vehicle: Any, gains: Any, *, inner: Any = None, tilt_limit_
     :class:`~nniquad.control.gains.PDGains`, :class:`~nniquad.control.gains.PDFilteredGains`)
     or a mapping / tuple of NNI gains; the block's type picks the law, so the PD
     comparison laws are studied on the same scenarios as the NNI law.
-    ``region_m`` (default ``‖xi0_m‖``) is capped at ``ranges.max_displacement_m``.
+
+    Parameters
+    ----------
+    vehicle
+        The nominal vehicle (:class:`nniquad.model.vehicle.Vehicle`).
+    gains
+        The horizontal law's gain block (see above).
+    inner
+        Inner-loop gains (default :data:`nniquad.control.gains.DEFAULT_INNER_LOOP_GAINS`).
+    tilt_limit_deg
+        Tilt limit [deg].
+    xi0_m
+        The nominal initial position [m]; its norm sets the settling band (2 %).
+    region_m
+        Radius of the initial-displacement disk [m] (default ``‖xi0_m‖``), capped at
+        ``ranges.max_displacement_m``.
+    ranges
+        The perturbation ranges (their noise rate and displacement cap are used here).
+    horizon_s
+        Simulated time per scenario [s].
+    label
+        Identification of the design for the report.
+
+    Returns
+    -------
+    StudySetup
+
+    Raises
+    ------
+    MonteCarloError
+        A non-positive horizon or a bad initial position.
     """
     h = _cert_float(horizon_s)
     if h is None:
