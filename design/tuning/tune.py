@@ -114,7 +114,7 @@ from nniquad.model.vehicle import PAPER_VEHICLE, Vehicle
 from nniquad.tuning.coordinates import attitude_accel_headroom, attitude_wn_cap, decode, encode, search_box
 from nniquad.tuning.objective import (_tau_cap, evaluate, evaluate_details, honest_horizon_s, required_hold_s, robust_scenarios,
                                       settling_shown, simulation_options, simulations_run)
-from nniquad.tuning.options import (ROBUST_BUDGETS, SCREEN_KEEP_PER_START, budget_of, ROBUST_QUANTILE, ALTITUDE_CAP_M, BUDGETS, DEFAULT_OPTIMIZER, DEFAULT_ROA_RADIUS_M, OPTIMIZERS, LONGEST_SETTLING_BANDS, SECTOR_FACE_SHARE, TILT_SLACK_DEG, TuneOptions)
+from nniquad.tuning.options import (SCREEN_KEEP_PER_START, budget_of, ROBUST_QUANTILE, ALTITUDE_CAP_M, BUDGETS, DEFAULT_OPTIMIZER, DEFAULT_ROA_RADIUS_M, OPTIMIZERS, LONGEST_SETTLING_BANDS, SECTOR_FACE_SHARE, TILT_SLACK_DEG, TuneOptions)
 from nniquad.tuning.optimizers import minimise
 from nniquad.tuning.search import Candidate, _global, _Search, _starts, initial_design
 
