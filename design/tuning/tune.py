@@ -39,8 +39,12 @@ simple bound::
     q0 = ln kp,   q1 = u = ln(γ_max m kp δ) >= 0,   q2 = ln(Γ δ),
     [q3 = ln ω_a,   q4 = ζ_a,   q5 = α / α_avail]
 
-``Γδ`` is the controller pole (1/s); ``q2 <= ln(2.5/dt)`` keeps the explicit RK4
-integrator inside its stability region.  For ``full`` the attitude loop is
+``Γδ`` is the controller pole (1/s), at most min(π f_s, 2.5/dt): below the
+Nyquist frequency of the 100 Hz position samples and inside the RK4 step's
+stability region; kp is bounded by what the vehicle's attitude loop and tilt
+limit realise (:func:`nniquad.tuning.coordinates.gain_limits`).  The PD laws
+(``TuneOptions.controller``) search ``ln kp``, the damping ratio
+``k_d/(2√k_p)`` and, filtered, ``ln τ_f`` instead.  For ``full`` the attitude loop is
 tuned as well (q3..q5: natural frequency, damping, and the deceleration of the
 square-root error shaping of :mod:`nniquad.control.inner_loops` as a fraction of
 :func:`attitude_accel_headroom`), because the NNI loop's speed is limited by
