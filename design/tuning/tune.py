@@ -107,6 +107,8 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
+from nniquad import config
+
 from nniquad.analysis.bound import BoundResult, time_optimal_bound
 from nniquad.analysis.linear import ReducedLoop
 from nniquad.analysis.lmi.roa import certified_reach
@@ -116,9 +118,9 @@ from nniquad.config import BAND_FRACTION, XI0_NORM_M
 from nniquad.errors import NniquadError
 from nniquad.model.vehicle import PAPER_VEHICLE, Vehicle
 from nniquad.tuning.coordinates import attitude_accel_headroom, attitude_wn_cap, decode, encode, search_box
-from nniquad.tuning.objective import (_tau_cap, evaluate, evaluate_details, honest_horizon_s, required_hold_s, robust_scenarios,
+from nniquad.tuning.objective import (MARGIN_PENALTY_WIDTH_S, _tau_cap, evaluate, evaluate_details, honest_horizon_s, required_hold_s, robust_scenarios,
                                       settling_shown, simulation_options, simulations_run)
-from nniquad.tuning.options import (SCREEN_KEEP_PER_START, budget_of, ROBUST_QUANTILE, ALTITUDE_CAP_M, BUDGETS, DEFAULT_OPTIMIZER, DEFAULT_ROA_RADIUS_M, OPTIMIZERS, LONGEST_SETTLING_BANDS, SECTOR_FACE_SHARE, TILT_SLACK_DEG, TuneOptions)
+from nniquad.tuning.options import (ROBUST_RETRY_BANDS, SCREEN_KEEP_PER_START, budget_of, ROBUST_QUANTILE, ALTITUDE_CAP_M, BUDGETS, DEFAULT_OPTIMIZER, DEFAULT_ROA_RADIUS_M, OPTIMIZERS, LONGEST_SETTLING_BANDS, SECTOR_FACE_SHARE, TILT_SLACK_DEG, TuneOptions)
 from nniquad.tuning.optimizers import minimise
 from nniquad.tuning.search import Candidate, _global, _Search, _starts, initial_design
 
@@ -342,22 +344,32 @@ def tune(vehicle: Vehicle = PAPER_VEHICLE, options: TuneOptions | None = None,
     say = progress or (lambda msg: None)
     bound = time_optimal_bound(vehicle, tilt_limit_deg=options.tilt_limit_deg)
     horizon = options.horizon_s if options.horizon_s is not None else default_horizon_s(vehicle, options, bound)
-    search = _Search(vehicle, options, horizon, lambda msg: say(f"seed {seed}: {msg}"))
     runs0 = simulations_run()
     n_reruns = budget_of(options)[3] if options.reruns is None else options.reruns
     alpha = attitude_accel_headroom(vehicle, options.tilt_limit_deg)
-    extra: list[Candidate] = []
-    if warm_starts:
-        qs = [encode(g, vehicle.m, options.gamma_max, inn if options.dims > 3 else None, alpha)
-              for g, inn in warm_starts]
-        inside = [q for q in qs if np.all(q >= search.lo - 1e-12) and np.all(q <= search.hi + 1e-12)]
-        if inside:
-            extra = search.evaluate(np.array(inside))
-    results: list[tuple[int, Candidate]] = []
-    for seed in [options.seed + i for i in range(n_reruns + 1)]:
-        best_seed, _ = _one_seed(search, seed, extra)
-        results.append((seed, best_seed))
-    _, best = min(results, key=lambda sc: sc[1].cost)
+    horizons = [horizon]
+    if options.horizon_s is None and options.robust:
+        # a smaller or weaker vehicle's robust corners may settle later than the default horizon can show:
+        # search again, once, on a horizon that shows ROBUST_RETRY_BANDS x enter_band_s
+        horizons.append(max(horizon, honest_horizon_s(ROBUST_RETRY_BANDS * bound.enter_band_s)))
+    for attempt, horizon in enumerate(horizons):
+        search = _Search(vehicle, options, horizon, lambda msg: say(f"seed {seed}: {msg}"))
+        extra: list[Candidate] = []
+        if warm_starts:
+            qs = [encode(g, vehicle.m, options.gamma_max, inn if options.dims > 3 else None, alpha)
+                  for g, inn in warm_starts]
+            inside = [q for q in qs if np.all(q >= search.lo - 1e-12) and np.all(q <= search.hi + 1e-12)]
+            if inside:
+                extra = search.evaluate(np.array(inside))
+        results: list[tuple[int, Candidate]] = []
+        for seed in [options.seed + i for i in range(n_reruns + 1)]:
+            best_seed, _ = _one_seed(search, seed, extra)
+            results.append((seed, best_seed))
+        _, best = min(results, key=lambda sc: sc[1].cost)
+        if best.cost < horizon + MARGIN_PENALTY_WIDTH_S or attempt == len(horizons) - 1:
+            break
+        say(f"no gain set passed every robust scenario within the {horizon:g} s horizon; searching again "
+            f"on {horizons[attempt + 1]:g} s")
     gains, inner = decode(best.q, vehicle.m, options.gamma_max, alpha_avail=alpha,
                           tau_motor_s=_tau_cap(vehicle, options), controller=options.controller)
     details = evaluate_details(vehicle, best.q[None], options, horizon, full_report=True)[0]
@@ -373,9 +385,12 @@ def tune(vehicle: Vehicle = PAPER_VEHICLE, options: TuneOptions | None = None,
                 f"horizon (settled, no altitude loss, actual tilt <= limit + {TILT_SLACK_DEG:g} deg); the best "
                 f"fails {len(failed)} of {len(scen)}: {', '.join(failed[:3])} (use a larger --budget, or --nominal)"
             )
+        longest = horizon - required_hold_s(horizon / (1.0 + config.SETTLING_HOLD_FACTOR))
         raise NniquadError(
             f"no gain set settled within the {horizon:g} s horizon on the {options.model} model "
-            "(best candidate did not settle)"
+            f"(best candidate did not settle{', objective ' + options.objective if options.model == 'full' else ''}; "
+            f"a settling time counts only if the run then stays in the band for max(5 s, 2 x settling), so at most "
+            f"about {longest:.3g} s here): use a larger --budget" + (" or --nominal" if options.robust else "")
         )
     if margins_met is False:
         # the horizontal PM of this law is at most asin(γ/(2-γ)), 41.8° at γ = 0.8, on the ideal double
