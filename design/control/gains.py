@@ -222,6 +222,29 @@ class PDFilteredGains(_PlainBlock):
 
 #: Any horizontal-controller gain block.
 ControllerGains = Union[Gains, PDGains, PDFilteredGains]
+
+
+def wind_equilibrium_m(gains: ControllerGains, m_hat: float, wind_N: tuple[float, float]) -> tuple[float, float]:
+    """Static position under a constant horizontal force, ``F / k`` per axis (origin where ``k <= 0``).
+
+    The static stiffness ``k`` is ``m̂ k_p − 1/δ`` for the NNI law (its state settles
+    at ``z = ξ/δ``) and ``m̂ k_p`` for the PD laws (the derivative term vanishes at rest).
+
+    Parameters
+    ----------
+    gains
+        The horizontal law's gain block.
+    m_hat
+        Mass the controller assumes [kg].
+    wind_N
+        Constant force ``(F_x, F_y)`` [N].
+    """
+    if isinstance(gains, Gains):
+        stiffness = [m_hat * kp - 1.0 / gains.delta for kp in (gains.kp, gains.kp_y)]
+    else:
+        stiffness = [m_hat * gains.kp] * 2
+    x, y = (f / k if k > 0 else 0.0 for f, k in zip(wind_N, stiffness))
+    return (x, y)
 #: The gain block of each controller law, by name.
 CONTROLLER_GAINS: dict[str, type] = {cls.controller: cls for cls in (Gains, PDGains, PDFilteredGains)}
 

@@ -388,22 +388,11 @@ class Scenario:
         return replace(self, params=tuple(float(v) for v in self.sim_params.with_(**changes).vector()))
 
     def equilibrium_m(self) -> tuple[float, float]:
-        """Static equilibrium under the constant wind, ``F / k_static`` per axis (origin if none).
+        """Static equilibrium under the constant wind (:func:`nniquad.control.gains.wind_equilibrium_m`)."""
+        from nniquad.control.gains import wind_equilibrium_m
 
-        The static stiffness is ``m̂ k_p − 1/δ`` for the NNI law (its state settles
-        at ``z = ξ/δ``) and ``m̂ k_p`` for the PD laws (the derivative term vanishes
-        at rest).
-        """
         p = self.sim_params
-        g = p.gains
-        if self.controller == "nni":
-            stiff = [p.nominal.m * kp - 1.0 / g.delta for kp in (g.kp, g.kp_y)]
-        else:
-            stiff = [p.nominal.m * g.kp] * 2
-        out = []
-        for force, stiffness in zip((p.run.wind_x, p.run.wind_y), stiff):
-            out.append(force / stiffness if stiffness > 0 else 0.0)
-        return (out[0], out[1])
+        return wind_equilibrium_m(p.gains, p.nominal.m, (p.run.wind_x, p.run.wind_y))
 
     def describe(self) -> dict[str, Any]:
         """The drawn quantities with units (JSON ready)."""

@@ -40,7 +40,7 @@ from typing import Any
 import numpy as np
 
 from nniquad.config import XI0_M
-from nniquad.control.gains import Gains, InnerLoopGains
+from nniquad.control.gains import Gains, InnerLoopGains, wind_equilibrium_m
 from nniquad.model.vehicle import Vehicle
 
 __all__ = ["N_RANDOM", "TuningScenario", "tuning_scenarios", "displacement_radius_m"]
@@ -114,14 +114,9 @@ class TuningScenario:
         return opts, p
 
     def equilibrium_m(self, vehicle: Vehicle, gains: Gains) -> tuple[float, float]:
-        """Static equilibrium under the wind, ``F/k`` per axis (as the Monte Carlo study).
-
-        ``k = m̂ k_p - 1/δ`` for the NNI law, ``m̂ k_p`` for a PD law (no derivative at rest).
-        """
-        stiffness = vehicle.m * gains.kp - (1.0 / gains.delta if isinstance(gains, Gains) else 0.0)
-        if stiffness <= 0:
-            return (0.0, 0.0)
-        return (self.wind_N[0] / stiffness, self.wind_N[1] / stiffness)
+        """Static equilibrium under the wind, as in the Monte Carlo study
+        (:func:`nniquad.control.gains.wind_equilibrium_m`)."""
+        return wind_equilibrium_m(gains, vehicle.m, self.wind_N)
 
     def to_json(self) -> dict[str, Any]:
         return {"label": self.label, "mass_factor": self.mass_factor, "inertia_factors": list(self.inertia_factors),
