@@ -539,6 +539,11 @@ def _run_pool(n_workers: int, batches: list[list[Scenario]], add: Callable[[list
         elif isinstance(exc, BrokenProcessPool):
             if stop.requested:  # Ctrl-C on the terminal also reached a worker still starting up
                 return
+            # the pool may report the broken pipe before the dead worker is reaped: give it a moment to
+            # show its exit code, so the message names it (this is the fault path, never the normal one)
+            deadline = time.monotonic() + 2.0
+            while time.monotonic() < deadline and not any(p.exitcode not in (None, 0) for p in seen.values()):
+                time.sleep(0.02)
             dead = [f"pid {pid}, {_exit_description(p.exitcode)}" for pid, p in seen.items()
                     if p.exitcode not in (None, 0)]
             raise StudyFailedError(f"a local worker process died ({'; '.join(dead) or 'terminated abruptly'})",
