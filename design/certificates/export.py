@@ -37,7 +37,7 @@ if TYPE_CHECKING:
     from nniquad.certificates.certificate import Certificate
     from nniquad.control.discrete import DiscreteNNI
 
-__all__ = ["FORMATS", "STEP_NAME", "export_controller", "controller_from_certificate"]
+__all__ = ["FORMATS", "STEP_NAME", "export_controller", "controller_from_certificate", "certified_rate_hz"]
 
 #: Export formats.
 FORMATS: tuple[str, ...] = ("json", "c")
@@ -64,6 +64,14 @@ def _rate(rate_hz: Any) -> float:
     if isinstance(rate_hz, bool) or not math.isfinite(r) or r <= 0:
         raise ExportError(f"rate must be a finite positive number of Hz, got {rate_hz!r}")
     return r
+
+
+def certified_rate_hz(cert: "Certificate | Mapping[str, Any]") -> float | None:
+    """The control rate [Hz] a certificate's sampled-data cascade section certifies (``None``: schema 1, no rate)."""
+    section = _typed(cert).body().get("cascade")
+    if not isinstance(section, Mapping):
+        return None
+    return _rate(section.get("rate_hz"))
 
 
 def controller_from_certificate(cert: "Certificate | Mapping[str, Any]", rate_hz: float) -> "DiscreteNNI":
@@ -109,7 +117,7 @@ def _sampled_check(cert: "Certificate", rate_hz: float) -> dict[str, Any]:
 
 
 def export_controller(cert: "Certificate | Mapping[str, Any]", out_dir: str | os.PathLike[str], fmt: str = "json",
-                      rate_hz: float = CONTROL_RATE_HZ) -> list[Path]:
+                      rate_hz: float | None = None) -> list[Path]:
     """Write the discrete-time controller of a certificate.
 
     Parameters
@@ -122,7 +130,11 @@ def export_controller(cert: "Certificate | Mapping[str, Any]", out_dir: str | os
     fmt
         ``"json"`` or ``"c"`` (:data:`FORMATS`).
     rate_hz
-        Control rate [Hz] (the position sample rate); default :data:`nniquad.config.CONTROL_RATE_HZ`.
+        Control rate [Hz] (the position sample rate).  Default: the rate the
+        certificate's ``cascade`` section certifies, or
+        :data:`nniquad.config.CONTROL_RATE_HZ` for a schema-1 certificate (which
+        certifies no rate).  Another rate is written, but the JSON then says
+        ``"rate_certified": false``: the certificate does not cover it.
 
     Returns
     -------
@@ -138,8 +150,9 @@ def export_controller(cert: "Certificate | Mapping[str, Any]", out_dir: str | os
 
     if fmt not in FORMATS:
         raise ExportError(f"unknown format {fmt!r} (choose one of {', '.join(FORMATS)})")
-    rate = _rate(rate_hz)
     cert = _typed(cert)
+    certified = certified_rate_hz(cert)
+    rate = _rate((certified or CONTROL_RATE_HZ) if rate_hz is None else rate_hz)
     ctrl = controller_from_certificate(cert, rate)
     d = _writable_dir(out_dir)  # before the linearisation: a bad folder is refused at once
     check = _sampled_check(cert, rate)
@@ -156,7 +169,8 @@ def export_controller(cert: "Certificate | Mapping[str, Any]", out_dir: str | os
                    "gains": body["gains"], "vehicle": body["vehicle"], **ctrl.to_json(),
                    "step_inputs": [dict(zip(("name", "size", "unit", "meaning"), r)) for r in STEP_INPUTS],
                    "step_outputs": [dict(zip(("name", "size", "unit", "meaning"), r)) for r in STEP_OUTPUTS],
-                   "sampled_cascade": check}
+                   "sampled_cascade": check, "certified_rate_hz": certified,
+                   "rate_certified": certified is not None and rate == certified}
             path = atomic_write_text(d / "nniquad_controller.json", json.dumps(doc, indent=2, allow_nan=False) + "\n")
             return [path]
         return _write_c(ctrl, d, digest)

@@ -29,13 +29,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
     add_output_option(parser, "--out", kind="folder", metavar="DIR", required=True,
                       help="output folder (created if missing)")
-    parser.add_argument("--rate", metavar="HZ", type=float, default=CONTROL_RATE_HZ,
-                        help=f"control rate = position sample rate in Hz (default {CONTROL_RATE_HZ:g})")
+    parser.add_argument("--rate", metavar="HZ", type=float, default=None,
+                        help="control rate = position sample rate in Hz (default: the rate the certificate "
+                             f"certifies; {CONTROL_RATE_HZ:g} for a schema-1 certificate, which certifies none)")
 
 
 def run(args: argparse.Namespace) -> int:
+    from nniquad.config import CONTROL_RATE_HZ
     from nniquad.certificates.certificate import read_certificate
-    from nniquad.certificates.export import export_controller
+    from nniquad.certificates.export import certified_rate_hz, export_controller
 
     from nniquad.io import output_transaction
 
@@ -44,4 +46,10 @@ def run(args: argparse.Namespace) -> int:
         written = export_controller(cert, args.out, args.format, args.rate)
     for path in written:
         print(f"wrote {path}")
+    certified = certified_rate_hz(cert)
+    if certified is None:
+        print("note: this schema-1 certificate certifies no sampled-data rate; the controller was written at "
+              f"{args.rate if args.rate is not None else CONTROL_RATE_HZ:g} Hz")
+    elif args.rate is not None and args.rate != certified:
+        print(f"note: written at {args.rate:g} Hz, but the certificate certifies {certified:g} Hz only")
     return 0
