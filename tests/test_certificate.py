@@ -147,7 +147,7 @@ def test_broken_json_and_missing_file(tmp_path, run_cli, cert):
 def test_cli_verify_table_and_failure_exit(cert, tmp_path, run_cli):
     good = write_certificate(cert, tmp_path / "good.json")
     code, out, _ = run_cli("verify", str(good))
-    assert code == 0 and "all 11 checks pass" in out and "lmi.robust_mass" in out and "margins" in out
+    assert code == 0 and "all 16 checks pass" in out and "lmi.robust_mass" in out and "margins" in out
     c = copy.deepcopy(cert)
     _tamper_matrix(c)
     bad = tmp_path / "resigned.json"
@@ -348,7 +348,7 @@ def test_resigned_pole_list_and_bound_fail(cert):
     c["bound"]["enter_band_s"] *= 0.9
     c["ratio_to_bound"] = {k: v / 0.9 for k, v in c["ratio_to_bound"].items()}
     failed = {chk.name for chk in verify_certificate(_resign(c)).checks if not chk.ok}
-    assert {"performance.reduced", "performance.full"} <= failed
+    assert failed == {"bound"}  # the bound is recomputed, and the ratios from it and the stated settling times
 
 
 def test_sector_check_refuses_gamma_max_one(cert):

@@ -10,7 +10,8 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 
 from nniquad.analysis.linear import ReducedLoop
-from nniquad.certificates.certificate import PERFORMANCE_HORIZON_S, TOLERANCES, Certificate
+from nniquad.certificates.certificate import (NI_FORM, PERFORMANCE_HORIZON_S, ROA_MODEL, TOLERANCES, Certificate,
+                                              reference_run_options)
 from nniquad.config import GAMMA_MAX, MASS_RANGE_FRACTION, TILT_LIMIT_DEG, XI0_M
 from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, InnerLoopGains
 from nniquad.errors import CertificateError
@@ -51,12 +52,13 @@ def performance_runs(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, t
     motor_lag
         Motor lag on in the ``full`` run.
     """
-    from nniquad.sim import SimOptions, simulate
+    from nniquad.sim import simulate
 
     out = {}
     for model in ("reduced", "full"):
-        opts = SimOptions(model=model, horizon_s=horizon_s, output_dt_s=0.005, tilt_limit_deg=tilt_limit_deg,
-                          xi0=tuple(xi0), motor_lag=motor_lag and model == "full", inner=inner)
+        # the one definition verify compares the stated settings against
+        opts = reference_run_options(model, inner, tilt_limit_deg=tilt_limit_deg, xi0=xi0, horizon_s=horizon_s,
+                                     motor_lag=motor_lag)
         met = simulate(vehicle, gains, opts)[0].metrics()
         out[model] = {"settling_s": met.settling_s, "overshoot_pct": met.overshoot_pct,
                       "peak_tilt_deg": met.peak_tilt_deg, "diverged": met.diverged, "settings": opts.to_json()}
@@ -201,8 +203,8 @@ def build_certificate(vehicle: Vehicle, gains: Gains, *, inner: InnerLoopGains =
             "poles_1_s": [[float(p.real), float(p.imag)] for p in pd.poles],
         },
         lmi={
-            "plant_ni": {"P": _mat(plant.matrices["P"]), "form": "V' <= ydot' u (dissipation)"},
-            "controller_ni": {"P": _mat(ctrl.matrices["P"]), "form": "V' <= ydot' u (dissipation)"},
+            "plant_ni": {"P": _mat(plant.matrices["P"]), "form": NI_FORM},
+            "controller_ni": {"P": _mat(ctrl.matrices["P"]), "form": NI_FORM},
             "closed_loop": {"P": _mat(cl.matrices["P"]), "decay_rate_1_s": float(cl.values["decay_rate"])},
             "robust_mass": {"m_lo_kg": float(lo), "m_hi_kg": float(hi), "m_nominal_kg": m,
                             "P0": _mat(rob.matrices["P0"]), "P1": _mat(rob.matrices["P1"]),
@@ -212,7 +214,7 @@ def build_certificate(vehicle: Vehicle, gains: Gains, *, inner: InnerLoopGains =
                                      "max_displacement_m": reach},
         },
         region_of_attraction={"max_displacement_m": reach, "u0_m_s2": u0, "tilt_limit_deg": float(tilt_limit_deg),
-                              "model": "norm-limited horizontal acceleration, rotation-invariant ellipsoid"},
+                              "model": ROA_MODEL},
         start_certified=bool(math.hypot(*xi0) <= reach),
         performance=perf,
         bound={"enter_band_s": bound.enter_band_s, "rest_to_rest_s": bound.rest_to_rest_s,

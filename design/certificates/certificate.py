@@ -25,6 +25,11 @@ A certificate is one JSON document (:data:`SCHEMA`, :data:`SCHEMA_VERSION`):
     simulation settings, so that :func:`verify_certificate` can re-simulate.
 ``bound``, ``ratio_to_bound``
     The time-optimal bound and each model's settling time divided by it.
+``cascade`` (schema 2 only)
+    The sampled-data cascade certificate (rate, parameter box, matrices, decay
+    rate, reach, margins; :mod:`nniquad.analysis.robust_cascade`).  A document
+    with this section has ``schema_version`` 2, one without it 1
+    (:data:`SCHEMA_VERSIONS`); each version refuses the other's layout.
 ``software``
     Package versions.  ``digest``: SHA-256 of the canonical JSON of everything
     else (sorted keys, no whitespace, UTF-8).
@@ -60,6 +65,12 @@ from nniquad.model.vehicle import Vehicle
 __all__ = [
     "SCHEMA",
     "SCHEMA_VERSION",
+    "SCHEMA_VERSIONS",
+    "CASCADE_SCHEMA_VERSION",
+    "PERFORMANCE_OUTPUT_DT_S",
+    "NI_FORM",
+    "ROA_MODEL",
+    "reference_run_options",
     "DIGEST_ALGORITHM",
     "TOLERANCES",
     "PERFORMANCE_HORIZON_S",
@@ -75,7 +86,12 @@ __all__ = [
 ]
 
 SCHEMA = "nniquad-certificate"
+#: Version of a certificate without a ``cascade`` section (every certificate before issue 15).
 SCHEMA_VERSION = 1
+#: Version of a certificate with a ``cascade`` section (the sampled-data cascade over a parameter box).
+CASCADE_SCHEMA_VERSION = 2
+#: The versions :func:`check_form` reads.
+SCHEMA_VERSIONS: tuple[int, ...] = (SCHEMA_VERSION, CASCADE_SCHEMA_VERSION)
 DIGEST_ALGORITHM = "sha256"
 
 #: Tolerances of :func:`nniquad.certificates.verify.verify_certificate` (stored in every certificate for the record).
@@ -93,6 +109,48 @@ TOLERANCES: dict[str, float] = {
 
 #: Default horizon of the certificate's performance runs [s].
 PERFORMANCE_HORIZON_S = 20.0
+#: The stated form of the plant's and the controller's NI certificates (``lmi.*_ni.form``).
+NI_FORM = "V' <= ydot' u (dissipation)"
+#: The stated saturation model of the region of attraction (``region_of_attraction.model``).
+ROA_MODEL = "norm-limited horizontal acceleration, rotation-invariant ellipsoid"
+
+#: Output sample period of the certificate's performance runs [s].
+PERFORMANCE_OUTPUT_DT_S = 0.005
+
+
+def reference_run_options(model: str, inner: InnerLoopGains, *, tilt_limit_deg: float, xi0: Any,
+                          horizon_s: float = PERFORMANCE_HORIZON_S, motor_lag: bool = True) -> Any:
+    """The simulation options of a certificate's reference run (``reduced`` or ``full``).
+
+    The one definition :func:`nniquad.certificates.build.performance_runs` simulates
+    with and :func:`nniquad.certificates.verify.verify_certificate` compares the stated
+    ``performance.*.settings`` against: the nominal vehicle at rest at ``xi0``, no noise,
+    wind or gust, continuous measurement, motor lag in ``full`` only.
+
+    Parameters
+    ----------
+    model
+        ``"reduced"`` or ``"full"``.
+    inner
+        Inner-loop gains.
+    tilt_limit_deg
+        Tilt limit [deg].
+    xi0
+        Initial horizontal position [m].
+    horizon_s
+        Simulated time [s].
+    motor_lag
+        Motor lag on in the ``full`` run.
+
+    Returns
+    -------
+    nniquad.sim.SimOptions
+    """
+    from nniquad.sim import SimOptions  # lazily: reading a certificate needs no CasADi
+
+    return SimOptions(model=model, horizon_s=horizon_s, output_dt_s=PERFORMANCE_OUTPUT_DT_S,
+                      tilt_limit_deg=tilt_limit_deg, xi0=tuple(xi0), motor_lag=motor_lag and model == "full",
+                      inner=inner)
 
 
 # ----------------------------------------------------------------------------- digest and form
@@ -133,10 +191,17 @@ def check_form(cert: Any, where: str = "certificate") -> None:
         raise CertificateError(f"{where}: top level must be a JSON object")
     if cert.get("schema") != SCHEMA:
         raise CertificateError(f"{where}: schema is {cert.get('schema')!r}, expected {SCHEMA!r}")
-    if cert.get("schema_version") != SCHEMA_VERSION or isinstance(cert.get("schema_version"), bool):
-        raise CertificateError(
-            f"{where}: schema version {cert.get('schema_version')!r} is not supported (expected {SCHEMA_VERSION})"
-        )
+    version = cert.get("schema_version")
+    if version not in SCHEMA_VERSIONS or isinstance(version, bool) or not isinstance(version, int):
+        raise CertificateError(f"{where}: schema version {version!r} is not supported "
+                               f"(expected one of {', '.join(map(str, SCHEMA_VERSIONS))})")
+    # the version states the layout: 2 has the sampled-data cascade section, 1 has none
+    has_cascade = "cascade" in cert
+    if version == CASCADE_SCHEMA_VERSION and not isinstance(cert.get("cascade"), dict):
+        raise CertificateError(f"{where}: schema version {version} needs a 'cascade' object")
+    if version == SCHEMA_VERSION and has_cascade:
+        raise CertificateError(f"{where}: schema version {version} has no 'cascade' section "
+                               f"(a cascade certificate is version {CASCADE_SCHEMA_VERSION})")
     digest = cert.get("digest")
     if not isinstance(digest, dict) or not isinstance(digest.get("value"), str):
         raise CertificateError(f"{where}: no digest")
@@ -314,6 +379,9 @@ class Certificate:
         Whether ``xi0_m`` lies in the certified region of attraction.
     tuning
         How the gains were found (``None`` if not recorded).
+    cascade
+        The sampled-data cascade section (schema 2); ``None`` in a schema-1
+        certificate, which then has no such field (its digest is unchanged).
     margins
         Classical margins of the linearised cascade at both break points
         (:func:`nniquad.certificates.build.margins_section`); ``None`` in a
@@ -345,10 +413,11 @@ class Certificate:
     software: Mapping[str, Any]
     signature: str = ""
     margins: Mapping[str, Any] | None = None
+    cascade: Mapping[str, Any] | None = None
 
     def __post_init__(self) -> None:
         for f in fields(self):
-            if f.name in _SECTIONS or f.name in ("tuning", "margins"):
+            if f.name in _SECTIONS or f.name in ("tuning", "margins", "cascade"):
                 object.__setattr__(self, f.name, _freeze(getattr(self, f.name)))
         object.__setattr__(self, "xi0_m", tuple(float(v) for v in self.xi0_m))
 
@@ -358,7 +427,7 @@ class Certificate:
         """The signed content: every field but the digest, as plain JSON data."""
         body = {
             "schema": SCHEMA,
-            "schema_version": SCHEMA_VERSION,
+            "schema_version": self.schema_version,
             "model": self.model,
             "vehicle": self.vehicle.as_dict(),
             "gains": {"kp": self.gains.kp, "Gamma": self.gains.Gamma, "delta": self.gains.delta},
@@ -379,7 +448,14 @@ class Certificate:
         }
         if self.margins is not None:  # optional: older certificates have none and keep their digest
             body["margins"] = _thaw(self.margins)
+        if self.cascade is not None:  # schema 2 only: a schema-1 certificate keeps its digest
+            body["cascade"] = _thaw(self.cascade)
         return body
+
+    @property
+    def schema_version(self) -> int:
+        """2 (:data:`CASCADE_SCHEMA_VERSION`) with a ``cascade`` section, else 1."""
+        return CASCADE_SCHEMA_VERSION if self.cascade is not None else SCHEMA_VERSION
 
     def to_json(self) -> dict[str, Any]:
         """The JSON document: :meth:`body` plus ``digest = {'algorithm': 'sha256', 'value': signature}``."""
@@ -422,7 +498,7 @@ class Certificate:
         data = dict(data) if isinstance(data, Mapping) else data
         check_form(data, where)
         missing = [k for k in _ALL_FIELDS if k not in data]
-        extra = [k for k in data if k not in _ALL_FIELDS and k not in ("schema", "schema_version", "digest", "margins")]
+        extra = [k for k in data if k not in _ALL_FIELDS and k not in ("schema", "schema_version", "digest", "margins", "cascade")]
         if missing or extra:
             what = f"lacks '{missing[0]}'" if missing else f"has an unknown field '{extra[0]}'"
             raise CertificateError(f"{where}: {what}")
@@ -445,7 +521,8 @@ class Certificate:
             model=data["model"], vehicle=certificate_vehicle(data), gains=certificate_gains(data),
             inner_loop=certificate_inner_loop(data), tilt_limit_deg=float(data["tilt_limit_deg"]),
             xi0_m=tuple(xi0), start_certified=data["start_certified"], tuning=data["tuning"],
-            signature=data["digest"]["value"], margins=data.get("margins"), **{k: data[k] for k in _SECTIONS},
+            signature=data["digest"]["value"], margins=data.get("margins"), cascade=data.get("cascade"),
+            **{k: data[k] for k in _SECTIONS},
         )
         # the typed fields must serialise back to exactly what was signed
         body = cert.body()

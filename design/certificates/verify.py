@@ -8,6 +8,8 @@ runs are re-simulated.  Neither cvxpy nor the tuner is needed.
 
 from __future__ import annotations
 
+import copy
+import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -20,7 +22,8 @@ from nniquad.analysis.lmi.roa import axis_acceleration_limit
 from nniquad.certificates.certificate import TOLERANCES, Certificate, read_certificate
 from nniquad.errors import CertificateCheckError, CertificateError, NniquadError
 
-__all__ = ["Check", "Verification", "verify_certificate", "ni_storage_check"]
+__all__ = ["Check", "Verification", "verify_certificate", "ni_storage_check", "coverage_notes", "clear_cache",
+           "RECORD_FIELDS", "SECTION_KEYS"]
 
 
 @dataclass
@@ -53,9 +56,13 @@ class Verification:
     ----------
     checks
         The checks, in the order they ran.
+    notes
+        What the certificate does not cover, and its unverified record fields
+        (one line each; no bearing on :attr:`ok`).
     """
 
     checks: list[Check] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
 
     @property
     def ok(self) -> bool:
@@ -88,11 +95,13 @@ class Verification:
         w = max(len(c.name) for c in self.checks) if self.checks else 5
         lines = [f"{'check':<{w}}  result  detail", f"{'-' * w}  ------  ------"]
         lines += [f"{c.name:<{w}}  {'pass' if c.ok else 'FAIL':<6}  {c.detail}" for c in self.checks]
+        lines += [f"note: {n}" for n in self.notes]
         return "\n".join(lines)
 
     def to_json(self) -> dict[str, Any]:
         """``{'ok': ..., 'checks': [{'name', 'ok', 'detail'}, ...]}``."""
-        return {"ok": self.ok, "checks": [{"name": c.name, "ok": c.ok, "detail": c.detail} for c in self.checks]}
+        return {"ok": self.ok, "checks": [{"name": c.name, "ok": c.ok, "detail": c.detail} for c in self.checks],
+                "notes": list(self.notes)}
 
 
 def _array(cert_part: Mapping[str, Any], key: str, shape: tuple[int, int], where: str) -> np.ndarray:
@@ -133,9 +142,68 @@ def ni_storage_check(name: str, P: np.ndarray, A: np.ndarray, B: np.ndarray, C: 
                            f"{worst:.2e} (relative, <= {tol:g})")
 
 
+#: Fields that are records, not claims: ``verify`` checks none of them, and they change
+#: no check and nothing ``montecarlo`` simulates (``tests/test_tampering.py`` shows it
+#: for every leaf).  ``tuning.model`` is the exception: it must equal ``model``.
+RECORD_FIELDS: tuple[str, ...] = ("software", "tuning", "vehicle.name")
+
+#: The keys of every schema-1 section (a signed key no check reads would be a claim nobody verifies).
+SECTION_KEYS: dict[str, frozenset[str]] = {k: frozenset(v) for k, v in {
+    "sector": ("gamma", "gamma_max", "delta_min"),
+    "stability_margin": ("routh_margin", "max_real_part_1_s", "decay_rate_1_s", "min_damping", "poles_1_s"),
+    "lmi": ("plant_ni", "controller_ni", "closed_loop", "robust_mass", "region_of_attraction"),
+    "lmi.plant_ni": ("P", "form"),
+    "lmi.controller_ni": ("P", "form"),
+    "lmi.closed_loop": ("P", "decay_rate_1_s"),
+    "lmi.robust_mass": ("m_lo_kg", "m_hi_kg", "m_nominal_kg", "P0", "P1", "decay_rate_1_s"),
+    "lmi.region_of_attraction": ("P", "G", "T", "u0_m_s2", "max_displacement_m"),
+    "region_of_attraction": ("max_displacement_m", "u0_m_s2", "tilt_limit_deg", "model"),
+    "performance": ("reduced", "full"),
+    "performance.reduced": ("settling_s", "overshoot_pct", "peak_tilt_deg", "diverged", "settings"),
+    "performance.full": ("settling_s", "overshoot_pct", "peak_tilt_deg", "diverged", "settings"),
+    "bound": ("enter_band_s", "rest_to_rest_s", "a_max_m_s2"),
+    "ratio_to_bound": ("reduced", "full"),
+    "margins": ("rate_hz", "controller", "pade_order", "method", "required", "break_points", "meets_requirement",
+                "horizontal_pm_ceiling_deg"),
+}.items()}
+
+# ----------------------------------------------------------------------------- cache of the expensive recomputations
+
+_CACHE: dict[tuple[str, str], Any] = {}
+_CACHE_SIZE = 256
+
+
+def _memo(kind: str, inputs: Any, compute: Callable[[], Any]) -> Any:
+    """``compute()``, cached in this process by ``kind`` and the exact ``inputs`` (canonical JSON, floats by repr).
+
+    A result depends only on its inputs (the simulator and the margins are
+    deterministic), so an unchanged recomputation is not repeated: verifying a
+    certificate twice, or many edited copies of one, re-simulates only what changed.
+    """
+    key = (kind, json.dumps(inputs, sort_keys=True, separators=(",", ":"), allow_nan=True))
+    if key in _CACHE:
+        return copy.deepcopy(_CACHE[key])
+    value = compute()
+    if len(_CACHE) >= _CACHE_SIZE:
+        _CACHE.pop(next(iter(_CACHE)))  # the oldest entry
+    _CACHE[key] = value
+    return copy.deepcopy(value)
+
+
+def clear_cache() -> None:
+    """Forget every cached recomputation (re-simulations, margins, bounds) of :func:`verify_certificate`."""
+    _CACHE.clear()
+
+
 def verify_certificate(cert: Certificate | Mapping[str, Any] | str | Path, *, simulate: bool = True,
-                       progress: Callable[[str], None] | None = None) -> Verification:
+                       progress: Callable[[str], None] | None = None, fail_fast: bool = False) -> Verification:
     """Recompute everything a certificate states, independently, with numpy and the simulator.
+
+    The checks run cheap first: the document's own consistency (model, tolerances,
+    layout and stated forms, the simulation settings and the tilt limit), then the
+    sector, the poles and every LMI condition, the bound, the classical margins,
+    the schema-2 cascade section and last the two re-simulations.  Re-simulations,
+    margins and bounds are cached in this process by their exact inputs.
 
     Parameters
     ----------
@@ -145,11 +213,15 @@ def verify_certificate(cert: Certificate | Mapping[str, Any] | str | Path, *, si
         Also re-simulate the two reference runs.
     progress
         Called with a short message before the re-simulation.
+    fail_fast
+        Stop at the first failed check (the result then holds the checks run so far).
 
     Returns
     -------
     Verification
-        One :class:`Check` per recomputed statement (the digest first).
+        One :class:`Check` per recomputed statement (the digest first), and
+        :attr:`Verification.notes`: what the certificate does not cover and which
+        fields are unverified records.
 
     Raises
     ------
@@ -165,7 +237,7 @@ def verify_certificate(cert: Certificate | Mapping[str, Any] | str | Path, *, si
     if not cert.signature_ok:
         raise CertificateCheckError("certificate: digest mismatch (content changed after signing)")
     try:
-        return _verify(cert, simulate, progress or (lambda msg: None))
+        return _verify(cert, simulate, progress or (lambda msg: None), fail_fast)
     except (TypeError, ValueError, KeyError, IndexError, np.linalg.LinAlgError) as exc:
         if isinstance(exc, NniquadError):
             raise
@@ -173,13 +245,148 @@ def verify_certificate(cert: Certificate | Mapping[str, Any] | str | Path, *, si
         raise CertificateError(f"certificate has a malformed field ({type(exc).__name__}: {exc})") from None
 
 
-def _verify(cert: Certificate, simulate: bool, say: Callable[[str], None]) -> Verification:
-    tol = dict(TOLERANCES)
-    checks = [Check("digest", True, f"sha256 {cert.signature[:16]}... matches the content")]
-    vehicle, gains = cert.vehicle, cert.gains
-    loop = cert.loop
-    m, kp, d = vehicle.m, gains.kp, gains.delta
+def coverage_notes(cert: Certificate) -> list[str]:
+    """What a certificate does not cover, and which of its fields are unverified records (one line each).
 
+    Parameters
+    ----------
+    cert
+        The certificate.
+    """
+    notes = []
+    if cert.cascade is None:
+        rm = cert.lmi.get("robust_mass", {})
+        notes.append(
+            "schema 1: the stability claim is for the continuous-time reduced horizontal loop (position measured "
+            f"continuously) with the nominal vehicle parameters and a mass interval [{_f(rm.get('m_lo_kg'))}, "
+            f"{_f(rm.get('m_hi_kg'))}] kg; it covers no sampled-data cascade (control rate, attitude loop, motor lag) "
+            "and no parameter box (inertia, attitude gain, motor time constant)")
+    notes.append("records, not verified (no check and no Monte Carlo run reads them): "
+                 + ", ".join(RECORD_FIELDS) + " (except tuning.model, which must equal model)")
+    return notes
+
+
+def _verify(cert: Certificate, simulate: bool, say: Callable[[str], None], fail_fast: bool) -> Verification:
+    tol = dict(TOLERANCES)
+    out = Verification(notes=coverage_notes(cert))
+    steps: list[Callable[[], Check | list[Check]]] = [
+        lambda: Check("digest", True, f"sha256 {cert.signature[:16]}... matches the content"),
+        lambda: _model_check(cert),
+        lambda: _tolerances_check(cert),
+        lambda: _layout_check(cert),
+        lambda: _settings_check(cert),
+        lambda: _sector_check(cert, tol),
+        lambda: _poles_check(cert),
+        lambda: _ni_checks(cert, tol, "plant_ni"),
+        lambda: _ni_checks(cert, tol, "controller_ni"),
+        lambda: _closed_loop_check(cert, tol),
+        lambda: _roa_check(cert, tol["lmi_relative"]),
+        lambda: _robust_mass_check(cert, tol),
+        lambda: _bound_check(cert),
+    ]
+    if cert.margins is not None:
+        steps.append(lambda: _margins_check(cert, tol))
+    if cert.cascade is not None:
+        steps.append(lambda: _cascade_checks(cert))
+    if simulate:
+        def runs() -> list[Check]:
+            say("re-simulating the reference runs")
+            return []
+
+        steps.append(runs)
+        steps += [lambda model=model: _performance_check(cert, tol, model) for model in ("reduced", "full")]
+    for step in steps:
+        got = step()
+        got = [got] if isinstance(got, Check) else got
+        out.checks += got
+        if fail_fast and any(not c.ok for c in got):
+            break
+    return out
+
+
+def _model_check(cert: Certificate) -> Check:
+    from nniquad.sim.options import MODELS
+
+    tuned = cert.tuning.get("model") if isinstance(cert.tuning, Mapping) and "model" in cert.tuning else cert.model
+    ok = isinstance(cert.model, str) and cert.model in MODELS and tuned == cert.model
+    return Check("model", ok, f"model {cert.model!r} is one of {', '.join(MODELS)} and equals tuning.model "
+                              f"{tuned!r}" if ok else f"model {cert.model!r} (known: {', '.join(MODELS)}; "
+                              f"tuning.model {tuned!r})")
+
+
+def _tolerances_check(cert: Certificate) -> Check:
+    stated = dict(cert.tolerances)
+    ok = stated.keys() == TOLERANCES.keys() and all(
+        _is_num(stated[k]) and float(stated[k]) == float(v) for k, v in TOLERANCES.items())
+    bad = sorted(k for k in stated.keys() | TOLERANCES.keys() if stated.get(k) != TOLERANCES.get(k))
+    return Check("tolerances", ok, "the stated tolerances are the library's (verify uses the library's)" if ok
+                 else f"stated tolerances differ from the library's: {', '.join(bad)}")
+
+
+def _layout_check(cert: Certificate) -> Check:
+    """Every section has exactly its keys, and the stated forms are the library's."""
+    from nniquad.certificates.build import MARGIN_FIELDS
+    from nniquad.certificates.certificate import NI_FORM, ROA_MODEL
+
+    doc = cert.body()
+    bad: list[str] = []
+    for path, keys in SECTION_KEYS.items():
+        if path == "margins" and cert.margins is None:
+            continue
+        node: Any = doc
+        for part in path.split("."):
+            node = node.get(part) if isinstance(node, Mapping) else None
+        if not isinstance(node, Mapping) or set(node) != keys:
+            bad.append(path)
+    if cert.margins is not None:
+        points = cert.margins.get("break_points")
+        if not isinstance(points, Mapping) or any(not isinstance(p, Mapping) or set(p) != set(MARGIN_FIELDS)
+                                                  for p in points.values()):
+            bad.append("margins.break_points")
+        if cert.margins.get("method") != "linearised cascade at hover":
+            bad.append("margins.method")
+    forms = {"lmi.plant_ni.form": cert.lmi.get("plant_ni", {}).get("form") == NI_FORM,
+             "lmi.controller_ni.form": cert.lmi.get("controller_ni", {}).get("form") == NI_FORM,
+             "region_of_attraction.model": cert.region_of_attraction.get("model") == ROA_MODEL}
+    bad += [k for k, same in forms.items() if not same]
+    return Check("layout", not bad, "every section has exactly its keys; the stated forms are the library's"
+                 if not bad else f"unexpected keys or forms in: {', '.join(bad)}")
+
+
+def _settings_check(cert: Certificate) -> Check:
+    """The reference runs' settings are the reference settings of the certified tilt limit, start and inner loops."""
+    from nniquad.certificates.certificate import PERFORMANCE_HORIZON_S, reference_run_options
+    from nniquad.config import CONTROL_RATE_HZ
+
+    bad = []
+    for model in ("reduced", "full"):
+        run = cert.performance.get(model)
+        stated = _thaw_json(run.get("settings")) if isinstance(run, Mapping) else None
+        want = reference_run_options(model, cert.inner_loop, tilt_limit_deg=cert.tilt_limit_deg, xi0=cert.xi0_m,
+                                     horizon_s=PERFORMANCE_HORIZON_S).to_json()
+        if stated != want:
+            diff = sorted(k for k in set(want) | set(stated or {}) if (stated or {}).get(k) != want.get(k))
+            bad.append(f"performance.{model}.settings ({', '.join(diff) or 'not an object'})")
+    if cert.region_of_attraction.get("tilt_limit_deg") != cert.tilt_limit_deg:
+        bad.append("region_of_attraction.tilt_limit_deg")
+    if cert.lmi.get("robust_mass", {}).get("m_nominal_kg") != cert.vehicle.m:
+        bad.append("lmi.robust_mass.m_nominal_kg (must be the vehicle's mass)")
+    if cert.margins is not None:
+        rate = cert.cascade.get("rate_hz") if cert.cascade is not None else CONTROL_RATE_HZ
+        if cert.margins.get("rate_hz") != rate:
+            bad.append(f"margins.rate_hz (must be {rate!r})")
+    if cert.cascade is not None:
+        roa = cert.cascade.get("region_of_attraction")
+        if not isinstance(roa, Mapping) or roa.get("tilt_limit_deg") != cert.tilt_limit_deg:
+            bad.append("cascade.region_of_attraction.tilt_limit_deg")
+    return Check("settings", not bad,
+                 f"both reference runs use the reference settings at tilt {cert.tilt_limit_deg:g} deg, start "
+                 f"{list(cert.xi0_m)} m and the certified inner loops; every stated tilt limit is the same"
+                 if not bad else "inconsistent: " + "; ".join(bad))
+
+
+def _sector_check(cert: Certificate, tol: Mapping[str, float]) -> Check:
+    loop = cert.loop
     sec = cert.sector
     try:
         gamma_stated, gamma_max = float(sec["gamma"]), float(sec["gamma_max"])
@@ -189,70 +396,117 @@ def _verify(cert: Certificate, simulate: bool, say: Callable[[str], None]) -> Ve
     ok = abs(gamma - gamma_stated) <= tol["sector_relative"] * gamma and gamma <= gamma_max * (1 + 1e-12) < 1 + 1e-12
     delta_min = loop.sector_delta_min(gamma_max) if 0 < gamma_max < 1 else math.nan
     ok = ok and _close(sec.get("delta_min"), delta_min, tol["sector_relative"])
-    checks.append(Check("sector", ok, f"delta m kp gamma >= 1 holds with gamma = {gamma:.6g} (stated "
-                                      f"{gamma_stated:.6g}) <= gamma_max = {gamma_max:g} < 1; delta_min "
-                                      f"{delta_min:.6g} (stated {_f(sec.get('delta_min'))})"))
+    return Check("sector", ok, f"delta m kp gamma >= 1 holds with gamma = {gamma:.6g} (stated "
+                               f"{gamma_stated:.6g}) <= gamma_max = {gamma_max:g} < 1; delta_min "
+                               f"{delta_min:.6g} (stated {_f(sec.get('delta_min'))})")
 
+
+def _poles_check(cert: Certificate) -> Check:
+    loop = cert.loop
+    m, kp, d = cert.vehicle.m, cert.gains.kp, cert.gains.delta
     pd = loop.poles_and_damping()
     margin = cert.stability_margin
     stated_rate = float(margin.get("decay_rate_1_s", math.nan))
     ok = pd.stable and abs(pd.decay_rate - stated_rate) <= 1e-6 * abs(pd.decay_rate) and loop.stable
     # every other stated number of the section too: a wrong damping or pole list must not pass
+    # (the poles to 1e-8 of the largest: a stated imaginary part of 1e-6 on a real pole is refused)
     poles = np.array([[p.real, p.imag] for p in pd.poles])
     stated_poles = np.array(margin.get("poles_1_s", ()), dtype=float)
     ok = (ok and _close(margin.get("routh_margin"), m * kp * d - 1.0, 1e-12)
           and _close(margin.get("max_real_part_1_s"), pd.max_real_part, 1e-6)
           and _close(margin.get("min_damping"), pd.min_damping, 1e-6)
           and stated_poles.shape == poles.shape
-          and bool(np.all(np.abs(stated_poles - poles) <= 1e-6 * np.max(np.abs(pd.poles)))))
-    checks.append(Check("poles", ok, f"max Re = {pd.max_real_part:.6g} 1/s, decay {pd.decay_rate:.6g} 1/s "
-                                     f"(stated {stated_rate:.6g}), min damping {pd.min_damping:.4g}, "
-                                     f"m kp delta - 1 = {m * kp * d - 1:.4g}"))
+          and bool(np.all(np.abs(stated_poles - poles) <= 1e-8 * np.max(np.abs(pd.poles)))))
+    return Check("poles", ok, f"max Re = {pd.max_real_part:.6g} 1/s, decay {pd.decay_rate:.6g} 1/s "
+                              f"(stated {stated_rate:.6g}), min damping {pd.min_damping:.4g}, "
+                              f"m kp delta - 1 = {m * kp * d - 1:.4g}")
 
-    lmi = cert.lmi
-    A, B, C, _ = loop.plant_matrices()
-    checks.append(ni_storage_check("lmi.plant_ni", _array(_part(lmi, "plant_ni", "lmi"), "P", A.shape, "lmi.plant_ni"),
-                                   A, B, C, tol["lmi_relative"]))
-    Ac, Bc, Cc, _ = loop.controller_matrices()
-    checks.append(ni_storage_check("lmi.controller_ni",
-                                   _array(_part(lmi, "controller_ni", "lmi"), "P", Ac.shape, "lmi.controller_ni"),
-                                   Ac, Bc, Cc, tol["lmi_relative"]))
 
-    part = _part(lmi, "closed_loop", "lmi")
-    rate = K.certified_rate(loop.closed_loop_A_axis(), _array(part, "P", (3, 3), "lmi.closed_loop"))
+def _ni_checks(cert: Certificate, tol: Mapping[str, float], which: str) -> Check:
+    loop = cert.loop
+    A, B, C, _ = loop.plant_matrices() if which == "plant_ni" else loop.controller_matrices()
+    P = _array(_part(cert.lmi, which, "lmi"), "P", A.shape, f"lmi.{which}")
+    if not np.array_equal(P, P.T):
+        return Check(f"lmi.{which}", False, "stored P is not symmetric")
+    return ni_storage_check(f"lmi.{which}", P, A, B, C, tol["lmi_relative"])
+
+
+def _closed_loop_check(cert: Certificate, tol: Mapping[str, float]) -> Check:
+    part = _part(cert.lmi, "closed_loop", "lmi")
+    P = _array(part, "P", (3, 3), "lmi.closed_loop")
+    if not np.array_equal(P, P.T):
+        return Check("lmi.closed_loop", False, "stored P is not symmetric")
+    rate = K.certified_rate(cert.loop.closed_loop_A_axis(), P)
     stated = float(part.get("decay_rate_1_s", math.nan))
     ok = rate >= stated * (1 - tol["rate_relative"]) and stated > 0
-    checks.append(Check("lmi.closed_loop", ok, f"P > 0 and A'P + PA <= -eps P with eps = {rate:.6g} 1/s "
-                                               f"(stated {stated:.6g})"))
+    return Check("lmi.closed_loop", ok, f"P > 0 and A'P + PA <= -eps P with eps = {rate:.6g} 1/s "
+                                        f"(stated {stated:.6g})")
 
-    part = _part(lmi, "robust_mass", "lmi")
+
+def _robust_mass_check(cert: Certificate, tol: Mapping[str, float]) -> Check:
+    part = _part(cert.lmi, "robust_mass", "lmi")
     P0 = _array(part, "P0", (3, 3), "lmi.robust_mass")
     P1 = _array(part, "P1", (3, 3), "lmi.robust_mass")
+    if not (np.array_equal(P0, P0.T) and np.array_equal(P1, P1.T)):
+        return Check("lmi.robust_mass", False, "stored P0 or P1 is not symmetric")
     lo, hi, mn = (float(part.get(k, math.nan)) for k in ("m_lo_kg", "m_hi_kg", "m_nominal_kg"))
     stated = float(part.get("decay_rate_1_s", math.nan))
     if not (0 < lo <= hi and math.isfinite(mn) and mn > 0):
         raise CertificateError("certificate lmi.robust_mass needs 0 < m_lo_kg <= m_hi_kg and m_nominal_kg > 0")
-    nominal = loop.with_mass(mn)
+    nominal = cert.loop.with_mass(mn)
     worst = math.inf
     for mt in 1.0 / np.linspace(1.0 / hi, 1.0 / lo, 201):
         worst = min(worst, K.certified_rate(nominal.with_mass(mt, thrust_model=True).closed_loop_A_axis(), P0 + P1 / mt))
     ok = worst >= stated * (1 - tol["rate_relative"]) and stated > 0
-    checks.append(Check("lmi.robust_mass", ok, f"P0 + P1/m > 0 and decay >= {worst:.6g} 1/s (stated {stated:.6g}) "
-                                               f"on 201 masses in [{lo:g}, {hi:g}] kg"))
+    return Check("lmi.robust_mass", ok, f"P0 + P1/m > 0 and decay >= {worst:.6g} 1/s (stated {stated:.6g}) "
+                                        f"on 201 masses in [{lo:g}, {hi:g}] kg")
 
-    checks.append(_roa_check(cert, tol["lmi_relative"]))
-    if cert.margins is not None:
-        checks.append(_margins_check(cert, tol))
 
-    if simulate:
-        say("re-simulating the reference runs")
-        checks += _performance_checks(cert, tol)
-    return Verification(checks)
+def _bound_check(cert: Certificate) -> Check:
+    """The time-optimal bound, recomputed; each ratio from the stated settling time and the recomputed bound."""
+    from nniquad.analysis.bound import time_optimal_bound
+
+    b = _memo("bound", [cert.vehicle.as_dict(), list(cert.xi0_m), cert.tilt_limit_deg],
+              lambda: time_optimal_bound(cert.vehicle, xi0=cert.xi0_m, tilt_limit_deg=cert.tilt_limit_deg))
+    ok = all(_close(cert.bound.get(k), getattr(b, k), 1e-9) for k in ("enter_band_s", "rest_to_rest_s", "a_max_m_s2"))
+    ratios = []
+    for model in ("reduced", "full"):
+        run = cert.performance.get(model)
+        want = run.get("settling_s") if isinstance(run, Mapping) else None
+        ratio = None if want is None else float(want) / b.enter_band_s
+        stated_ratio = cert.ratio_to_bound.get(model)
+        ok = ok and ((ratio is None and stated_ratio is None)
+                     or (ratio is not None and _close(stated_ratio, ratio, 1e-9)))
+        ratios.append(f"{model} {_f(ratio)} (stated {_f(stated_ratio)})")
+    return Check("bound", ok, f"enter band {b.enter_band_s:.5g} s (stated {_f(cert.bound.get('enter_band_s'))}), rest "
+                              f"to rest {b.rest_to_rest_s:.5g} s, a_max {b.a_max_m_s2:.5g} m/s^2; ratio to bound "
+                              + ", ".join(ratios))
+
+
+def _cascade_checks(cert: Certificate) -> list[Check]:
+    """The schema-2 ``cascade`` section, rebuilt by :func:`nniquad.analysis.robust_cascade.check_cascade_section`."""
+    try:
+        from nniquad.analysis.robust_cascade import check_cascade_section
+    except ImportError:
+        return [Check("cascade", False, "this nniquad cannot check a cascade section "
+                                        "(nniquad.analysis.robust_cascade.check_cascade_section is missing)")]
+    section = _thaw_json(cert.cascade)
+    rows = check_cascade_section(section, cert.vehicle, cert.gains, cert.inner_loop,
+                                 tilt_limit_deg=cert.tilt_limit_deg)
+    checks = [Check(f"cascade.{name}", ok, detail) for name, ok, detail in rows]
+    return checks or [Check("cascade", False, "the cascade check returned no checks")]
+
+
+def _thaw_json(value: Any) -> Any:
+    """A read-only section as plain JSON data (dicts and lists)."""
+    return json.loads(json.dumps(value, default=lambda o: dict(o) if isinstance(o, Mapping) else list(o)))
 
 
 def _roa_check(cert: Certificate, tol: float) -> Check:
     part = _part(cert.lmi, "region_of_attraction", "lmi")
-    P = K.sym(_array(part, "P", (3, 3), "lmi.region_of_attraction"))
+    P = _array(part, "P", (3, 3), "lmi.region_of_attraction")
+    if not np.array_equal(P, P.T):
+        return Check("lmi.region_of_attraction", False, "stored P is not symmetric")
     Gm = _array(part, "G", (1, 3), "lmi.region_of_attraction")
     T = _array(part, "T", (1, 1), "lmi.region_of_attraction")
     r = float(part.get("max_displacement_m", math.nan))
@@ -299,10 +553,14 @@ def _margins_check(cert: Certificate, tol: Mapping[str, float]) -> Check:
         gamma_max = float(cert.sector["gamma_max"])
     except (KeyError, TypeError, ValueError):
         raise CertificateError("certificate 'margins' needs a number 'rate_hz'") from None
-    if stated.get("controller") != "discrete" or stated.get("pade_order") != 2:
+    if (stated.get("controller") != "discrete" or stated.get("pade_order") != 2
+            or isinstance(stated.get("pade_order"), bool)):
         return Check("margins", False, "margins stated for another sampling model than the one recomputed")
-    fresh = margins_section(cert.vehicle, cert.gains, cert.inner_loop, tilt_limit_deg=cert.tilt_limit_deg,
-                            gamma_max=gamma_max, rate_hz=rate)
+    g = cert.gains
+    fresh = _memo("margins", [cert.vehicle.as_dict(), [g.kp, g.Gamma, g.delta], cert.inner_loop.as_dict(),
+                              cert.tilt_limit_deg, gamma_max, rate],
+                  lambda: margins_section(cert.vehicle, cert.gains, cert.inner_loop,
+                                          tilt_limit_deg=cert.tilt_limit_deg, gamma_max=gamma_max, rate_hz=rate))
     ok = True
     bad: list[str] = []
     points = stated.get("break_points")
@@ -334,49 +592,47 @@ def _margins_check(cert: Certificate, tol: Mapping[str, float]) -> Check:
     return Check("margins", ok, detail)
 
 
-def _performance_checks(cert: Certificate, tol: Mapping[str, float]) -> list[Check]:
+def _performance_check(cert: Certificate, tol: Mapping[str, float], model: str) -> Check:
+    """Re-simulate one reference run with its stated settings (checked by ``settings``) and compare every number."""
     from nniquad.sim import SimOptions, simulate
 
-    from nniquad.analysis.bound import time_optimal_bound
+    stated = cert.performance.get(model)
+    if not isinstance(stated, Mapping) or not isinstance(stated.get("settings"), Mapping):
+        raise CertificateError(f"certificate performance.{model} is missing or has no settings")
+    settings = _thaw_json(stated["settings"])
+    settings.pop("inner", None)
+    try:
+        opts = SimOptions(**{**settings, "xi0": tuple(settings.get("xi0", cert.xi0_m)),
+                             "zc0": tuple(settings.get("zc0", (0.0, 0.0))),
+                             "wind_N": tuple(settings.get("wind_N", (0.0, 0.0))), "inner": cert.inner_loop})
+    except (TypeError, NniquadError) as exc:
+        raise CertificateError(f"certificate performance.{model}.settings: {exc}") from None
 
-    bound = time_optimal_bound(cert.vehicle, xi0=cert.xi0_m, tilt_limit_deg=cert.tilt_limit_deg)
-    bound_ok = all(_close(cert.bound.get(k), getattr(bound, k), 1e-9)
-                   for k in ("enter_band_s", "rest_to_rest_s", "a_max_m_s2"))
-    out = []
-    for model in ("reduced", "full"):
-        stated = cert.performance.get(model)
-        if not isinstance(stated, Mapping) or not isinstance(stated.get("settings"), Mapping):
-            raise CertificateError(f"certificate performance.{model} is missing or has no settings")
-        settings = {k: (list(v) if isinstance(v, tuple) else v) for k, v in stated["settings"].items()}
-        settings.pop("inner", None)
-        try:
-            opts = SimOptions(**{**settings, "xi0": tuple(settings.get("xi0", cert.xi0_m)),
-                                 "zc0": tuple(settings.get("zc0", (0.0, 0.0))),
-                                 "wind_N": tuple(settings.get("wind_N", (0.0, 0.0))), "inner": cert.inner_loop})
-        except (TypeError, NniquadError) as exc:
-            raise CertificateError(f"certificate performance.{model}.settings: {exc}") from None
+    def run() -> dict[str, Any]:
         met = simulate(cert.vehicle, cert.gains, opts)[0].metrics()
-        diffs = []
-        ok = True
-        for key, tkey in (("settling_s", "settling_abs_s"), ("overshoot_pct", "overshoot_abs_pct"),
-                          ("peak_tilt_deg", "tilt_abs_deg")):
-            want, got = stated.get(key), getattr(met, key)
-            if want is None or got is None:
-                same = want is None and got is None
-            else:
-                same = abs(float(want) - float(got)) <= tol[tkey]
-            ok &= same
-            diffs.append(f"{key} {_f(got)} (stated {_f(want)})")
-        # the ratio to the time-optimal bound, from the stated settling time and the recomputed bound
-        want = stated.get("settling_s")
-        ratio = None if want is None else float(want) / bound.enter_band_s
-        stated_ratio = cert.ratio_to_bound.get(model)
-        same = (ratio is None and stated_ratio is None) or (ratio is not None and _close(stated_ratio, ratio, 1e-9))
-        ok = ok and same and bound_ok
-        diffs.append(f"ratio to bound {_f(ratio)} (stated {_f(stated_ratio)}), bound {bound.enter_band_s:.5g} s "
-                     f"(stated {_f(cert.bound.get('enter_band_s'))})")
-        out.append(Check(f"performance.{model}", ok, ", ".join(diffs)))
-    return out
+        return {k: getattr(met, k) for k in ("settling_s", "overshoot_pct", "peak_tilt_deg", "diverged")}
+
+    got_all = _memo("simulate", [cert.vehicle.as_dict(), [cert.gains.kp, cert.gains.Gamma, cert.gains.delta],
+                                 opts.to_json()], run)
+    diffs = []
+    ok = True
+    for key, tkey in (("settling_s", "settling_abs_s"), ("overshoot_pct", "overshoot_abs_pct"),
+                      ("peak_tilt_deg", "tilt_abs_deg")):
+        want, got = stated.get(key), got_all[key]
+        if want is None or got is None:
+            same = want is None and got is None
+        else:
+            same = _is_num(want) and abs(float(want) - float(got)) <= tol[tkey]
+        ok &= same
+        diffs.append(f"{key} {_f(got)} (stated {_f(want)})")
+    same = stated.get("diverged") is bool(got_all["diverged"])
+    ok &= same
+    diffs.append(f"diverged {bool(got_all['diverged'])} (stated {stated.get('diverged')!r})")
+    return Check(f"performance.{model}", ok, ", ".join(diffs))
+
+
+def _is_num(x: Any) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
 
 
 def _close(stated: Any, computed: float, rtol: float) -> bool:

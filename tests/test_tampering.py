@@ -1,0 +1,206 @@
+"""Every leaf of a certificate, changed alone and re-signed, fails ``verify`` or is shown to be a record.
+
+The loop walks the whole document (numbers, strings, booleans, ``null``, every list
+entry; a matrix is touched at its diagonal and one off-diagonal entry per row), so a
+``cascade`` section is covered as soon as :func:`build_certificate` writes one.  Each
+edit is re-signed with the public recipe (:func:`canonical_digest`): the digest then
+matches, and only the recomputation can catch it.
+
+Three outcomes are accepted, each stated for what it is:
+
+- ``verify`` fails (a check fails, or the document is refused in one line);
+- the field is a record (:data:`nniquad.certificates.verify.RECORD_FIELDS`): every
+  check gives the same result and detail, and ``montecarlo``'s setup is the same;
+- the edit is one of :data:`INSENSITIVE`: an input of the certified statement that
+  no stated number depends on (e.g. the rotor-speed limit, never reached in the
+  reference runs).  The edited document is then a *true* certificate of the edited
+  vehicle: the test shows every check passes with the same numbers, and that
+  ``montecarlo`` simulates exactly the edited value, i.e. what was checked.
+"""
+
+from __future__ import annotations
+
+import copy
+import fnmatch
+import json
+import math
+import time
+from typing import Any, Iterator
+
+import pytest
+
+from nniquad.certificates import TOLERANCES, build_certificate, canonical_digest, verify_certificate
+from nniquad.certificates.verify import RECORD_FIELDS, clear_cache
+from nniquad.errors import NniquadError
+from nniquad.model.vehicle import PAPER_VEHICLE as V
+from nniquad.study.scenarios import study_setup
+from tests.test_certificate import GAINS, INNER
+
+#: Inputs of the certified statement that no stated number depends on (path -> why).  An edit of one
+#: leaves every claim true, for the edited input; the loop checks that and that Monte Carlo uses it.
+INSENSITIVE: dict[str, str] = {
+    "vehicle.Jx": "roll inertia: the attitude loop is set by natural frequency and damping, its torque scales with J",
+    "vehicle.Jy": "pitch inertia: as Jx",
+    "vehicle.l": "arm length: the allocation divides the torque by l (rotor limits are not reached)",
+    "vehicle.omega_max": "rotor-speed limit: not reached in either reference run, not in the linearisations",
+    "vehicle.Jz": "yaw inertia: no yaw motion in the reference runs; not in the horizontal or attitude loops",
+    "vehicle.Jr": "rotor inertia: gyroscopic torque of a yaw-free run vanishes",
+}
+
+#: Stated numbers that ``verify`` compares within a tolerance wider than the 1e-3 edit (path pattern ->
+#: TOLERANCES key, or ``None`` for a relative LMI tolerance reached quadratically): the 1e-3 edit is a true
+#: statement within the tolerance, so the loop shows that an edit of 1 % or 3 tolerances is refused.
+WITHIN_TOLERANCE: dict[str, str | None] = {
+    "performance.reduced.overshoot_pct": "overshoot_abs_pct",
+    "performance.full.overshoot_pct": "overshoot_abs_pct",
+    "margins.break_points.*.gm_db": "margin_db_abs",
+    "margins.break_points.*.gm_lower_db": "margin_db_abs",
+    "margins.break_points.*.pm_deg": "margin_deg_abs",
+    "lmi.controller_ni.P.0.0": None,  # the dissipation residual grows with the square of the edit
+}
+
+#: Numbers for which the stronger claim is the smaller value (the edit goes that way; a weaker claim is true).
+SMALLER_IS_STRONGER = {"lmi.robust_mass.m_lo_kg"}
+
+
+def _leaves(node: Any, path: tuple = ()) -> Iterator[tuple]:
+    """Paths of every leaf; a matrix (list of equal-length number lists) by its diagonal and one off-diagonal entry
+    per row, so that every matrix and every row is touched."""
+    if isinstance(node, dict):
+        for k, v in node.items():
+            yield from _leaves(v, path + (k,))
+    elif isinstance(node, list):
+        matrix = (len(node) > 0 and all(isinstance(r, list) and r and all(isinstance(x, (int, float)) for x in r)
+                                        for r in node) and len({len(r) for r in node}) == 1 and len(node[0]) > 1)
+        if matrix:
+            n = len(node[0])
+            for i, _ in enumerate(node):
+                yield path + (i, i % n)
+                if n > 1:
+                    yield path + (i, (i + 1) % n)
+        else:
+            for i, v in enumerate(node):
+                yield from _leaves(v, path + (i,))
+    else:
+        yield path
+
+
+def _get(doc: Any, path: tuple) -> Any:
+    for p in path:
+        doc = doc[p]
+    return doc
+
+
+def _set(doc: Any, path: tuple, value: Any) -> None:
+    _get(doc, path[:-1])[path[-1]] = value
+
+
+def _edited(value: Any, dotted: str) -> Any:
+    if isinstance(value, bool):
+        return not value
+    if isinstance(value, int):
+        return value + 1
+    if isinstance(value, float):
+        if dotted in SMALLER_IS_STRONGER:
+            return value * (1 - 1e-3) - 1e-6
+        return value * (1 + 1e-3) + 1e-6
+    if isinstance(value, str):
+        return value + "x"
+    if value is None:
+        return 1.0
+    raise AssertionError(f"unexpected leaf {value!r}")
+
+
+def _tolerance_key(dotted: str) -> tuple[bool, str | None]:
+    for pattern, key in WITHIN_TOLERANCE.items():
+        if fnmatch.fnmatchcase(dotted, pattern):
+            return True, key
+    return False, None
+
+
+def _beyond_tolerance(value: float, key: str | None) -> float:
+    step = max(abs(value) * 1e-2, 3 * TOLERANCES[key] if key else 0.0)
+    return value + step
+
+
+def _dotted(path: tuple) -> str:
+    return ".".join(str(p) for p in path)
+
+
+def _record(dotted: str) -> bool:
+    return any(dotted == r or dotted.startswith(r + ".") for r in RECORD_FIELDS) and dotted != "tuning.model"
+
+
+def _checks(res) -> list[tuple]:
+    return [(c.name, c.ok, c.detail) for c in res.checks if c.name != "digest"]
+
+
+def _setup(doc: dict) -> dict:
+    s = study_setup(doc).to_json()
+    s.pop("certificate")  # the label is the digest, which changes with any edit
+    return s | {"base_params": list(study_setup(doc).base_params)}
+
+
+@pytest.fixture(scope="module")
+def doc() -> dict:
+    """A certificate of test_certificate's gains, with the committed certificate's tuning record (so every record
+    leaf of a real ``tuning`` section is edited too)."""
+    from pathlib import Path
+
+    committed = Path(__file__).resolve().parents[1] / "notebooks" / "data" / "full_model_certificate.json"
+    tuning = json.loads(committed.read_text())["tuning"]
+    return build_certificate(V, GAINS, inner=INNER, model="full", tuning=tuning).to_json()
+
+
+def _verify_passes(c: dict, fail_fast: bool):
+    c["digest"]["value"] = canonical_digest(c)
+    try:
+        res = verify_certificate(c, fail_fast=fail_fast)
+    except NniquadError:
+        return False, None
+    return res.ok, res
+
+
+def test_every_leaf_changed_alone_and_resigned_fails_or_is_shown_harmless(doc):
+    t0 = time.perf_counter()
+    reference = verify_certificate(doc)
+    assert reference.ok, reference.table()
+    ref_checks, ref_setup = _checks(reference), _setup(doc)
+    outcome: dict[str, list[str]] = {"failed": [], "record": [], "insensitive": []}
+    paths = [p for p in _leaves(doc) if p[0] not in ("digest",)]
+    assert len(paths) > 250
+    outcome["tolerance"] = []
+    for path in paths:
+        dotted = _dotted(path)
+        harmless = _record(dotted) or dotted in INSENSITIVE
+        c = copy.deepcopy(doc)
+        _set(c, path, _edited(_get(c, path), dotted))
+        passed, res = _verify_passes(c, fail_fast=not harmless)
+        tolerant, tkey = _tolerance_key(dotted)
+        if not passed:
+            assert not harmless, f"{dotted}: listed as harmless but fails verify"
+            outcome["failed"].append(dotted)
+        elif tolerant:
+            c = copy.deepcopy(doc)
+            _set(c, path, _beyond_tolerance(_get(c, path), tkey))
+            assert not _verify_passes(c, fail_fast=True)[0], f"{dotted}: an edit beyond its tolerance passes"
+            outcome["tolerance"].append(dotted)
+        elif _record(dotted):
+            assert _checks(res) == ref_checks, dotted  # no effect on any check
+            assert _setup(c) == ref_setup, dotted      # nor on what montecarlo simulates
+            outcome["record"].append(dotted)
+        else:
+            assert dotted in INSENSITIVE, f"{dotted}: changed alone and re-signed, verify passes"
+            assert [(n, ok) for n, ok, _ in _checks(res)] == [(n, ok) for n, ok, _ in ref_checks], dotted
+            key = dotted.split(".")[1]
+            assert getattr(study_setup(c).base.nominal, key) == _get(c, path), dotted  # montecarlo uses the edit
+            outcome["insensitive"].append(dotted)
+    elapsed = time.perf_counter() - t0
+    print(f"\n{len(paths)} leaves in {elapsed:.1f} s: {len(outcome['failed'])} fail verify, "
+          f"{len(outcome['record'])} records, {len(outcome['insensitive'])} insensitive inputs, {len(outcome['tolerance'])} within tolerance")
+    assert set(outcome["insensitive"]) == set(INSENSITIVE)  # the list holds nothing that verify would catch
+    for pattern in WITHIN_TOLERANCE:  # nor this one
+        assert any(fnmatch.fnmatchcase(p, pattern) for p in outcome["tolerance"]), pattern
+    assert elapsed < 90, elapsed
+    assert {p.split(".")[0] for p in outcome["record"]} == {r.split(".")[0] for r in RECORD_FIELDS}
+    assert "tuning.model" in outcome["failed"] and "tolerances.settling_abs_s" in outcome["failed"]
