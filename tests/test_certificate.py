@@ -356,3 +356,164 @@ def test_sector_check_refuses_gamma_max_one(cert):
     c["sector"]["gamma_max"] = 1.0
     res = verify_certificate(_resign(c), simulate=False)
     assert "sector" in {chk.name for chk in res.checks if not chk.ok}
+
+
+# ------------------------------------------------------------------------------ every signed field (issue 15, item 5)
+
+
+def _failed(c, **kw):
+    return {chk.name for chk in verify_certificate(_resign(c), **kw).checks if not chk.ok}
+
+
+@pytest.mark.parametrize("edit, failing", [
+    (lambda c: c["performance"]["full"].__setitem__("diverged", True), {"performance.full"}),
+    (lambda c: c["performance"]["reduced"]["settings"].__setitem__("tilt_limit_deg", 60.0), {"settings"}),
+    (lambda c: c["region_of_attraction"].__setitem__("tilt_limit_deg", 60.0), {"settings"}),
+    (lambda c: c.__setitem__("model", "fast"), {"model"}),
+    (lambda c: c["tolerances"].__setitem__("settling_abs_s", 1.0), {"tolerances"}),  # loosened
+    (lambda c: c["tolerances"].pop("tilt_abs_deg"), {"tolerances"}),
+    (lambda c: c["lmi"]["plant_ni"].__setitem__("form", "V' <= 0"), {"layout"}),
+    (lambda c: c["sector"].__setitem__("claim", "anything"), {"layout"}),
+    (lambda c: c["lmi"]["robust_mass"].__setitem__("m_nominal_kg", 0.6), {"settings"}),
+    (lambda c: c["margins"].__setitem__("rate_hz", 50.0), {"settings"}),
+])
+def test_resigned_edit_of_a_stated_field_fails(cert, edit, failing):
+    c = copy.deepcopy(cert)
+    edit(c)
+    assert failing <= _failed(c)
+
+
+def test_model_must_agree_with_the_tuning_record(cert):
+    c = copy.deepcopy(cert)
+    c["tuning"] = {"source": "nniquad tune", "model": "reduced"}
+    assert _failed(c, simulate=False) == {"model"}
+    c["tuning"]["model"] = "full"
+    assert _failed(c, simulate=False) == set()
+
+
+def test_tilt_limit_alone_changed_to_60_fails_and_a_consistent_60_certificate_is_what_montecarlo_runs(cert):
+    """Every tilt limit of the document 30 -> 60 deg, re-signed: the recomputed u0, bound and runs refuse it.  A
+    certificate derived at 60 deg throughout is a true statement about 60 deg: it verifies, and the Monte Carlo
+    setup simulates at 60 deg over that certificate's own reach."""
+    from nniquad.study.scenarios import study_setup
+
+    c = copy.deepcopy(cert)
+    c["tilt_limit_deg"] = c["region_of_attraction"]["tilt_limit_deg"] = 60.0
+    for run in c["performance"].values():
+        run["settings"]["tilt_limit_deg"] = 60.0
+    assert {"lmi.region_of_attraction", "bound"} <= _failed(c)
+    c60 = build_certificate(V, GAINS, inner=INNER, model="full", tilt_limit_deg=60.0).to_json()
+    assert verify_certificate(c60).ok
+    setup = study_setup(c60).to_json()
+    assert setup["tilt_limit_deg"] == pytest.approx(60.0)
+    assert setup["displacement_radius_m"] == min(c60["region_of_attraction"]["max_displacement_m"], 5.0)
+    assert c60["region_of_attraction"]["max_displacement_m"] >= cert["region_of_attraction"]["max_displacement_m"]
+
+
+def test_fail_fast_stops_at_the_first_failure_and_cheap_checks_run_first(cert):
+    c = copy.deepcopy(cert)
+    c["tolerances"]["lmi_relative"] = 1.0
+    full = verify_certificate(_resign(c))
+    fast = verify_certificate(_resign(copy.deepcopy(c)), fail_fast=True)
+    assert not fast.ok and fast.checks[-1].name == "tolerances" and fast.first_failure.name == "tolerances"
+    assert [ch.name for ch in fast.checks] == [ch.name for ch in full.checks][:len(fast.checks)]
+    names = [ch.name for ch in full.checks]
+    assert names.index("tolerances") < names.index("sector") < names.index("margins") < names.index("performance.full")
+    ok = verify_certificate(cert, fail_fast=True)  # nothing fails: every check runs
+    assert ok.ok and len(ok.checks) == len(full.checks)
+
+
+def test_re_simulation_is_cached_by_its_exact_inputs(cert, monkeypatch):
+    import nniquad.sim as sim
+    from nniquad.certificates.verify import clear_cache
+
+    calls = []
+    real = sim.simulate
+
+    def counting(*a, **k):
+        calls.append(a[2].model)
+        return real(*a, **k)
+
+    monkeypatch.setattr(sim, "simulate", counting)
+    clear_cache()
+    first = verify_certificate(cert)
+    assert sorted(calls) == ["full", "reduced"]
+    again = verify_certificate(copy.deepcopy(cert))
+    assert len(calls) == 2 and again.to_json() == first.to_json()
+    c = copy.deepcopy(cert)
+    c["software"]["numpy"] += "x"  # a record: the same runs, not simulated again
+    assert verify_certificate(_resign(c)).ok and len(calls) == 2
+    c = copy.deepcopy(cert)
+    c["inner_loop"]["attitude_zeta"] *= 1.05  # other inputs: simulated again (and refused: the runs differ)
+    for run in c["performance"].values():
+        run["settings"]["inner"]["attitude_zeta"] = c["inner_loop"]["attitude_zeta"]
+    verify_certificate(_resign(c))
+    assert sorted(calls[2:]) == ["full", "reduced"]
+
+
+def test_notes_say_what_schema_1_does_not_cover_and_which_fields_are_records(cert, tmp_path, run_cli):
+    res = verify_certificate(cert, simulate=False)
+    assert any("schema 1" in n and "no sampled-data cascade" in n and "no parameter box" in n for n in res.notes)
+    assert any("records, not verified" in n and "software" in n and "tuning" in n for n in res.notes)
+    code, out, _ = run_cli("verify", str(write_certificate(cert, tmp_path / "c.json")), "--no-simulate")
+    assert code == 0 and "note: schema 1" in out and "records, not verified" in out
+
+
+# ------------------------------------------------------------------------------ schema 2
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda c: c.__setitem__("schema_version", 2), "schema version 2 needs a 'cascade' object"),
+    (lambda c: c.__setitem__("cascade", {"rate_hz": 100.0}), "schema version 1 has no 'cascade' section"),
+    (lambda c: c.__setitem__("schema_version", 3), "schema version 3 is not supported"),
+    (lambda c: c.update(schema_version=2, cascade=[1]), "needs a 'cascade' object"),
+])
+def test_schema_version_and_cascade_section_must_agree(cert, tmp_path, run_cli, edit, message):
+    c = copy.deepcopy(cert)
+    edit(c)
+    path = tmp_path / "v.json"
+    path.write_text(json.dumps(_resign(c)))
+    code, _, err = run_cli("verify", str(path))
+    assert code == 2 and message in err and len(err.strip().splitlines()) == 1
+
+
+def test_schema_2_certificate_round_trips_and_keeps_schema_1_digests(certificate, cert):
+    import dataclasses
+
+    assert certificate.cascade is None and certificate.schema_version == 1 and "cascade" not in cert
+    section = {"rate_hz": 100.0, "controller": "discrete", "region_of_attraction": {"tilt_limit_deg": 30.0}}
+    two = dataclasses.replace(certificate, cascade=section).signed()
+    doc = two.to_json()
+    assert doc["schema_version"] == 2 and doc["cascade"] == section
+    back = Certificate.from_json(json.loads(json.dumps(doc)))
+    assert back == two and back.to_json() == doc
+    with pytest.raises(TypeError):
+        back.cascade["rate_hz"] = 1.0
+
+
+def test_schema_2_cascade_section_is_checked_by_robust_cascade(certificate, monkeypatch):
+    """verify hands the section, vehicle, gains, inner loops and tilt limit to check_cascade_section; its rows are
+    checks (a stub stands in for the function, which another module provides)."""
+    import dataclasses
+    import sys
+    import types
+
+    seen = {}
+
+    def stub(section, vehicle, gains, inner, *, tilt_limit_deg):
+        seen.update(section=section, vehicle=vehicle, gains=gains, inner=inner, tilt=tilt_limit_deg)
+        return [("lyapunov", True, "stub"), ("grid", section.get("grid_ok", True), "stub")]
+
+    monkeypatch.setitem(sys.modules, "nniquad.analysis.robust_cascade",
+                        types.SimpleNamespace(check_cascade_section=stub))
+    section = {"rate_hz": 100.0, "region_of_attraction": {"tilt_limit_deg": 30.0}}
+    two = dataclasses.replace(certificate, cascade=section).signed()
+    res = verify_certificate(two, simulate=False)
+    assert res.ok, res.table()
+    assert {"cascade.lyapunov", "cascade.grid"} <= {c.name for c in res.checks}
+    assert seen["section"] == section and seen["tilt"] == 30.0 and seen["gains"] == certificate.gains
+    assert not any("schema 1" in n for n in res.notes)
+    bad = dataclasses.replace(certificate, cascade={**section, "grid_ok": False}).signed()
+    assert {c.name for c in verify_certificate(bad, simulate=False).checks if not c.ok} == {"cascade.grid"}
+    other_rate = dataclasses.replace(certificate, cascade={**section, "rate_hz": 50.0}).signed()
+    assert "settings" in {c.name for c in verify_certificate(other_rate, simulate=False).checks if not c.ok}
