@@ -128,7 +128,7 @@ def unsettled_reference_run(cert: Certificate | Mapping[str, Any]) -> str | None
 
 
 def verify(certificate: Certificate | Mapping[str, Any] | str | Path, *, simulate: bool = True,
-           progress: Callable[[str], None] | None = None) -> Verification:
+           progress: Callable[[str], None] | None = None, fail_fast: bool = False) -> Verification:
     """Recompute everything a certificate states, independently, with numpy and the simulator.
 
     Parameters
@@ -140,11 +140,14 @@ def verify(certificate: Certificate | Mapping[str, Any] | str | Path, *, simulat
         digest and every matrix condition only.
     progress
         Called with one-line status messages.
+    fail_fast
+        Stop at the first failed check.
 
     Returns
     -------
     Verification
-        One check per statement; ``ok`` only if every check passed.
+        One check per statement; ``ok`` only if every check passed; ``notes``
+        say what the certificate does not cover and which fields are records.
 
     Raises
     ------
@@ -152,4 +155,4 @@ def verify(certificate: Certificate | Mapping[str, Any] | str | Path, *, simulat
         The document is not a certificate (unreadable, wrong schema or version,
         digest mismatch, malformed field).
     """
-    return verify_certificate(certificate, simulate=simulate, progress=progress)
+    return verify_certificate(certificate, simulate=simulate, progress=progress, fail_fast=fail_fast)
