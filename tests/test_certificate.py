@@ -517,3 +517,14 @@ def test_schema_2_cascade_section_is_checked_by_robust_cascade(certificate, monk
     assert {c.name for c in verify_certificate(bad, simulate=False).checks if not c.ok} == {"cascade.grid"}
     other_rate = dataclasses.replace(certificate, cascade={**section, "rate_hz": 50.0}).signed()
     assert "settings" in {c.name for c in verify_certificate(other_rate, simulate=False).checks if not c.ok}
+
+
+def test_the_kept_schema_1_certificate_verifies_and_says_what_it_does_not_cover(run_cli):
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parent / "data" / "schema1_certificate.json"
+    assert json.loads(path.read_text())["schema_version"] == 1 and "cascade" not in json.loads(path.read_text())
+    code, out, err = run_cli("verify", str(path), "--no-simulate", "--fail-fast")
+    assert code == 0, (out, err)
+    assert "note: schema 1" in out and "no sampled-data cascade" in out and "no parameter box" in out
+    assert "records, not verified" in out
