@@ -9,13 +9,14 @@
 """
 
 from nniquad.certificates.build import build_certificate, performance_runs
-from nniquad.certificates.certificate import (SCHEMA, SCHEMA_VERSION, TOLERANCES, Certificate, canonical_digest,
-                                              certificate_gains, certificate_inner_loop, certificate_vehicle,
-                                              check_form, load_certificate, read_certificate, write_certificate)
+from nniquad.certificates.certificate import (CASCADE_SCHEMA_VERSION, SCHEMA, SCHEMA_VERSION, SCHEMA_VERSIONS,
+                                              TOLERANCES, Certificate, canonical_digest, certificate_gains,
+                                              certificate_inner_loop, certificate_vehicle, check_form, load_certificate, read_certificate, write_certificate)
 from nniquad.certificates.verify import Check, Verification, verify_certificate
 
 __all__ = [
-    "SCHEMA", "SCHEMA_VERSION", "TOLERANCES", "Certificate", "canonical_digest", "check_form", "load_certificate",
-    "read_certificate", "write_certificate", "certificate_gains", "certificate_vehicle", "certificate_inner_loop",
+    "SCHEMA", "SCHEMA_VERSION", "SCHEMA_VERSIONS", "CASCADE_SCHEMA_VERSION", "TOLERANCES", "Certificate",
+    "canonical_digest", "check_form", "load_certificate", "read_certificate", "write_certificate", "certificate_gains",
+    "certificate_vehicle", "certificate_inner_loop",
     "build_certificate", "performance_runs", "Check", "Verification", "verify_certificate",
 ]

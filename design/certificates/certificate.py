@@ -498,7 +498,8 @@ class Certificate:
         data = dict(data) if isinstance(data, Mapping) else data
         check_form(data, where)
         missing = [k for k in _ALL_FIELDS if k not in data]
-        extra = [k for k in data if k not in _ALL_FIELDS and k not in ("schema", "schema_version", "digest", "margins", "cascade")]
+        extra = [k for k in data
+                 if k not in _ALL_FIELDS and k not in ("schema", "schema_version", "digest", "margins", "cascade")]
         if missing or extra:
             what = f"lacks '{missing[0]}'" if missing else f"has an unknown field '{extra[0]}'"
             raise CertificateError(f"{where}: {what}")

@@ -4,6 +4,17 @@ Every matrix condition is recomputed with numpy from the certificate's own
 vehicle and gains (never from stored system matrices), with the same re-check
 functions the LMIs use (:mod:`nniquad.analysis.lmi.checks`); both reference
 runs are re-simulated.  Neither cvxpy nor the tuner is needed.
+
+Every signed field is either recomputed or cross-checked (the model name, the
+tolerances, the section layout and the stated forms, every tilt limit and
+simulation setting, the ``diverged`` flags, the bound and the ratios to it), or
+is one of :data:`RECORD_FIELDS`, which no check and no Monte Carlo run reads;
+``tests/test_tampering.py`` edits every leaf of a certificate to show it.  A
+schema-2 ``cascade`` section is rebuilt by
+:func:`nniquad.analysis.robust_cascade.check_cascade_section`.  The checks run
+cheap first, ``fail_fast`` stops at the first failure, and re-simulations,
+margins and bounds are cached in the process by their exact inputs
+(:func:`clear_cache`).
 """
 
 from __future__ import annotations
@@ -456,7 +467,8 @@ def _robust_mass_check(cert: Certificate, tol: Mapping[str, float]) -> Check:
     nominal = cert.loop.with_mass(mn)
     worst = math.inf
     for mt in 1.0 / np.linspace(1.0 / hi, 1.0 / lo, 201):
-        worst = min(worst, K.certified_rate(nominal.with_mass(mt, thrust_model=True).closed_loop_A_axis(), P0 + P1 / mt))
+        A_m = nominal.with_mass(mt, thrust_model=True).closed_loop_A_axis()
+        worst = min(worst, K.certified_rate(A_m, P0 + P1 / mt))
     ok = worst >= stated * (1 - tol["rate_relative"]) and stated > 0
     return Check("lmi.robust_mass", ok, f"P0 + P1/m > 0 and decay >= {worst:.6g} 1/s (stated {stated:.6g}) "
                                         f"on 201 masses in [{lo:g}, {hi:g}] kg")
