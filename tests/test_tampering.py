@@ -23,7 +23,7 @@ Four outcomes are accepted, each stated for what it is:
 
 A number whose smaller value is the stronger claim (the lower end of the mass
 interval) is edited downwards: a weaker true claim is not a false certificate.
-The loop's runtime is asserted (< 90 s; about 25-35 s on 2 shared cores).
+The loop takes 23-68 s on 2 shared cores (asserted < 180 s, a guard against losing the cache).
 """
 
 from __future__ import annotations
@@ -210,6 +210,29 @@ def test_every_leaf_changed_alone_and_resigned_fails_or_is_shown_harmless(doc):
     assert set(outcome["insensitive"]) == set(INSENSITIVE)  # the list holds nothing that verify would catch
     for pattern in WITHIN_TOLERANCE:  # nor this one
         assert any(fnmatch.fnmatchcase(p, pattern) for p in outcome["tolerance"]), pattern
-    assert elapsed < 90, elapsed
+    # measured 23-68 s on 2 shared cores; without fail_fast and the cache it is ~10 min, which this guards against
+    assert elapsed < 180, elapsed
     assert {p.split(".")[0] for p in outcome["record"]} == {r.split(".")[0] for r in RECORD_FIELDS}
     assert "tuning.model" in outcome["failed"] and "tolerances.settling_abs_s" in outcome["failed"]
+
+
+def test_record_sections_replaced_whole_change_no_check_and_no_monte_carlo_setup(doc):
+    """``software`` and ``tuning`` (but for ``tuning.model``) and the vehicle's name are records: replaced whole,
+    every check gives the same result and detail, and ``study_setup`` / ``study_setup_from`` the same setup."""
+    from nniquad.certificates import certificate_gains, certificate_inner_loop, certificate_vehicle
+    from nniquad.study.scenarios import study_setup_from
+
+    ref = verify_certificate(doc)
+    for edit in (lambda c: c.update(software={}), lambda c: c.update(tuning=None),
+                 lambda c: c.update(tuning={"model": doc["model"], "source": "anything", "settling_s": -1.0}),
+                 lambda c: c["vehicle"].update(name="another name")):
+        c = copy.deepcopy(doc)
+        edit(c)
+        ok, res = _verify_passes(c, fail_fast=False)
+        assert ok and _checks(res) == _checks(ref)
+        assert _setup(c) == _setup(doc)
+        direct = study_setup_from(certificate_vehicle(c), certificate_gains(c), inner=certificate_inner_loop(c),
+                                  tilt_limit_deg=c["tilt_limit_deg"], xi0_m=c["xi0_m"],
+                                  region_m=c["region_of_attraction"]["max_displacement_m"])
+        assert direct.base_params == study_setup(doc).base_params
+    assert any("records, not verified" in n and "tuning" in n for n in ref.notes)
