@@ -37,6 +37,10 @@ __all__ = [
     "RK4_STEP_LIMIT",
     "MEMORY_FRACTION",
     "RUN_TIME_LIMIT_S",
+    "CASCADE_GRID_POINTS_PER_AXIS",
+    "CASCADE_ROA_DECAY_FRACTION",
+    "CASCADE_WIDEST_SCALE_MAX",
+    "CASCADE_WIDEST_STEPS",
 ]
 
 #: Initial horizontal position of the paper's run, north/east [m], at rest (DESIGN.md).
@@ -107,3 +111,14 @@ MC_STALL_TIMEOUT_S: float = 120.0
 #: Until its first batch finishes, a study waits at least this long before calling the pool or cluster
 #: stalled [s]: workers start, import nniquad and build the simulator (a few seconds each, more when loaded).
 MC_STARTUP_GRACE_S: float = 60.0
+
+#: Points per coordinate of the numpy grid check inside a cascade certificate's parameter box
+#: (nniquad.analysis.robust_cascade.grid_check; six coordinates, so 4 gives 4096 points).
+CASCADE_GRID_POINTS_PER_AXIS: int = 4
+#: The cascade's region of attraction is certified with a decay rate of at least this fraction of the
+#: robust linear decay rate (a strict decrease, so the trajectories converge; 0 would only make them bounded).
+CASCADE_ROA_DECAY_FRACTION: float = 0.1
+#: Largest scale (log space, about nominal) of the Monte Carlo default box the widest-box search tries.
+CASCADE_WIDEST_SCALE_MAX: float = 2.0
+#: Bisection steps of the widest-box search.
+CASCADE_WIDEST_STEPS: int = 2

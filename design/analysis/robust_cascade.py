@@ -1,0 +1,1372 @@
+"""The sampled-data cascade certified over a box of parameters: robust Lyapunov LMI, grid check, region of attraction.
+
+What is certified
+-----------------
+The linearised cascade of :mod:`nniquad.analysis.cascade` (the simulator's
+CasADi Jacobians at hover: rigid body, altitude PID and yaw hold, attitude PD in
+its linear region, allocation, first-order motor lag, NNI controller), sampled
+as in :mod:`nniquad.analysis.sampled`: the position is sampled at ``rate_hz``
+and held (exact ZOH), the NNI controller runs in discrete time (its exact ZOH
+equivalent, variant ``"discrete"``, its output held over the period), the
+attitude loop, the motors and the altitude loop are **continuous**.  All 19
+states are kept (no reduction to the horizontal subsystem).
+
+The parameter box
+-----------------
+:class:`ParameterBox` holds four intervals of factors on the vehicle's nominal
+values.  At a parameter point the *true* vehicle has mass ``f_m m``, inertias
+``f_Jx Jx, f_Jy Jy, f_Jz Jz`` (the **three inertia factors vary independently**
+inside ``inertia_factor``, as the Monte Carlo draws them), motor time constant
+``f_τ τ_m``, and the attitude torques are multiplied by ``f_a``
+(:attr:`nniquad.control.gains.InnerLoopGains.attitude_gain_scale` times
+``f_a``).  The controller's nominal mass ``m̂`` and the inner loops' nominal
+inertias stay nominal: they are what the flight code knows.  A point is thus
+six numbers ``θ = (f_m, f_Jx, f_Jy, f_Jz, f_a, f_τ)`` (:data:`POINT_NAMES`);
+the box has ``2^6 = 64`` vertices.
+
+With ``m ≠ m̂`` hover is an equilibrium with the altitude integrator holding
+``a_z = g (1 - m/m̂)`` (so that ``u1 = m̂ (g - a_z) = m g``) and the rotors at
+``sqrt(m g / 4b)``; the residual ``|f(x_eq)|`` is checked at every point.
+
+Certificates and what they cover
+--------------------------------
+* :func:`robust_lyapunov`: one common ``P ≻ 0`` with ``A_d(v)ᵀ P A_d(v) ⪯ ρ² P``
+  at **every vertex** ``v`` (cvxpy + Clarabel, bisection on ``ρ``), decay
+  ``-ln ρ / T``.  ``A_d(θ)`` is not affine in ``θ`` (matrix exponentials of
+  Jacobians), so the vertex LMIs do **not** prove the interior;
+  :func:`grid_check` therefore evaluates the exact contraction factor
+  ``‖P^{1/2} A_d(θ) P^{-1/2}‖₂`` and the spectral radius with numpy on a dense
+  grid inside the box: the interior is covered **at the grid points only**.
+* :func:`robust_region_of_attraction`: the discrete-time generalised sector
+  condition (Gomes da Silva & Tarbouriech, IEEE TAC 50(1), 2005, with the
+  vector form and scalar multiplier of :mod:`nniquad.analysis.lmi.roa`) for
+  ``x_{k+1} = A_0(v) x_k + B(v) sat_L(K x_k)``, a common ellipsoid at the
+  vertices; the certified reach is the largest initial position offset (any
+  direction; everything else at hover, controller state 0) inside it.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import time
+import warnings
+from dataclasses import dataclass, fields
+from functools import lru_cache
+from typing import Any, Mapping, Sequence
+
+import casadi as ca
+import numpy as np
+import scipy.linalg as sla
+
+from nniquad.analysis.cascade import (SPLIT_TOL, EQUILIBRIUM_TOL, LINEARISATION_OFFSET_M, LinearCascade, Linearisation,
+                                      _hover_params, _jacobian_function, allocation_jacobian)
+from nniquad.analysis.sampled import _conditioning_transform, _period
+from nniquad.config import (CASCADE_GRID_POINTS_PER_AXIS, CASCADE_ROA_DECAY_FRACTION, CASCADE_WIDEST_SCALE_MAX,
+                            CASCADE_WIDEST_STEPS, CONTROL_RATE_HZ, TILT_LIMIT_DEG)
+from nniquad.control.gains import Gains, InnerLoopGains
+from nniquad.errors import CascadeError, SolverError
+from nniquad.model.vehicle import Vehicle
+from nniquad.sim import STATE_NAMES, initial_state, param_layout
+
+__all__ = [
+    "BOX_KEYS",
+    "POINT_NAMES",
+    "ParameterBox",
+    "CascadeFamily",
+    "sampled_family",
+    "RobustLyapunov",
+    "robust_lyapunov",
+    "GridCheck",
+    "grid_check",
+    "RobustROA",
+    "robust_region_of_attraction",
+    "roa_recheck",
+    "widest_box",
+    "cascade_section",
+    "check_cascade_section",
+]
+
+#: Keys of a box in JSON, in order.
+BOX_KEYS: tuple[str, ...] = ("mass_factor", "inertia_factor", "attitude_gain_factor", "tau_motor_factor")
+#: Coordinates of a parameter point (the inertia factor is three independent coordinates).
+POINT_NAMES: tuple[str, ...] = ("mass", "Jx", "Jy", "Jz", "attitude_gain", "tau_motor")
+_POINT_BOX = (0, 1, 1, 1, 2, 3)  # which box interval each point coordinate takes
+
+
+# =============================================================================== the box
+
+
+def _interval(name: str, value: Any) -> tuple[float, float]:
+    try:
+        lo, hi = (float(v) for v in value)
+    except (TypeError, ValueError):
+        raise CascadeError(f"box {name} must be a pair [low, high] of factors, got {value!r}") from None
+    if not (math.isfinite(lo) and math.isfinite(hi) and 0.0 < lo <= hi):
+        raise CascadeError(f"box {name} must be finite factors with 0 < low <= high, got [{lo:g}, {hi:g}]")
+    return lo, hi
+
+
+@dataclass(frozen=True)
+class ParameterBox:
+    """Intervals of factors on the nominal vehicle (module docstring).
+
+    Attributes
+    ----------
+    mass_factor
+        True mass / nominal mass.
+    inertia_factor
+        True inertia / nominal, **each of Jx, Jy, Jz independently** in this interval.
+    attitude_gain_factor
+        Factor on the attitude-loop torques (``attitude_gain_scale``).
+    tau_motor_factor
+        Motor time constant / nominal.
+    """
+
+    mass_factor: tuple[float, float] = (1.0, 1.0)
+    inertia_factor: tuple[float, float] = (1.0, 1.0)
+    attitude_gain_factor: tuple[float, float] = (1.0, 1.0)
+    tau_motor_factor: tuple[float, float] = (1.0, 1.0)
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            object.__setattr__(self, f.name, _interval(f.name, getattr(self, f.name)))
+
+    @classmethod
+    def monte_carlo_default(cls) -> "ParameterBox":
+        """The Monte Carlo default ranges (:data:`nniquad.study.scenarios.DEFAULT_RANGES`)."""
+        from nniquad.study.scenarios import DEFAULT_RANGES
+
+        return cls(**{k: getattr(DEFAULT_RANGES, k) for k in BOX_KEYS})
+
+    def to_json(self) -> dict[str, list[float]]:
+        return {k: list(getattr(self, k)) for k in BOX_KEYS}
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any]) -> "ParameterBox":
+        """Read a box; exactly the keys :data:`BOX_KEYS`."""
+        if not isinstance(data, Mapping) or set(data) != set(BOX_KEYS):
+            got = sorted(data) if isinstance(data, Mapping) else type(data).__name__
+            raise CascadeError(f"a parameter box has exactly the keys {', '.join(BOX_KEYS)}; got {got}")
+        return cls(**{k: data[k] for k in BOX_KEYS})
+
+    def scaled(self, s: float) -> "ParameterBox":
+        """The box scaled by ``s`` about the nominal point **in log space**: ``[lo^s, hi^s]``.
+
+        Log space keeps every factor positive for any ``s >= 0`` and treats a
+        factor and its inverse alike (``tau_motor_factor`` 0.5-2 is symmetric
+        there); ``s = 0`` is the nominal point, ``s = 1`` this box.
+        """
+        if not (isinstance(s, (int, float)) and math.isfinite(s) and s >= 0):
+            raise CascadeError(f"box scale must be a finite number >= 0, got {s!r}")
+        return ParameterBox(**{k: (getattr(self, k)[0] ** s, getattr(self, k)[1] ** s) for k in BOX_KEYS})
+
+    def contains(self, other: "ParameterBox", rtol: float = 1e-12) -> bool:
+        """Whether every interval of ``other`` lies inside this box's."""
+        return all(getattr(self, k)[0] <= getattr(other, k)[0] * (1 + rtol)
+                   and getattr(other, k)[1] <= getattr(self, k)[1] * (1 + rtol) for k in BOX_KEYS)
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper factors of the six point coordinates (:data:`POINT_NAMES`)."""
+        iv = [getattr(self, k) for k in BOX_KEYS]
+        return (np.array([iv[j][0] for j in _POINT_BOX]), np.array([iv[j][1] for j in _POINT_BOX]))
+
+    def vertices(self) -> np.ndarray:
+        """The distinct vertices ``(n_v, 6)`` (a degenerate interval gives one value)."""
+        lo, hi = self.bounds()
+        axes = [sorted({a, b}) for a, b in zip(lo, hi)]
+        return np.array(list(itertools.product(*axes)), float)
+
+    def grid(self, n: int) -> np.ndarray:
+        """A tensor grid of ``n`` points per coordinate (ends included), ``(≤ n^6, 6)``; log-spaced."""
+        lo, hi = self.bounds()
+        axes = [np.unique(np.geomspace(a, b, n)) if b > a else np.array([a]) for a, b in zip(lo, hi)]
+        return np.array(list(itertools.product(*axes)), float)
+
+
+# =============================================================================== the family of sampled loops
+
+
+@dataclass(frozen=True)
+class CascadeFamily:
+    """The sampled cascade at many parameter points (batched; index 0 of every array is a point).
+
+    Attributes
+    ----------
+    points : ndarray (N, 6)
+        The parameter points (:data:`POINT_NAMES`).
+    state_names
+        Plant states then the controller states ``zc_x, zc_y``.
+    T
+        Sample period [s].
+    A_p, B_p : ndarray (N, n_p, n_p), (N, n_p, 2)
+        Continuous plant, input the held acceleration command ``a_h`` [m/s²].
+    C_p : ndarray (2, n_p)
+        Position output.
+    A_k, B_k, C_k, D_k
+        The NNI controller (continuous; the same at every point: it is the flight code's).
+    A_kd, B_kd
+        Its exact ZOH equivalent.
+    Phi, Gam : ndarray (N, n_p, n_p), (N, n_p, 2)
+        The plant's exact ZOH discretisation.
+    A_d : ndarray (N, n, n)
+        Closed loop ``x_{k+1} = A_d x_k`` (``n = n_p + 2``).
+    A0, B : ndarray (N, n, n), (N, n, 2)
+        Saturation split ``x_{k+1} = A0 x_k + B a_k`` with ``a_k = sat_L(K x_k)``.
+    K : ndarray (2, n)
+        The acceleration command ``a_k = K x_k`` before the tilt limit.
+    accel_limit : ndarray (N,)
+        Norm limit ``L = g_z tan(tilt)`` of ``a_h`` at hover, ``g_z = (m/m̂) g`` [m/s²].
+    residual : ndarray (N,)
+        ``max |f(x_eq)|`` of each equilibrium.
+    W_r, W_a, A_rw
+        Motor-command blocks (for :meth:`cascade_at`).
+    """
+
+    points: np.ndarray
+    state_names: tuple[str, ...]
+    T: float
+    A_p: np.ndarray
+    B_p: np.ndarray
+    C_p: np.ndarray
+    A_k: np.ndarray
+    B_k: np.ndarray
+    C_k: np.ndarray
+    D_k: np.ndarray
+    A_kd: np.ndarray
+    B_kd: np.ndarray
+    Phi: np.ndarray
+    Gam: np.ndarray
+    A_d: np.ndarray
+    A0: np.ndarray
+    B: np.ndarray
+    K: np.ndarray
+    accel_limit: np.ndarray
+    residual: np.ndarray
+    W_r: np.ndarray
+    W_a: np.ndarray
+    A_rw: np.ndarray
+    tau_motor: np.ndarray
+    context: Any = None
+
+    def __len__(self) -> int:
+        return self.points.shape[0]
+
+    @property
+    def spectral_radius(self) -> np.ndarray:
+        return np.max(np.abs(np.linalg.eigvals(self.A_d)), axis=-1)
+
+    def cascade_at(self, i: int) -> LinearCascade:
+        """The :class:`LinearCascade` of point ``i`` (for the continuous-time margins)."""
+        ctx = self.context
+        return LinearCascade(
+            vehicle=ctx["vehicle"], gains=ctx["gains"], inner=ctx["inner"], motor_lag=True, lin=ctx["lin"],
+            plant_states=self.state_names[:-2], rigid_states=ctx["rigid"], controller_states=self.state_names[-2:],
+            A_p=self.A_p[i], B_p=self.B_p[i], C_p=self.C_p, A_k=self.A_k, B_k=self.B_k, C_k=self.C_k, D_k=self.D_k,
+            W_r=self.W_r[i], W_a=self.W_a[i], A_rw=self.A_rw[i], tau_motor=float(self.tau_motor[i]),
+            M_alloc=ctx["M_alloc"])
+
+
+@lru_cache(maxsize=16)
+def _mapped_jacobian(n: int) -> ca.Function:
+    return _jacobian_function("full").map(n, "serial")
+
+
+def _batched_expm(M: np.ndarray) -> np.ndarray:
+    return sla.expm(M)  # scipy >= 1.9 exponentiates a stack (..., n, n)
+
+
+def sampled_family(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, points: np.ndarray, *,
+                   tilt_limit_deg: float = TILT_LIMIT_DEG, rate_hz: float = CONTROL_RATE_HZ) -> CascadeFamily:
+    """Linearise and sample the cascade at many parameter points at once.
+
+    One mapped CasADi evaluation of the simulator's Jacobians (at ``±ε`` on the
+    held measurement, as :func:`nniquad.analysis.cascade.linearise` does) and
+    one stacked ``expm`` give every point's plant; the split into plant and
+    controller is that of :func:`nniquad.analysis.cascade.linearise_cascade`
+    (its exactness is checked at every point).
+
+    Parameters
+    ----------
+    vehicle, gains, inner
+        The nominal design.
+    points : array (N, 6)
+        Parameter points (:data:`POINT_NAMES`).
+    tilt_limit_deg
+        Tilt limit [deg] (sets :attr:`CascadeFamily.accel_limit`; inactive at hover).
+    rate_hz
+        Sample rate [Hz].
+
+    Raises
+    ------
+    CascadeError
+        A point that is not an equilibrium, an inexact split, a bad point.
+    """
+    T = _period(rate_hz)
+    pts = np.atleast_2d(np.asarray(points, float))
+    if pts.shape[1] != len(POINT_NAMES) or not np.all(np.isfinite(pts)) or np.any(pts <= 0):
+        raise CascadeError(f"parameter points must be positive factors of shape (N, {len(POINT_NAMES)})")
+    N = pts.shape[0]
+    base = _hover_params(vehicle, gains, inner, tilt_limit_deg, None).with_(run={"sample_hold": 1.0})
+    names = [f.name for f in param_layout("nni")]
+    col = {n: i for i, n in enumerate(names)}
+    pv = np.tile(base.vector(), (N, 1))
+    nom = base.plant
+    pv[:, col["plant.m"]] = nom.m * pts[:, 0]
+    pv[:, col["plant.Jx"]] = nom.Jx * pts[:, 1]
+    pv[:, col["plant.Jy"]] = nom.Jy * pts[:, 2]
+    pv[:, col["plant.Jz"]] = nom.Jz * pts[:, 3]
+    pv[:, col["inner.attitude_gain_scale"]] = base.inner.attitude_gain_scale * pts[:, 4]
+    tau = nom.tau_motor * pts[:, 5]
+    pv[:, col["plant.tau_motor"]] = tau
+    # the hover equilibrium of a heavier/lighter vehicle: the altitude integrator holds a_z = g (1 - m/m̂)
+    snames = STATE_NAMES["full"]
+    si = {n: i for i, n in enumerate(snames)}
+    x_eq = np.tile(initial_state("full", base, (0.0, 0.0)), (N, 1))
+    m_true = pv[:, col["plant.m"]]
+    g = base.nominal.g
+    a_z = g * (1.0 - m_true / base.nominal.m)
+    x_eq[:, si["z_int"]] = -a_z / base.inner.altitude_wn_rad_s ** 3
+    w_hover = np.sqrt(m_true * nom.g / (4.0 * nom.b))
+    for k in range(1, 5):
+        x_eq[:, si[f"w{k}"]] = w_hover
+    fn = _mapped_jacobian(2 * N)
+    d = np.zeros(len(snames))
+    d[si["held_x"]] = LINEARISATION_OFFSET_M
+    X = np.vstack([x_eq + d, x_eq - d]).T
+    Pm = np.vstack([pv, pv]).T
+    f0, Jm, Ym = fn(X, Pm)
+    nx = len(snames)
+    # residual at the equilibrium itself (the ±ε points differ from it only in the held measurement)
+    f_eq = np.asarray(_mapped_jacobian(N)(x_eq.T, pv.T)[0], float).T
+    residual = np.max(np.abs(f_eq), axis=1)
+    if not np.all(residual <= EQUILIBRIUM_TOL * max(1.0, float(np.max(w_hover)) / 100.0)):
+        i = int(np.argmax(residual))
+        raise CascadeError(f"hover is not an equilibrium at point {pts[i].tolist()} (|f| = {residual[i]:.3g})")
+    Jm = np.asarray(Jm, float).reshape(nx, 2 * N, nx).transpose(1, 0, 2)
+    Ym = np.asarray(Ym, float).reshape(2, 2 * N, nx).transpose(1, 0, 2)
+    J = 0.5 * (Jm[:N] + Jm[N:])
+    Y = 0.5 * (Ym[:N] + Ym[N:])
+    if not (np.all(np.isfinite(J)) and np.all(np.isfinite(Y))):
+        raise CascadeError("a Jacobian of the cascade is not finite")
+    ctrl, held, motors = ("zc_x", "zc_y"), ("held_x", "held_y"), ("w1", "w2", "w3", "w4")
+    rigid = tuple(n for n in snames if n not in ctrl + held + motors)
+    ik, ih = [si[n] for n in ctrl], [si[n] for n in held]
+    iw, ir = [si[n] for n in motors], [si[n] for n in rigid]
+    ip = ir + iw
+    A_k, B_k = J[0][np.ix_(ik, ik)], J[0][np.ix_(ik, ih)]
+    C_k, D_k = Y[0][:, ik], Y[0][:, ih]
+    # the controller is the flight code's: the same at every point, and it reads no plant state
+    for M, name in ((J[:, ik][:, :, ik] - A_k, "A_k"), (J[:, ik][:, :, ih] - B_k, "B_k"),
+                    (Y[:, :, ik] - C_k, "C_k"), (Y[:, :, ih] - D_k, "D_k"),
+                    (J[:, ik][:, :, ip], "z' from plant"), (Y[:, :, ip], "a_h from plant")):
+        if np.max(np.abs(M)) > SPLIT_TOL * max(1.0, float(np.max(np.abs(J[0])))):
+            raise CascadeError(f"the horizontal law is not the same velocity-free law at every point ({name})")
+    G = np.hstack([C_k, D_k])
+    Jpc = J[:, ip][:, :, ik + ih]
+    B_full = Jpc @ np.linalg.pinv(G)
+    res = np.max(np.abs(Jpc - B_full @ G)) / max(1.0, float(np.max(np.abs(Jpc))))
+    if res > SPLIT_TOL:
+        raise CascadeError(f"the plant does not see the controller through a_h alone (relative {res:.3g})")
+    A_p = J[:, ip][:, :, ip]
+    nr = len(ir)
+    B_p = B_full
+    if np.max(np.abs(B_p[:, :nr])) > SPLIT_TOL * max(1.0, float(np.max(np.abs(B_p)))):
+        raise CascadeError("a_h reaches the rigid body other than through the rotors")
+    n_p, n_k = len(ip), 2
+    C_p = np.zeros((2, n_p))
+    C_p[0, rigid.index("x")] = C_p[1, rigid.index("y")] = 1.0
+    # exact ZOH of the plant (stacked) and of the controller
+    Mz = np.zeros((N, n_p + 2, n_p + 2))
+    Mz[:, :n_p, :n_p], Mz[:, :n_p, n_p:] = A_p * T, B_p * T
+    E = _batched_expm(Mz)
+    Phi, Gam = E[:, :n_p, :n_p], E[:, :n_p, n_p:]
+    Ek = sla.expm(np.block([[A_k, B_k], [np.zeros((2, 4))]]) * T)
+    A_kd, B_kd = Ek[:2, :2], Ek[:2, 2:]
+    n = n_p + n_k
+    K = np.hstack([D_k @ C_p, C_k])
+    A0 = np.zeros((N, n, n))
+    A0[:, :n_p, :n_p] = Phi
+    A0[:, n_p:, :n_p] = B_kd @ C_p
+    A0[:, n_p:, n_p:] = A_kd
+    Bs = np.zeros((N, n, 2))
+    Bs[:, :n_p] = Gam
+    A_d = A0 + Bs @ K
+    A_wr = J[:, iw][:, :, ir]
+    W_r = tau[:, None, None] * A_wr
+    W_a = tau[:, None, None] * B_p[:, nr:]
+    A_rw = J[:, ir][:, :, iw]
+    L = (m_true / base.nominal.m) * g * math.tan(math.radians(tilt_limit_deg))
+    lin0 = Linearisation("full", snames, x_eq[0], float(residual[0]), J[0], Y[0], base)
+    ctx = {"vehicle": vehicle, "gains": gains, "inner": inner, "lin": lin0, "rigid": rigid,
+           "M_alloc": allocation_jacobian(base)}
+    return CascadeFamily(points=pts, state_names=tuple(rigid + motors + ctrl), T=T, A_p=A_p, B_p=B_p, C_p=C_p,
+                         A_k=A_k, B_k=B_k, C_k=C_k, D_k=D_k, A_kd=A_kd, B_kd=B_kd, Phi=Phi, Gam=Gam, A_d=A_d, A0=A0,
+                         B=Bs, K=K, accel_limit=L, residual=residual, W_r=W_r, W_a=W_a, A_rw=A_rw, tau_motor=tau,
+                         context=ctx)
+
+
+# =============================================================================== robust Lyapunov LMI
+
+
+def _sym(M: np.ndarray) -> np.ndarray:
+    return 0.5 * (M + np.swapaxes(M, -1, -2))
+
+
+def contraction_batch(A_d: np.ndarray, P: np.ndarray) -> np.ndarray:
+    """``‖P^{1/2} A_d P^{-1/2}‖₂`` for a stack of ``A_d`` (numpy; :func:`nniquad.analysis.sampled.contraction`)."""
+    Lt = np.swapaxes(np.linalg.cholesky(_sym(P)), -1, -2)  # P = L Lᵀ, ‖x‖_P = ‖Lᵀ x‖; P may be a stack
+    M = Lt @ A_d @ np.linalg.inv(Lt)
+    return np.linalg.norm(M, 2, axis=(-2, -1))
+
+
+@dataclass(frozen=True)
+class RobustLyapunov:
+    """A common Lyapunov matrix of the sampled cascade at the vertices of a box.
+
+    Attributes
+    ----------
+    P : ndarray (n, n)
+        ``P ≻ 0`` with ``A_d(v)ᵀ P A_d(v) ⪯ ρ² P`` at every vertex (original coordinates).
+    rho
+        The certified contraction factor per period at the vertices.
+    rho_vertices : ndarray
+        The numpy contraction factor ``‖P^{1/2} A_d(v) P^{-1/2}‖₂`` of each vertex (each <= ``rho``).
+    spectral_radius
+        Largest spectral radius over the vertices (the infimum of any common ``ρ``).
+    T
+        Sample period [s].
+    decay_rate_1_s
+        ``-ln ρ / T`` [1/s].
+    min_eig_P
+        Smallest over largest eigenvalue of ``P``.
+    ok
+        ``P ≻ 0`` and every vertex contracts by at most ``ρ < 1`` (numpy).
+    """
+
+    P: np.ndarray
+    rho: float
+    rho_vertices: np.ndarray
+    spectral_radius: float
+    T: float
+    decay_rate_1_s: float
+    min_eig_P: float
+    status: str
+    ok: bool
+
+
+def robust_lyapunov(A_v: np.ndarray, T: float, *, S: np.ndarray | None = None, theta: np.ndarray | None = None,
+                    rtol: float = 2e-3, max_iter: int = 30) -> RobustLyapunov:
+    """Common ``P`` with ``A_vᵀ P A_v ⪯ ρ² P`` at every vertex, smallest ``ρ`` by bisection (cvxpy + Clarabel).
+
+    Posed for ``P̃ = Sᵀ P S`` (``S`` the well-scaled coordinates of the nominal
+    loop, :func:`nniquad.analysis.sampled._conditioning_transform`), with
+    ``I ⪯ P̃ ⪯ t I`` and ``t`` minimised; the answer is re-checked with numpy
+    in the original coordinates (a vertex whose contraction exceeds ``ρ``
+    rejects that ``ρ``).  The best decay (within ``rtol`` of the largest vertex
+    spectral radius) is tried first, then the decay rate is bisected.
+
+    Parameters
+    ----------
+    A_v : array (n_v, n, n)
+        The vertex loops.
+    T
+        Sample period [s].
+    S
+        Coordinates of the LMI (default: those of ``A_v[0]``).
+
+    Raises
+    ------
+    SolverError
+        A vertex is unstable, or no ``ρ < 1`` is certified.
+    """
+    import cvxpy as cp
+
+    A_v = np.asarray(A_v, float)
+    nv, n = A_v.shape[0], A_v.shape[1]
+    rho_spec = float(np.max(np.abs(np.linalg.eigvals(A_v))))
+    if not rho_spec < 1.0:
+        raise SolverError(f"robust cascade LMI: a vertex of the box is unstable (spectral radius {rho_spec:.6g})")
+    S = _conditioning_transform(A_v[0]) if S is None else S
+    Sinv = np.linalg.inv(S)
+    Ab = Sinv @ A_v @ S
+    th = np.zeros((nv, 0)) if theta is None else np.asarray(theta, float).reshape(nv, -1)
+    q = th.shape[1]
+    Pk = [cp.Variable((n, n), symmetric=True) for _ in range(q + 1)]
+    t = cp.Variable()
+    r2 = cp.Parameter(nonneg=True)
+    cons = []
+    # P(θ) is affine, so P ⪰ I and P ⪯ t I at the corners of the θ-cube hold on the whole cube
+    corners = [np.array(c, float) for c in itertools.product((-1.0, 1.0), repeat=q)]
+    for c in corners:
+        Pc = Pk[0] + sum(c[j] * Pk[j + 1] for j in range(q)) if q else Pk[0]
+        cons += [Pc >> np.eye(n), Pc << t * np.eye(n)]
+    for i in range(nv):
+        Pi = Pk[0] + sum(th[i, j] * Pk[j + 1] for j in range(q)) if q else Pk[0]
+        cons += [r2 * Pi - Ab[i].T @ Pi @ Ab[i] >> 0]
+    prob = cp.Problem(cp.Minimize(t), cons)
+    status = ["none"]
+
+    def solve(rho: float) -> tuple[np.ndarray, np.ndarray] | None:
+        r2.value = rho * rho
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", UserWarning)
+                prob.solve(solver=cp.CLARABEL)
+        except cp.error.SolverError:
+            return None
+        if prob.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) or Pk[0].value is None:
+            return None
+        Po = np.stack([_sym(Sinv.T @ _sym(V.value) @ Sinv) for V in Pk])
+        try:
+            rv = contraction_batch(A_v, _affine(Po, th))
+        except np.linalg.LinAlgError:
+            return None
+        if np.max(rv) <= rho * (1 + 1e-9):
+            status[0] = str(prob.status)
+            return Po, rv
+        return None
+
+    lam_spec = -math.log(rho_spec) / T
+    lam_try = lam_spec * (1 - rtol)
+    best = None
+    got = solve(math.exp(-lam_try * T))
+    if got is not None:
+        best = (math.exp(-lam_try * T), *got)
+    else:
+        lo, hi = 0.0, lam_try
+        for _ in range(max_iter):
+            mid = 0.5 * (lo + hi)
+            got = solve(math.exp(-mid * T))
+            if got is not None:
+                lo, best = mid, (math.exp(-mid * T), *got)
+            else:
+                hi = mid
+            if best is not None and (hi - lo) <= rtol * hi:
+                break
+    if best is None:
+        raise SolverError(f"robust cascade LMI: no common P for any decay in (0, {lam_spec:.4g}) 1/s")
+    rho, P, rv = best
+    ev = np.linalg.eigvalsh(_affine(P, th))
+    ok = bool(np.min(ev[:, 0]) > 0 and np.max(rv) <= rho * (1 + 1e-9) and rho < 1)
+    return RobustLyapunov(P=P, rho=rho, rho_vertices=rv, spectral_radius=rho_spec, T=T,
+                          decay_rate_1_s=-math.log(rho) / T, min_eig_P=float(np.min(ev[:, 0] / ev[:, -1])),
+                          status=status[0], ok=ok)
+
+
+def _affine(Pk: np.ndarray, theta: np.ndarray) -> np.ndarray:
+    """``P(θ) = P_0 + Σ θ_j P_j`` for every row of ``theta`` (``Pk`` stacked ``(q + 1, n, n)``)."""
+    theta = np.atleast_2d(theta)
+    return Pk[0][None] + np.einsum("ij,jkl->ikl", theta, Pk[1:]) if Pk.shape[0] > 1 else \
+        np.broadcast_to(Pk[0], (theta.shape[0],) + Pk.shape[1:])
+
+
+@dataclass(frozen=True)
+class GridCheck:
+    """The numpy check of a Lyapunov matrix on a grid inside the box (covers the grid points only).
+
+    Attributes
+    ----------
+    size
+        Number of grid points.
+    points_per_axis
+        Grid points per coordinate.
+    worst_rho
+        Largest contraction factor ``‖P^{1/2} A_d(θ) P^{-1/2}‖₂`` over the grid.
+    worst_margin
+        ``1 - worst_rho`` (positive: ``P`` decreases at every grid point).
+    worst_point
+        The point of ``worst_rho`` (:data:`POINT_NAMES` factors).
+    worst_spectral_radius
+        Largest spectral radius of ``A_d`` over the grid.
+    worst_spectral_point
+        Where it is attained.
+    """
+
+    size: int
+    points_per_axis: int
+    worst_rho: float
+    worst_margin: float
+    worst_point: tuple[float, ...]
+    worst_spectral_radius: float
+    worst_spectral_point: tuple[float, ...]
+
+    @property
+    def ok(self) -> bool:
+        return bool(self.worst_rho < 1.0 and self.worst_spectral_radius < 1.0)
+
+    def to_json(self) -> dict[str, Any]:
+        return {"size": self.size, "points_per_axis": self.points_per_axis, "worst_rho": self.worst_rho,
+                "worst_margin": self.worst_margin, "worst_point": dict(zip(POINT_NAMES, self.worst_point)),
+                "worst_spectral_radius": self.worst_spectral_radius,
+                "worst_spectral_point": dict(zip(POINT_NAMES, self.worst_spectral_point)), "ok": self.ok}
+
+
+def grid_check(family: CascadeFamily, P: np.ndarray, points_per_axis: int) -> GridCheck:
+    """Contraction factor of ``P`` and spectral radius at every point of ``family`` (numpy).
+
+    The vertex LMIs of :func:`robust_lyapunov` do not extend to the interior of
+    the box (``A_d`` is not affine in the parameters); this check covers the
+    grid points, and only them.
+    """
+    rho = contraction_batch(family.A_d, P)
+    sr = family.spectral_radius
+    i, j = int(np.argmax(rho)), int(np.argmax(sr))
+    return GridCheck(size=len(family), points_per_axis=int(points_per_axis), worst_rho=float(rho[i]),
+                     worst_margin=float(1.0 - rho[i]), worst_point=tuple(float(v) for v in family.points[i]),
+                     worst_spectral_radius=float(sr[j]), worst_spectral_point=tuple(float(v) for v in family.points[j]))
+
+
+# =============================================================================== decoupled subsystems
+
+#: The fixed change of the rotor coordinates: collective, roll pair, pitch pair, yaw (orthonormal; '+' layout
+#: of :func:`nniquad.control.inner_loops.allocate`: roll from w4 - w2, pitch from w1 - w3).
+_ROTOR_MODES = np.array([[0.5, 0.5, 0.5, 0.5],
+                         [0.0, -1 / math.sqrt(2), 0.0, 1 / math.sqrt(2)],
+                         [1 / math.sqrt(2), 0.0, -1 / math.sqrt(2), 0.0],
+                         [-0.5, 0.5, -0.5, 0.5]])
+_ROTOR_MODE_NAMES = ("m_collective", "m_roll", "m_pitch", "m_yaw")
+#: The subsystems of the cascade at hover after :func:`mode_transform` (position first, controller state
+#: last in each horizontal axis, the same order on both axes).
+SUBSYSTEMS: dict[str, tuple[str, ...]] = {
+    "x": ("x", "x_dot", "theta", "theta_dot", "m_pitch", "zc_x"),
+    "y": ("y", "y_dot", "phi", "phi_dot", "m_roll", "zc_y"),
+    "altitude": ("z", "z_dot", "z_int", "m_collective"),
+    "yaw": ("psi", "psi_dot", "m_yaw"),
+}
+
+
+def mode_transform(state_names: Sequence[str]) -> tuple[np.ndarray, tuple[str, ...]]:
+    """The fixed orthogonal map ``ζ = T_m x`` to the coordinates of :data:`SUBSYSTEMS` (rotor modes, permuted).
+
+    Returns ``T_m`` (rows in the order x, y, altitude, yaw subsystems) and the new state names.
+    """
+    names = list(state_names)
+    n = len(names)
+    R = np.eye(n)
+    iw = [names.index(f"w{k}") for k in range(1, 5)]
+    R[np.ix_(iw, iw)] = _ROTOR_MODES
+    mode_names = list(names)
+    for i, m in zip(iw, _ROTOR_MODE_NAMES):
+        mode_names[i] = m
+    order = [mode_names.index(s) for sub in SUBSYSTEMS.values() for s in sub]
+    if sorted(order) != list(range(n)):
+        raise CascadeError("the subsystems do not partition the cascade's states")
+    return R[order], tuple(mode_names[i] for i in order)
+
+
+def _blocks() -> dict[str, slice]:
+    out, k = {}, 0
+    for name, sub in SUBSYSTEMS.items():
+        out[name] = slice(k, k + len(sub))
+        k += len(sub)
+    return out
+
+
+def coupling(family: CascadeFamily) -> float:
+    """Largest coupling between the subsystems of ``T_m A_d T_mᵀ``, relative (diagonal balancing of the nominal loop).
+
+    Zero in exact arithmetic at hover (the altitude, yaw and the two horizontal
+    axes decouple at first order); what remains is the ``O(ε²)`` error of the
+    symmetric-mean Jacobian (:mod:`nniquad.analysis.cascade`), about ``1e-12``.
+    """
+    Tm, _ = mode_transform(family.state_names)
+    Z = Tm @ family.A_d @ Tm.T
+    _, (s, _) = sla.matrix_balance(Z[0], permute=False, separate=True)
+    Zb = Z / s[None, :, None] * s[None, None, :]
+    mask = np.ones(Z.shape[1:], bool)
+    for sl in _blocks().values():
+        mask[sl, sl] = False
+    return float(np.max(np.abs(Zb[:, mask])) / max(np.max(np.abs(Zb)), 1.0))
+
+
+def _subsystem(family: CascadeFamily, name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(A_d, A0, B, K)`` of one subsystem at every point (B and K: the axis's own input/command; else None)."""
+    Tm, _ = mode_transform(family.state_names)
+    sl = _blocks()[name]
+    R = Tm[sl]
+    A_d = R @ family.A_d @ R.T
+    A0 = R @ family.A0 @ R.T
+    ax = {"x": 0, "y": 1}.get(name)
+    if ax is None:
+        return A_d, A0, None, None
+    return A_d, A0, (R @ family.B)[:, :, ax:ax + 1], (family.K @ R.T)[ax:ax + 1]
+
+
+#: Coupling above which the subsystems are not treated as decoupled.
+COUPLING_TOL = 1e-9
+
+
+def box_coordinates(box: ParameterBox, points: np.ndarray) -> np.ndarray:
+    """Normalised coordinates ``θ ∈ [-1, 1]`` (log factor, centred) of the non-degenerate box directions."""
+    lo, hi = box.bounds()
+    keep = hi > lo
+    llo, lhi = np.log(lo[keep]), np.log(hi[keep])
+    return (2.0 * np.log(np.atleast_2d(points)[:, keep]) - (llo + lhi)) / (lhi - llo)
+
+
+def _relevance_points(box: ParameterBox) -> np.ndarray:
+    """Nominal, then each coordinate moved alone to its low and high end: ``(13, 6)``."""
+    lo, hi = box.bounds()
+    pts = [np.ones(6)]
+    for j in range(6):
+        for v in (lo[j], hi[j]):
+            p = np.ones(6)
+            p[j] = v
+            pts.append(p)
+    return np.array(pts)
+
+
+def _relevance_from(fam: CascadeFamily, box: ParameterBox, tol: float = 1e-9) -> dict[str, tuple[int, ...]]:
+    lo, hi = box.bounds()
+    out = {}
+    for name in SUBSYSTEMS:
+        A = _subsystem(fam, name)[0]
+        scale = max(float(np.max(np.abs(A[0]))), 1.0)
+        out[name] = tuple(j for j in range(6) if hi[j] > lo[j]
+                          and max(np.max(np.abs(A[1 + 2 * j] - A[0])), np.max(np.abs(A[2 + 2 * j] - A[0]))) > tol * scale)
+    return out
+
+
+def relevant_coordinates(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, box: ParameterBox, *,
+                         tilt_limit_deg: float, rate_hz: float, tol: float = 1e-9) -> dict[str, tuple[int, ...]]:
+    """Which point coordinates change each subsystem's ``A_d`` (moving one coordinate to each end of the box).
+
+    A coordinate that changes a subsystem by less than ``tol`` (relative) is
+    left out of that subsystem's LMI; the grid check on the full 19-state loop
+    (:func:`grid_check`) is done with all six.
+    """
+    fam = sampled_family(vehicle, gains, inner, _relevance_points(box), tilt_limit_deg=tilt_limit_deg,
+                         rate_hz=rate_hz)
+    return _relevance_from(fam, box, tol)
+
+
+def _coords(box: ParameterBox, points: np.ndarray, dims: Sequence[int]) -> np.ndarray:
+    lo, hi = box.bounds()
+    d = list(dims)
+    llo, lhi = np.log(lo[d]), np.log(hi[d])
+    return (2.0 * np.log(np.atleast_2d(points)[:, d]) - (llo + lhi)) / (lhi - llo)
+
+
+def _subgrid(box: ParameterBox, dims: Sequence[int], n: int) -> np.ndarray:
+    """A grid of ``n`` points per coordinate over ``dims`` (log-spaced), the other coordinates nominal (1)."""
+    lo, hi = box.bounds()
+    axes = [np.geomspace(lo[j], hi[j], n) if j in dims else np.array([1.0]) for j in range(6)]
+    return np.array(list(itertools.product(*axes)), float)
+
+
+# =============================================================================== region of attraction
+
+
+@dataclass(frozen=True)
+class RobustROA:
+    """The region of attraction of the saturated sampled cascade's horizontal axes (both axes together).
+
+    For each axis ``a ∈ {x, y}``: ``W_a(θ) = W_a0 + Σ θ_j W_aj`` (``P_a = W_a⁻¹``),
+    ``Z_a(θ)`` (``G_a = Z_a W_a⁻¹``), one scalar multiplier ``S = 1/t`` shared by the
+    axes (the vector sector condition of the norm limit needs a scalar), the
+    decay factor ``rho`` per period inside the region, the acceleration limit
+    ``L`` [m/s²] and the reach [m].  ``Wk[a]`` stacks ``(q_a + 1, 6, 6)``;
+    ``dims[a]`` are the point coordinates of ``θ``.
+    """
+
+    Wk: dict[str, np.ndarray]
+    Zk: dict[str, np.ndarray]
+    S: float
+    rho: float
+    L: float
+    reach_m: float
+    dims: dict[str, tuple[int, ...]]
+    status: str
+
+
+def _roa_matrices(A_d: np.ndarray, B: np.ndarray, K: np.ndarray, W: np.ndarray, Z: np.ndarray, S: float,
+                  rho: float, L: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """numpy forms, in the original variables, of the decrease and inclusion conditions (stacked over points).
+
+    Decrease (must be ⪯ 0): ``[A_d, -B]ᵀ P [A_d, -B] - [[ρ² P, -Gᵀ T], [-T G, 2T]]`` with ``P = W⁻¹``,
+    ``G = Z P``, ``T = 1/S``: then ``V(x⁺) - ρ² V(x) <= 2 ψᵀ T (ψ - G x) <= 0`` in the region.
+    Inclusion (must be >= 0): ``L² - (K - G) W (K - G)ᵀ``.
+    """
+    P = np.linalg.inv(_sym(W))
+    G = Z @ P
+    Tm = 1.0 / S
+    M = np.concatenate([A_d, -np.broadcast_to(B, A_d.shape[:-2] + B.shape[-2:])], axis=-1)
+    n = A_d.shape[-1]
+    R = np.zeros(M.shape[:-2] + (n + 1, n + 1))
+    R[..., :n, :n] = rho * rho * P
+    R[..., :n, n:] = -np.swapaxes(G, -1, -2) * Tm
+    R[..., n:, :n] = -G * Tm
+    R[..., n:, n:] = 2.0 * Tm
+    dec = np.swapaxes(M, -1, -2) @ P @ M - R
+    KG = K - G
+    inc = L * L - (KG @ W @ np.swapaxes(KG, -1, -2))[..., 0, 0]
+    return _sym(dec), inc, P
+
+
+def robust_region_of_attraction(axes: Mapping[str, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]],
+                                L: float, rho: float, *, r_cap: float = 1e3) -> RobustROA:
+    """Largest certified position offset under the norm tilt limit, common over the LMI points (cvxpy + Clarabel).
+
+    ``axes[a] = (A_d, B, K, theta)`` at the LMI points of axis ``a`` (``theta`` their
+    normalised coordinates).  At each point, ``x_{k+1} = A_d x_k - B ψ_k`` with the
+    dead zone ``ψ = v - sat_L(v)`` of the 2-D command ``v = K x`` (both axes).  The
+    LMIs (``W`` the inverse Lyapunov matrix, ``Z = G W``, ``S = T⁻¹``, Schur form):
+
+    * decrease at every LMI point: ``[[ρ² W, -Zᵀ, W A_dᵀ], [-Z, 2S, -S Bᵀ], [A_d W, -B S, W]] ⪰ 0``;
+    * inclusion ``[[W, (K W - Z)ᵀ], [K W - Z, L²]] ⪰ 0`` and start
+      ``[[W, r e_1], [r e_1ᵀ, 1]] ⪰ 0`` at the corners of the θ-cube (both affine in
+      ``θ``, so they hold on the whole cube),
+
+    ``r`` maximised.  The decrease matrices split by axis (block-diagonal ``A_d``,
+    ``B``, ``G`` and a scalar ``T``), so the 2-D condition is the pair of axis
+    conditions; the inclusion of the 2-D command in the norm ball is the larger
+    of the axis inclusions.  Solved in scaled units: position in ``L/|K_0|``,
+    the other states balanced (:func:`scipy.linalg.matrix_balance`), ``ψ`` in ``L``.
+    """
+    import cvxpy as cp
+
+    W, Z, cons, data = {}, {}, [], {}
+    S = cp.Variable()
+    r = cp.Variable()
+    for a, (A_d, B, K, th) in axes.items():
+        th = np.atleast_2d(th)
+        q = th.shape[1]
+        n = A_d.shape[-1]
+        _, (dsc, _) = sla.matrix_balance(A_d[0], permute=False, separate=True)
+        d = dsc / dsc[0] * (L / abs(float(K[0, 0])))
+        D, Di = np.diag(d), np.diag(1.0 / d)
+        At = Di @ A_d @ D
+        Bt = (Di @ B) * L
+        Kt = (K @ D) / L
+        Wk = [cp.Variable((n, n), symmetric=True) for _ in range(q + 1)]
+        Zk = [cp.Variable((1, n)) for _ in range(q + 1)]
+        aff = lambda V, c: V[0] + sum(c[j] * V[j + 1] for j in range(q)) if q else V[0]  # noqa: E731
+        e1 = np.zeros((n, 1))
+        e1[0, 0] = 1.0
+        for c in itertools.product((-1.0, 1.0), repeat=q):
+            Wc, Zc = aff(Wk, c), aff(Zk, c)
+            inc = cp.bmat([[Wc, (Kt @ Wc - Zc).T], [Kt @ Wc - Zc, np.ones((1, 1))]])
+            st = cp.bmat([[Wc, (r / d[0]) * e1], [(r / d[0]) * e1.T, np.ones((1, 1))]])
+            cons += [0.5 * (inc + inc.T) >> 0, 0.5 * (st + st.T) >> 0]
+        for i in range(At.shape[0]):
+            Wi, Zi = aff(Wk, th[i]), aff(Zk, th[i])
+            Ai, Bi = At[i], Bt if Bt.ndim == 2 else Bt[i]
+            M = cp.bmat([[rho * rho * Wi, -Zi.T, Wi @ Ai.T], [-Zi, 2 * S * np.ones((1, 1)), -S * Bi.T],
+                         [Ai @ Wi, -S * Bi, Wi]])
+            cons.append(0.5 * (M + M.T) >> 1e-9 * np.eye(2 * n + 1))
+        W[a], Z[a], data[a] = Wk, Zk, (D, q)
+    cons += [S >= 1e-9, r >= 0, r <= r_cap]
+    prob = cp.Problem(cp.Maximize(r), cons)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)
+            prob.solve(solver=cp.CLARABEL)
+    except cp.error.SolverError as exc:
+        raise SolverError(f"cascade region of attraction: the solver failed ({exc})") from None
+    if prob.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) or S.value is None:
+        raise SolverError(f"cascade region of attraction: no solution ({prob.status})")
+    # back to the original variables: W = D W~ D, Z = G W = L Z~ D (G = L G~ D^-1), S = L² S~ (T = T~ / L²)
+    Wk_o = {a: np.stack([_sym(data[a][0] @ V.value @ data[a][0]) for V in W[a]]) for a in axes}
+    Zk_o = {a: np.stack([L * (V.value @ data[a][0]) for V in Z[a]]) for a in axes}
+    return RobustROA(Wk=Wk_o, Zk=Zk_o, S=float(S.value) * L * L, rho=float(rho), L=float(L),
+                     reach_m=float(r.value), dims={}, status=str(prob.status))
+
+
+def roa_recheck(roa: RobustROA, axes: Mapping[str, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]],
+                reach_m: float | None = None) -> dict[str, float]:
+    """numpy re-check of the region of attraction at the given points (each axis: ``(A_d, B, K, theta)``).
+
+    Returns the worst (largest) relative eigenvalue of the decrease matrices
+    (must be < 0), the worst inclusion margin ``1 - (K-G)W(K-G)ᵀ/L²`` (>= 0), the
+    smallest relative eigenvalue of ``W`` (> 0) and the worst level ``r² P_00``
+    of the start point at the stated reach (<= 1).
+    """
+    r = roa.reach_m if reach_m is None else reach_m
+    worst = {"decrease_max_eig": -math.inf, "inclusion_margin": math.inf, "min_eig_W": math.inf,
+             "start_level": -math.inf}
+    for a, (A_d, B, K, th) in axes.items():
+        Wt = _affine(roa.Wk[a], th)
+        Zt = roa.Zk[a][0][None] + np.einsum("ij,jkl->ikl", np.atleast_2d(th), roa.Zk[a][1:]) \
+            if roa.Zk[a].shape[0] > 1 else np.broadcast_to(roa.Zk[a][0], (Wt.shape[0], 1, Wt.shape[-1]))
+        ev = np.linalg.eigvalsh(Wt)
+        worst["min_eig_W"] = min(worst["min_eig_W"], float(np.min(ev[:, 0] / ev[:, -1])))
+        if np.min(ev[:, 0]) <= 0:
+            return {**worst, "decrease_max_eig": math.inf}
+        dec, inc, P = _roa_matrices(A_d, B, K, Wt, Zt, roa.S, roa.rho, roa.L)
+        de = np.linalg.eigvalsh(dec)
+        scale = np.max(np.abs(de), axis=-1)
+        worst["decrease_max_eig"] = max(worst["decrease_max_eig"], float(np.max(de[:, -1] / scale)))
+        worst["inclusion_margin"] = min(worst["inclusion_margin"], float(np.min(inc)) / roa.L ** 2)
+        worst["start_level"] = max(worst["start_level"], float(np.max(r * r * P[:, 0, 0])))
+    return worst
+
+
+# =============================================================================== the certificate section
+
+#: Points per coordinate of each subsystem's Lyapunov LMI (the vertices and the centre); the numpy grid
+#: check uses :data:`nniquad.config.CASCADE_GRID_POINTS_PER_AXIS` (other points than these, but the vertices).
+LMI_POINTS_PER_AXIS = 3
+_MODEL = "full (linearised at hover, 19 states: rigid body, altitude PID, yaw, attitude PD, motors, NNI)"
+
+
+def _assemble_P(lyap: Mapping[str, RobustLyapunov], dims: Mapping[str, Sequence[int]], box: ParameterBox,
+                points: np.ndarray, state_names: Sequence[str]) -> np.ndarray:
+    """The full Lyapunov matrix ``T_mᵀ diag(P_x, P_y, P_alt, P_yaw)(θ) T_m`` at every point."""
+    Tm, _ = mode_transform(state_names)
+    n = Tm.shape[0]
+    Pz = np.zeros((points.shape[0], n, n))
+    for name, sl in _blocks().items():
+        Pz[:, sl, sl] = _affine(lyap[name].P, _coords(box, points, dims[name]))
+    return Tm.T @ Pz @ Tm
+
+
+def _certify_box(vehicle, gains, inner, box, *, tilt_limit_deg, rate_hz, dims, grid_n):
+    """The subsystem LMIs at the LMI points and the full grid check; raises SolverError when not certified."""
+    pts = {name: _subgrid(box, dims[name], LMI_POINTS_PER_AXIS) for name in SUBSYSTEMS}
+    allp = np.vstack([np.ones((1, 6))] + list(pts.values()) + [box.grid(grid_n)])
+    fam = sampled_family(vehicle, gains, inner, allp, tilt_limit_deg=tilt_limit_deg, rate_hz=rate_hz)
+    lyap, k = {}, 1
+    for name in SUBSYSTEMS:
+        m = pts[name].shape[0]
+        A = _subsystem(fam, name)[0][k:k + m]
+        lyap[name] = robust_lyapunov(A, fam.T, theta=_coords(box, pts[name], dims[name]), max_iter=8)
+        k += m
+    gidx = np.arange(k, len(fam))
+    grid_fam = _take(fam, gidx)
+    P = _assemble_P(lyap, dims, box, grid_fam.points, fam.state_names)
+    gc = grid_check(grid_fam, P, grid_n)
+    if not gc.ok:
+        raise SolverError(f"cascade grid check fails: contraction {gc.worst_rho:.6g} at {gc.worst_point}")
+    return fam, pts, lyap, grid_fam, gc
+
+
+def _take(fam: CascadeFamily, idx: np.ndarray) -> CascadeFamily:
+    """The points ``idx`` of a family."""
+    kw = {}
+    for f in fields(fam):
+        v = getattr(fam, f.name)
+        kw[f.name] = v[idx] if isinstance(v, np.ndarray) and v.ndim >= 1 and v.shape[0] == len(fam) \
+            and f.name not in ("C_p", "K", "A_k", "B_k", "C_k", "D_k", "A_kd", "B_kd") else v
+    return CascadeFamily(**kw)
+
+
+def widest_box(vehicle, gains, inner, base: ParameterBox, *, tilt_limit_deg, rate_hz, dims,
+               steps: int = CASCADE_WIDEST_STEPS, s_max: float = CASCADE_WIDEST_SCALE_MAX,
+               grid_n: int = 3) -> tuple[float, float]:
+    """Largest ``s`` (bisection, ``steps`` steps, in ``[0, s_max]``) with ``base.scaled(s)`` certified.
+
+    Certified here means: every subsystem LMI feasible at its LMI points and the
+    full grid check with ``grid_n`` points per coordinate passing.  Returns
+    ``(s_certified, s_failed)`` (``s_failed = inf`` if ``s_max`` certifies).
+    """
+    def ok(s: float) -> bool:
+        try:
+            _certify_box(vehicle, gains, inner, base.scaled(s), tilt_limit_deg=tilt_limit_deg, rate_hz=rate_hz,
+                         dims=dims, grid_n=grid_n)
+            return True
+        except (SolverError, CascadeError):
+            return False
+
+    lo, hi = (1.0, s_max) if ok(1.0) else (0.0, 1.0)
+    if lo == 1.0 and ok(s_max):
+        return s_max, math.inf
+    for _ in range(steps):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if ok(mid) else (lo, mid)
+    return lo, hi
+
+
+def _roa_axes(fam: CascadeFamily, box: ParameterBox, dims: Mapping[str, Sequence[int]]):
+    out = {}
+    for a in ("x", "y"):
+        A_d, _, B, K = _subsystem(fam, a)
+        out[a] = (A_d, B, K, _coords(box, fam.points, dims[a]))
+    return out
+
+
+def _vertex_margins(fam: CascadeFamily, rate_hz: float) -> dict[str, Any]:
+    """Worst fast margins (:mod:`nniquad.analysis.fast_margins`) over the points of ``fam``."""
+    from nniquad.analysis.fast_margins import fast_cascade_margins
+
+    worst: dict[str, dict[str, Any]] = {}
+    better = {"gm_db": lambda a, b: a < b, "gm_lower_db": lambda a, b: a > b, "pm_deg": lambda a, b: a < b}
+    for i in range(len(fam)):
+        pt = dict(zip(POINT_NAMES, (float(v) for v in fam.points[i])))
+        for bp, m in fast_cascade_margins(fam.cascade_at(i), rate_hz).items():
+            w = worst.setdefault(bp, {"stable": True})
+            w["stable"] = bool(w["stable"] and m.stable)
+            for k, cmp in better.items():
+                v = getattr(m, k)
+                if k not in w or cmp(v, w[k]):
+                    w[k], w[k + "_point"] = v, pt
+    for w in worst.values():
+        for k, v in list(w.items()):
+            if isinstance(v, float) and not math.isfinite(v):
+                w[k] = str(v)
+    return {"points": "vertices of the box in the coordinates that reach the horizontal axes",
+            "model": "Padé (order 2) model of the sampling, continuous time (nniquad.analysis.fast_margins)",
+            "worst": worst}
+
+
+def linear_zone_reach(lyap: Mapping[str, RobustLyapunov], dims, box: ParameterBox, fam: CascadeFamily,
+                      L: float) -> float:
+    """Smallest reach [m] over the points of ``fam`` of the linear-zone ellipsoid of the horizontal ``P(θ)``.
+
+    At each point, with ``P = diag(P_x, P_y)``: the level ``c`` with
+    ``sup_{xᵀPx <= c} ‖K x‖ = L`` is ``c = L² / max_a(K W_a Kᵀ)`` (``W_a = P_a⁻¹``);
+    inside, the saturation is inactive and ``P`` contracts, so the set is invariant;
+    a start ``r (cos α, sin α)`` has level ``r² (cos²α P_x00 + sin²α P_y00)``, so
+    ``r = sqrt(c / max_a P_a00)``.
+    """
+    kmax, pmax = None, None
+    for a in ("x", "y"):
+        _, _, _, K = _subsystem(fam, a)
+        P = _affine(lyap[a].P, _coords(box, fam.points, dims[a]))
+        W = np.linalg.inv(P)
+        kw = (K @ W @ K.T)[..., 0, 0]
+        kmax = kw if kmax is None else np.maximum(kmax, kw)
+        pmax = P[:, 0, 0] if pmax is None else np.maximum(pmax, P[:, 0, 0])
+    return float(np.min(np.sqrt(L * L / kmax / pmax)))
+
+
+def _solve_roa(vehicle, gains, inner, box, dims, L, rho_roa, tilt_limit_deg, rate_hz):
+    """The ROA LMIs at the vertices of each axis's coordinates, or (if that fails) at a grid of 3 per coordinate."""
+    err: Exception | None = None
+    for n in (2, 3):
+        vpts = {a: _subgrid(box, dims[a], n) for a in ("x", "y")}
+        vfam = sampled_family(vehicle, gains, inner, np.vstack([vpts["x"], vpts["y"]]),
+                              tilt_limit_deg=tilt_limit_deg, rate_hz=rate_hz)
+        nx = vpts["x"].shape[0]
+        ax_v = {"x": _roa_axes(_take(vfam, np.arange(nx)), box, dims)["x"],
+                "y": _roa_axes(_take(vfam, np.arange(nx, len(vfam))), box, dims)["y"]}
+        try:
+            return robust_region_of_attraction(ax_v, L, rho_roa), ax_v, n
+        except SolverError as exc:
+            err = exc
+    assert err is not None
+    raise err
+
+
+def cascade_section(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, tilt_limit_deg: float,
+                    rate_hz: float = CONTROL_RATE_HZ, box: ParameterBox | None = None,
+                    widest: bool = False, roa_method: str = "linear_zone") -> dict[str, Any]:
+    """The schema-2 ``cascade`` section of a certificate (HELPERS.md keys; module docstring for the maths).
+
+    Parameters
+    ----------
+    vehicle, gains, inner
+        The design.
+    tilt_limit_deg
+        Tilt limit [deg] of the region of attraction.
+    rate_hz
+        Control rate [Hz].
+    box
+        The box to certify; ``None``: the Monte Carlo default box if it
+        certifies, else the widest scaled box found.
+    widest
+        Search the widest scale of the Monte Carlo default box (bisection, about 35 s per step on
+        2 cores: off by default to keep ``certify`` within its budget; ``box=None`` with a Monte Carlo
+        box that does not certify searches anyway).
+    roa_method
+        ``"linear_zone"`` (default) or ``"gsc"`` (also solve the generalised-sector LMI, about 30 s, and use it
+        when it passes the numpy re-check on the whole grid and reaches further).
+
+    Raises
+    ------
+    SolverError
+        The box (or, with ``box=None``, even the nominal point) is not certified.
+    """
+    t0 = time.perf_counter()
+    mc = ParameterBox.monte_carlo_default()
+    ref = box if box is not None else mc
+    dims = relevant_coordinates(vehicle, gains, inner, ref, tilt_limit_deg=tilt_limit_deg, rate_hz=rate_hz)
+    s_ok, s_bad = (math.nan, math.nan)
+    grid_n = CASCADE_GRID_POINTS_PER_AXIS
+    timings = {"widest_s": 0.0}
+    fam = None
+    if box is None and not widest:
+        try:
+            fam, pts, lyap, grid_fam, gc = _certify_box(vehicle, gains, inner, mc, tilt_limit_deg=tilt_limit_deg,
+                                                        rate_hz=rate_hz, dims=dims, grid_n=grid_n)
+            box = mc
+        except SolverError:
+            widest = True
+    if widest:
+        t1 = time.perf_counter()
+        s_ok, s_bad = widest_box(vehicle, gains, inner, mc, tilt_limit_deg=tilt_limit_deg, rate_hz=rate_hz, dims=dims)
+        timings["widest_s"] = time.perf_counter() - t1
+        if box is None:
+            if s_ok <= 0.0:
+                raise SolverError("the cascade is not certified even at a small box about the nominal point")
+            box = mc if s_ok >= 1.0 else mc.scaled(s_ok)
+    if fam is None:
+        fam, pts, lyap, grid_fam, gc = _certify_box(vehicle, gains, inner, box, tilt_limit_deg=tilt_limit_deg,
+                                                    rate_hz=rate_hz, dims=dims, grid_n=grid_n)
+    T = fam.T
+    decay = min(l.decay_rate_1_s for l in lyap.values())
+    # region of attraction: LMIs at the vertices of each axis's coordinates, re-checked on the LMI points and the grid
+    L = box.mass_factor[0] * vehicle.g * math.tan(math.radians(tilt_limit_deg))
+    rho_roa = math.exp(-CASCADE_ROA_DECAY_FRACTION * min(lyap["x"].decay_rate_1_s, lyap["y"].decay_rate_1_s) * T)
+    timings["lyapunov_and_grid_s"] = time.perf_counter() - t0 - timings["widest_s"]
+    # the GSC ellipsoid (roa_method="gsc") is certified at its LMI points; it is used only if the numpy re-check
+    # passes on the whole grid too, else the linear-zone ellipsoid of P(θ) (always grid-verified) is used
+    lz_lmi = linear_zone_reach(lyap, dims, box, fam, L)
+    lz_grid = linear_zone_reach(lyap, dims, box, grid_fam, L)
+    roa_block: dict[str, Any] = {"u0_m_s2": L, "tilt_limit_deg": float(tilt_limit_deg)}
+    method = "linear_zone"
+    if roa_method == "gsc":
+        roa, ax_v, n_roa = _solve_roa(vehicle, gains, inner, box, dims, L, rho_roa, tilt_limit_deg, rate_hz)
+        reach = roa.reach_m * (1.0 - 1e-6)
+        rc_grid = roa_recheck(roa, _roa_axes(grid_fam, box, dims), reach)
+        rc_v = roa_recheck(roa, ax_v, reach)
+        gsc_ok = all(r["decrease_max_eig"] < 0 and r["inclusion_margin"] >= 0 and r["min_eig_W"] > 0
+                     and r["start_level"] <= 1 for r in (rc_grid, rc_v))
+        roa_block["gsc"] = {"max_displacement_m": reach, "rho": rho_roa, "S": roa.S,
+                            "W": {a: roa.Wk[a].tolist() for a in ("x", "y")},
+                            "Z": {a: roa.Zk[a].tolist() for a in ("x", "y")}, "lmi_points_per_axis": n_roa,
+                            "recheck_lmi_points": rc_v, "recheck_grid": rc_grid, "ok": gsc_ok}
+        if gsc_ok and reach > min(lz_lmi, lz_grid):
+            method = "gsc"
+    roa_block.update({
+        "method": method,
+        "max_displacement_m": roa_block["gsc"]["max_displacement_m"] if method == "gsc" else min(lz_lmi, lz_grid),
+        "linear_zone_reach_lmi_points_m": lz_lmi, "linear_zone_reach_grid_m": lz_grid,
+        "note": ("linear_zone: the level set x'P(θ)x <= c(θ) of the grid-checked Lyapunov matrix inside "
+                 "‖K x‖ <= u0 (the generalised sector condition with G = 0: no saturation inside, so it is invariant "
+                 "and contracts by the grid's worst rho); gsc: discrete generalised sector condition, scalar "
+                 "multiplier. u0 = (min mass factor) g tan(tilt); start: position offset in any direction, "
+                 "all else at hover, controller state 0"),
+    })
+    timings["roa_s"] = time.perf_counter() - t0 - timings["widest_s"] - timings["lyapunov_and_grid_s"]
+    mdims = tuple(sorted(set(dims["x"]) | set(dims["y"])))
+    margins = _vertex_margins(sampled_family(vehicle, gains, inner, _subgrid(box, mdims, 2),
+                                             tilt_limit_deg=tilt_limit_deg, rate_hz=rate_hz), rate_hz)
+    nom = _take(fam, np.arange(1))
+    timings["margins_s"] = time.perf_counter() - t0 - sum(timings.values())
+    section = {
+        "rate_hz": float(rate_hz), "controller": "discrete", "attitude_loop": "continuous", "model": _MODEL,
+        "box": box.to_json(), "monte_carlo_default_box": mc.to_json(),
+        "covers_monte_carlo_default": bool(box.contains(mc)),
+        "widest": None if not math.isfinite(s_ok) else {"scale_of_monte_carlo_default": s_ok, "first_failed_scale": str(s_bad) if not math.isfinite(s_bad)
+                   else s_bad, "box": mc.scaled(s_ok).to_json() if math.isfinite(s_ok) else None,
+                   "scaling": "log space about nominal: [lo^s, hi^s]", "grid_points_per_axis": 3},
+        "lyapunov": {
+            "form": "P(θ) = P0 + Σ θ_j P_j per decoupled subsystem, θ ∈ [-1, 1] the log factors normalised on the box",
+            "coverage": "the LMI holds at the LMI points (grid of 3 per coordinate: vertices, centre, mid-faces); "
+                        "the interior is checked with numpy at the grid points only",
+            "period_s": T, "rho": max(l.rho for l in lyap.values()), "coupling": coupling(nom),
+            "subsystems": {name: {"states": list(SUBSYSTEMS[name]), "dims": [POINT_NAMES[j] for j in dims[name]],
+                                  "lmi_points": int(pts[name].shape[0]), "rho": l.rho,
+                                  "decay_rate_1_s": l.decay_rate_1_s, "spectral_radius": l.spectral_radius,
+                                  "P": l.P.tolist()} for name, l in lyap.items()},
+        },
+        "grid": gc.to_json(),
+        "region_of_attraction": roa_block,
+        "margins": margins,
+        "matrices": {"state_names": list(fam.state_names), "A_d": nom.A_d[0].tolist(), "Phi": nom.Phi[0].tolist(),
+                     "Gamma_d": nom.Gam[0].tolist(), "A_kd": fam.A_kd.tolist(), "B_kd": fam.B_kd.tolist(),
+                     "C_k": fam.C_k.tolist(), "D_k": fam.D_k.tolist()},
+        "decay_rate_1_s": decay,
+        "seconds": time.perf_counter() - t0,
+        "timings_s": timings,
+    }
+    return section
+
+
+# =============================================================================== the check
+
+
+def _close(a: Any, b: Any, rtol: float = 1e-9) -> bool:
+    try:
+        A, B = np.asarray(a, float), np.asarray(b, float)
+    except (TypeError, ValueError):
+        return False
+    if A.shape != B.shape:
+        return False
+    if not (np.all(np.isfinite(A)) and np.all(np.isfinite(B))):
+        return bool(np.array_equal(A, B))
+    return bool(np.all(np.abs(A - B) <= rtol * np.maximum(np.abs(B), 1.0) + 1e-300)) if A.size else True
+
+
+def _num(v: Any) -> float:
+    return float(v) if not isinstance(v, str) else float(v)
+
+
+def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *,
+                          tilt_limit_deg: float) -> list[tuple[str, bool, str]]:
+    """Re-check a ``cascade`` section from the design alone (cheap checks first).
+
+    Every system matrix is rebuilt from ``vehicle``, ``gains``, ``inner``, the
+    stated rate and the stated box (no stored ``A`` is trusted); the stored
+    nominal matrices are compared with the rebuilt ones; every Lyapunov
+    condition is re-checked with numpy at the LMI points (contraction of
+    ``P(θ)`` at most the stated ``ρ < 1``, ``P(θ) ≻ 0`` on the cube's corners);
+    the grid check is re-run and every stated number compared (relative 1e-9);
+    the reach is recomputed; the margins are recomputed at the stated worst
+    vertices.  The widest-box search is not re-run (only its box is checked
+    against its scale): it is informational.
+
+    Returns
+    -------
+    list of (name, ok, detail)
+    """
+    out: list[tuple[str, bool, str]] = []
+
+    def add(name: str, ok: bool, detail: str = "") -> bool:
+        out.append((f"cascade: {name}", bool(ok), detail))
+        return bool(ok)
+
+    need = ("rate_hz", "controller", "attitude_loop", "model", "box", "monte_carlo_default_box",
+            "covers_monte_carlo_default", "lyapunov", "grid", "region_of_attraction", "margins", "matrices",
+            "decay_rate_1_s")
+    missing = [k for k in need if not isinstance(section, Mapping) or k not in section]
+    if not add("section keys", not missing, f"missing {missing}" if missing else "all present"):
+        return out
+    try:
+        rate = float(section["rate_hz"])
+        T = _period(rate)
+        box = ParameterBox.from_json(section["box"])
+        mc = ParameterBox.from_json(section["monte_carlo_default_box"])
+    except (CascadeError, TypeError, ValueError) as exc:
+        add("rate and box", False, str(exc))
+        return out
+    add("controller variant", section["controller"] == "discrete" and section["attitude_loop"] == "continuous"
+        and section["model"] == _MODEL, f"{section['controller']}, attitude {section['attitude_loop']}")
+    add("Monte Carlo default box", mc == ParameterBox.monte_carlo_default(), str(mc.to_json()))
+    add("covers_monte_carlo_default", section["covers_monte_carlo_default"] is box.contains(mc),
+        f"stated {section['covers_monte_carlo_default']}, box contains it: {box.contains(mc)}")
+    roa = section["region_of_attraction"]
+    L = box.mass_factor[0] * vehicle.g * math.tan(math.radians(tilt_limit_deg))
+    add("tilt limit and u0", _close(roa.get("tilt_limit_deg"), tilt_limit_deg) and _close(roa.get("u0_m_s2"), L),
+        f"u0 = {L:.6g} m/s^2 at {tilt_limit_deg:g} deg")
+    wid = section.get("widest")
+    if wid is not None:
+        try:
+            ok = _close(mc.scaled(float(wid["scale_of_monte_carlo_default"])).to_json()["mass_factor"],
+                        wid["box"]["mass_factor"]) and ParameterBox.from_json(wid["box"]) == \
+                mc.scaled(float(wid["scale_of_monte_carlo_default"]))
+        except (CascadeError, KeyError, TypeError, ValueError):
+            ok = False
+        add("widest box = Monte Carlo box scaled", ok, "the search itself is not re-run")
+    lyap_s = section["lyapunov"]
+    try:
+        subs = lyap_s["subsystems"]
+        dims = {name: tuple(POINT_NAMES.index(d) for d in subs[name]["dims"]) for name in SUBSYSTEMS}
+        Pk = {name: np.asarray(subs[name]["P"], float) for name in SUBSYSTEMS}
+        rhos = {name: float(subs[name]["rho"]) for name in SUBSYSTEMS}
+    except (KeyError, TypeError, ValueError) as exc:
+        add("lyapunov block", False, f"unreadable ({exc})")
+        return out
+    # ---- rebuild every matrix in one batched call: nominal, relevance probes, LMI points, grid
+    grid_n = int(section["grid"].get("points_per_axis", CASCADE_GRID_POINTS_PER_AXIS))
+    probes = _relevance_points(box)
+    pts = {name: _subgrid(box, dims[name], LMI_POINTS_PER_AXIS) for name in SUBSYSTEMS}
+    allp = np.vstack([np.ones((1, 6))] + list(pts.values()) + [box.grid(grid_n), probes])
+    try:
+        big = sampled_family(vehicle, gains, inner, allp, tilt_limit_deg=tilt_limit_deg, rate_hz=rate)
+    except CascadeError as exc:
+        add("rebuild", False, str(exc))
+        return out
+    n_cert = 1 + sum(p.shape[0] for p in pts.values()) + box.grid(grid_n).shape[0]
+    fam = _take(big, np.arange(n_cert))
+    add("relevant coordinates", _relevance_from(_take(big, np.arange(n_cert, len(big))), box) == dims,
+        str({k: subs[k]["dims"] for k in SUBSYSTEMS}))
+    mats = section["matrices"]
+    nom = _take(fam, np.arange(1))
+    ok = (list(mats.get("state_names", [])) == list(fam.state_names) and _close(mats.get("A_d"), nom.A_d[0])
+          and _close(mats.get("Phi"), nom.Phi[0]) and _close(mats.get("Gamma_d"), nom.Gam[0])
+          and _close(mats.get("A_kd"), fam.A_kd) and _close(mats.get("B_kd"), fam.B_kd)
+          and _close(mats.get("C_k"), fam.C_k) and _close(mats.get("D_k"), fam.D_k))
+    add("nominal matrices rebuilt", ok, "A_d, Phi, Gamma_d, A_kd, B_kd, C_k, D_k vs the design")
+    cpl = coupling(nom)
+    add("subsystems decoupled", cpl <= COUPLING_TOL and _close(lyap_s.get("coupling"), cpl, 1e-6),
+        f"coupling {cpl:.3g} (stated {lyap_s.get('coupling')})")
+    lyap: dict[str, RobustLyapunov] = {}
+    k = 1
+    for name in SUBSYSTEMS:
+        m = pts[name].shape[0]
+        A = _subsystem(fam, name)[0][k:k + m]
+        k += m
+        th = _coords(box, pts[name], dims[name])
+        q = th.shape[1]
+        good = Pk[name].shape == (q + 1, len(SUBSYSTEMS[name]), len(SUBSYSTEMS[name]))
+        detail = "bad P shape"
+        if good:
+            corners = np.array(list(itertools.product((-1.0, 1.0), repeat=q)), float).reshape(-1, q)
+            mineig = float(np.min(np.linalg.eigvalsh(_affine(Pk[name], corners))[:, 0]))
+            try:
+                rv = contraction_batch(A, _affine(Pk[name], th))
+                worst = float(np.max(rv))
+            except np.linalg.LinAlgError:
+                worst = math.inf
+            sr = float(np.max(np.abs(np.linalg.eigvals(A))))
+            rho = rhos[name]
+            good = (mineig > 0 and worst <= rho * (1 + 1e-9) and rho < 1 and m == subs[name]["lmi_points"]
+                    and _close(subs[name]["spectral_radius"], sr)
+                    and _close(subs[name]["decay_rate_1_s"], -math.log(rho) / T))
+            detail = f"{m} points, contraction {worst:.8f} <= rho {rho:.8f}, min eig P {mineig:.3g}"
+            lyap[name] = RobustLyapunov(P=Pk[name], rho=rho, rho_vertices=rv if math.isfinite(worst) else np.array([]),
+                                        spectral_radius=sr, T=T, decay_rate_1_s=-math.log(rho) / T,
+                                        min_eig_P=mineig, status="stored", ok=good)
+        add(f"Lyapunov LMI [{name}]", good, detail)
+    if len(lyap) != len(SUBSYSTEMS):
+        return out
+    add("rho and decay rate", _close(lyap_s.get("rho"), max(rhos.values())) and _close(lyap_s.get("period_s"), T)
+        and _close(section["decay_rate_1_s"], min(l.decay_rate_1_s for l in lyap.values())),
+        f"decay {min(l.decay_rate_1_s for l in lyap.values()):.6g} 1/s")
+    grid_fam = _take(fam, np.arange(k, n_cert))
+    try:
+        gc = grid_check(grid_fam, _assemble_P(lyap, dims, box, grid_fam.points, fam.state_names), grid_n)
+        g = section["grid"]
+        ok = (gc.ok and g.get("size") == gc.size and g.get("ok") is True
+              and all(_close(g.get(key), getattr(gc, key)) for key in ("worst_rho", "worst_margin",
+                                                                         "worst_spectral_radius"))
+              and _close([g["worst_point"][n] for n in POINT_NAMES], gc.worst_point)
+              and _close([g["worst_spectral_point"][n] for n in POINT_NAMES], gc.worst_spectral_point))
+        add("grid check", ok, f"{gc.size} points, worst rho {gc.worst_rho:.8f}, worst spectral radius "
+                              f"{gc.worst_spectral_radius:.8f}")
+    except (KeyError, TypeError, ValueError, np.linalg.LinAlgError) as exc:
+        add("grid check", False, f"unreadable or not positive definite ({exc})")
+    try:
+        lz_lmi = linear_zone_reach(lyap, dims, box, fam, L)
+        lz_grid = linear_zone_reach(lyap, dims, box, grid_fam, L)
+        method = roa.get("method")
+        ok = _close(roa.get("linear_zone_reach_lmi_points_m"), lz_lmi) and _close(roa.get("linear_zone_reach_grid_m"),
+                                                                                  lz_grid)
+        if method == "linear_zone":
+            ok = ok and _close(roa.get("max_displacement_m"), min(lz_lmi, lz_grid))
+        elif method == "gsc":
+            gs = roa["gsc"]
+            rr = RobustROA(Wk={a: np.asarray(gs["W"][a], float) for a in ("x", "y")},
+                           Zk={a: np.asarray(gs["Z"][a], float) for a in ("x", "y")}, S=float(gs["S"]),
+                           rho=float(gs["rho"]), L=L, reach_m=float(roa["max_displacement_m"]), dims=dims,
+                           status="stored")
+            r1 = roa_recheck(rr, _roa_axes(grid_fam, box, dims))
+            ok = ok and r1["decrease_max_eig"] < 0 and r1["inclusion_margin"] >= 0 and r1["start_level"] <= 1 \
+                and _close(gs["max_displacement_m"], roa["max_displacement_m"])
+        else:
+            ok = False
+        add("region of attraction", ok, f"{method}: reach {roa.get('max_displacement_m')} m")
+    except (KeyError, TypeError, ValueError, np.linalg.LinAlgError) as exc:
+        add("region of attraction", False, f"unreadable ({exc})")
+    # ---- margins at the stated worst points (the most expensive check: last)
+    try:
+        from nniquad.analysis.fast_margins import fast_cascade_margins
+
+        worst = section["margins"]["worst"]
+        wpts = []
+        for bp, w in worst.items():
+            for key in ("gm_db", "gm_lower_db", "pm_deg"):
+                wpts.append((bp, key, w[key], [float(w[key + "_point"][n]) for n in POINT_NAMES]))
+        uniq = sorted({tuple(p[3]) for p in wpts})
+        mf = sampled_family(vehicle, gains, inner, np.array(uniq), tilt_limit_deg=tilt_limit_deg, rate_hz=rate)
+        got = {u: fast_cascade_margins(mf.cascade_at(i), rate) for i, u in enumerate(uniq)}
+        mdims = set(dims["x"]) | set(dims["y"])
+        lo, hi = box.bounds()
+        ok = all(_close(_num(v), getattr(got[tuple(p)][bp], key), 1e-6) for bp, key, v, p in wpts) and all(
+            all((p[j] == lo[j] or p[j] == hi[j]) if j in mdims else p[j] == 1.0 for j in range(6)) for *_, p in wpts)
+        add("margins at the stated worst vertices", ok, f"{len(uniq)} vertices recomputed")
+    except (KeyError, TypeError, ValueError, CascadeError) as exc:
+        add("margins at the stated worst vertices", False, f"unreadable ({exc})")
+    return out
