@@ -253,15 +253,12 @@ def test_reach_converges_in_the_saturated_discrete_loop(section):
 
 
 def test_reach_nonlinear_spot_check(section):
-    """The full nonlinear simulator from the reach (nominal and one vertex, continuous attitude loop) converges."""
+    """The nonlinear full simulator (nominal vehicle; its sampled measurement feeds the continuous controller) from
+    the certified reach converges: a spot check of the linearisation, not part of the certificate."""
     from nniquad.sim import SimOptions, simulate
 
     reach = section["region_of_attraction"]["max_displacement_m"]
     opts = SimOptions(model="full", motor_lag=True, sample_hold=True, inner=INNER, tilt_limit_deg=TILT,
-                      horizon_s=12.0)
-    res = simulate(V, GAINS, opts, xi0=(reach * 0.6, -reach * 0.8))
-    tr = res.runs[0] if hasattr(res, "runs") else res
-    xy = np.hypot(tr.signal("x"), tr.signal("y")) if hasattr(tr, "signal") else None
-    if xy is None:
-        pytest.skip("simulation result layout not known here")
-    assert xy[-1] < 0.05 * reach
+                      horizon_s=12.0, xi0=(reach * 0.6, -reach * 0.8))
+    xy = simulate(V, GAINS, opts)[0].xy
+    assert np.all(np.isfinite(xy)) and float(np.hypot(*xy[-1])) < 0.05 * reach
