@@ -28,21 +28,45 @@ With ``m ≠ m̂`` hover is an equilibrium with the altitude integrator holding
 ``a_z = g (1 - m/m̂)`` (so that ``u1 = m̂ (g - a_z) = m g``) and the rotors at
 ``sqrt(m g / 4b)``; the residual ``|f(x_eq)|`` is checked at every point.
 
+Decoupled subsystems
+--------------------
+After a fixed orthogonal change of the rotor coordinates (collective, roll
+pair, pitch pair, yaw: :func:`mode_transform`) the loop at hover splits into
+four blocks that do not feed each other (:data:`SUBSYSTEMS`: the x axis, the y
+axis, the altitude loop, the yaw hold); :func:`coupling` measures what is left
+(the ``O(ε²)`` error of the Jacobian, below :data:`COUPLING_TOL`).  Each block
+depends on some of the six coordinates only (:func:`relevant_coordinates`:
+the x axis on mass, Jy, attitude gain and motor; the y axis on Jx instead).
+
 Certificates and what they cover
 --------------------------------
-* :func:`robust_lyapunov`: one common ``P ≻ 0`` with ``A_d(v)ᵀ P A_d(v) ⪯ ρ² P``
-  at **every vertex** ``v`` (cvxpy + Clarabel, bisection on ``ρ``), decay
-  ``-ln ρ / T``.  ``A_d(θ)`` is not affine in ``θ`` (matrix exponentials of
-  Jacobians), so the vertex LMIs do **not** prove the interior;
-  :func:`grid_check` therefore evaluates the exact contraction factor
-  ``‖P^{1/2} A_d(θ) P^{-1/2}‖₂`` and the spectral radius with numpy on a dense
-  grid inside the box: the interior is covered **at the grid points only**.
-* :func:`robust_region_of_attraction`: the discrete-time generalised sector
-  condition (Gomes da Silva & Tarbouriech, IEEE TAC 50(1), 2005, with the
-  vector form and scalar multiplier of :mod:`nniquad.analysis.lmi.roa`) for
-  ``x_{k+1} = A_0(v) x_k + B(v) sat_L(K x_k)``, a common ellipsoid at the
-  vertices; the certified reach is the largest initial position offset (any
-  direction; everything else at hover, controller state 0) inside it.
+* :func:`robust_lyapunov`, per block: ``P(θ) = P_0 + Σ θ_j P_j`` (``θ ∈ [-1, 1]``
+  the block's log factors normalised on the box) with
+  ``A_d(θ)ᵀ P(θ) A_d(θ) ⪯ ρ² P(θ)`` at the **LMI points** (a grid of
+  :data:`LMI_POINTS_PER_AXIS` = 3 per coordinate: the vertices, the centre and
+  the mid-faces) and ``I ⪯ P(θ)`` on the whole cube (affine: checked at its
+  corners); decay ``-ln ρ / T``.  A common ``P`` was tried first: for the
+  certified design no common ``P`` exists even for the two motor time
+  constants 0.5 and 2 times nominal alone, so the Lyapunov matrix depends on
+  the (constant, unknown) parameters, which is all a time-invariant
+  uncertainty needs.  ``A_d(θ)`` is not affine in ``θ`` (matrix exponentials of
+  Jacobians), so nothing is proved between the LMI points.
+* :func:`grid_check`: the exact contraction factor ``‖P^{1/2} A_d(θ) P^{-1/2}‖₂``
+  of the assembled 19-state ``P(θ)`` (:func:`_assemble_P`, on the full coupled
+  loop) and the spectral radius, with numpy, on a grid of
+  :data:`nniquad.config.CASCADE_GRID_POINTS_PER_AXIS` points per coordinate
+  in all six coordinates (4096 points; other points than the LMI points except
+  the vertices): the interior is covered **at the grid points only**.
+* Region of attraction under the norm tilt limit ``‖a‖ <= u0``,
+  ``u0 = (lowest mass factor) g tan(tilt)`` (the limit is ``g_z tan(tilt)`` with
+  ``g_z = (m/m̂) g`` at hover): by default the linear-zone ellipsoid of the
+  grid-checked ``P(θ)`` (:func:`linear_zone_reach`; the generalised sector
+  condition with ``G = 0``), the smallest reach over the LMI and grid points.
+  :func:`robust_region_of_attraction` solves the discrete-time generalised
+  sector condition (Gomes da Silva & Tarbouriech, IEEE TAC 50(1), 2005; vector
+  form and scalar multiplier as in :mod:`nniquad.analysis.lmi.roa`) for
+  ``x_{k+1} = A_0 x_k + B sat_u0(K x_k)`` with affine ``W(θ), Z(θ)``; it is used
+  (``roa_method="gsc"``) only when its numpy re-check passes on the whole grid.
 """
 
 from __future__ import annotations
@@ -85,6 +109,14 @@ __all__ = [
     "widest_box",
     "cascade_section",
     "check_cascade_section",
+    "SUBSYSTEMS",
+    "COUPLING_TOL",
+    "LMI_POINTS_PER_AXIS",
+    "mode_transform",
+    "coupling",
+    "relevant_coordinates",
+    "contraction_batch",
+    "linear_zone_reach",
 ]
 
 #: Keys of a box in JSON, in order.
@@ -875,6 +907,23 @@ def robust_region_of_attraction(axes: Mapping[str, tuple[np.ndarray, np.ndarray,
                      reach_m=float(r.value), dims={}, status=str(prob.status))
 
 
+#: Rounds of cutting planes of the generalised-sector LMI (failing grid points added to the LMI points).
+GSC_CUTTING_ROUNDS = 2
+
+
+def _roa_decrease(roa: RobustROA, axes) -> dict[str, np.ndarray]:
+    """Largest relative eigenvalue of the decrease matrix at every point, per axis (< 0 required)."""
+    out = {}
+    for a, (A_d, B, K, th) in axes.items():
+        Wt = _affine(roa.Wk[a], th)
+        Zt = roa.Zk[a][0][None] + np.einsum("ij,jkl->ikl", np.atleast_2d(th), roa.Zk[a][1:]) \
+            if roa.Zk[a].shape[0] > 1 else np.broadcast_to(roa.Zk[a][0], (Wt.shape[0], 1, Wt.shape[-1]))
+        dec, _, _ = _roa_matrices(A_d, B, K, Wt, Zt, roa.S, roa.rho, roa.L)
+        de = np.linalg.eigvalsh(dec)
+        out[a] = de[:, -1] / np.max(np.abs(de), axis=-1)
+    return out
+
+
 def roa_recheck(roa: RobustROA, axes: Mapping[str, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]],
                 reach_m: float | None = None) -> dict[str, float]:
     """numpy re-check of the region of attraction at the given points (each axis: ``(A_d, B, K, theta)``).
@@ -1125,15 +1174,27 @@ def cascade_section(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, ti
     method = "linear_zone"
     if roa_method == "gsc":
         roa, ax_v, n_roa = _solve_roa(vehicle, gains, inner, box, dims, L, rho_roa, tilt_limit_deg, rate_hz)
+        ax_g = _roa_axes(grid_fam, box, dims)
+        added = 0
+        for _ in range(GSC_CUTTING_ROUNDS):
+            # cutting planes: the grid points where the decrease fails join the LMI points, and it is solved again
+            bad = {a: np.nonzero(_roa_decrease(roa, {a: ax_g[a]})[a] >= 0)[0] for a in ("x", "y")}
+            if not any(len(v) for v in bad.values()):
+                break
+            ax_v = {a: tuple(np.concatenate([ax_v[a][i], ax_g[a][i][bad[a]]]) if i != 2 else ax_v[a][i]
+                             for i in range(4)) for a in ("x", "y")}
+            added += sum(len(v) for v in bad.values())
+            roa = robust_region_of_attraction(ax_v, L, rho_roa)
         reach = roa.reach_m * (1.0 - 1e-6)
-        rc_grid = roa_recheck(roa, _roa_axes(grid_fam, box, dims), reach)
+        rc_grid = roa_recheck(roa, ax_g, reach)
         rc_v = roa_recheck(roa, ax_v, reach)
         gsc_ok = all(r["decrease_max_eig"] < 0 and r["inclusion_margin"] >= 0 and r["min_eig_W"] > 0
                      and r["start_level"] <= 1 for r in (rc_grid, rc_v))
         roa_block["gsc"] = {"max_displacement_m": reach, "rho": rho_roa, "S": roa.S,
                             "W": {a: roa.Wk[a].tolist() for a in ("x", "y")},
                             "Z": {a: roa.Zk[a].tolist() for a in ("x", "y")}, "lmi_points_per_axis": n_roa,
-                            "recheck_lmi_points": rc_v, "recheck_grid": rc_grid, "ok": gsc_ok}
+                            "recheck_lmi_points": rc_v, "recheck_grid": rc_grid, "ok": gsc_ok,
+                            "grid_points_added": added}
         if gsc_ok and reach > min(lz_lmi, lz_grid):
             method = "gsc"
     roa_block.update({
