@@ -909,6 +909,8 @@ def robust_region_of_attraction(axes: Mapping[str, tuple[np.ndarray, np.ndarray,
 
 #: Rounds of cutting planes of the generalised-sector LMI (failing grid points added to the LMI points).
 GSC_CUTTING_ROUNDS = 2
+#: Failing grid points added per axis and round (the worst ones).
+GSC_CUTTING_POINTS = 8
 
 
 def _roa_decrease(roa: RobustROA, axes) -> dict[str, np.ndarray]:
@@ -1178,7 +1180,8 @@ def cascade_section(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, ti
         added = 0
         for _ in range(GSC_CUTTING_ROUNDS):
             # cutting planes: the grid points where the decrease fails join the LMI points, and it is solved again
-            bad = {a: np.nonzero(_roa_decrease(roa, {a: ax_g[a]})[a] >= 0)[0] for a in ("x", "y")}
+            dec = {a: _roa_decrease(roa, {a: ax_g[a]})[a] for a in ("x", "y")}
+            bad = {a: np.argsort(-d)[:GSC_CUTTING_POINTS][np.sort(-d)[:GSC_CUTTING_POINTS] <= 0] for a, d in dec.items()}
             if not any(len(v) for v in bad.values()):
                 break
             ax_v = {a: tuple(np.concatenate([ax_v[a][i], ax_g[a][i][bad[a]]]) if i != 2 else ax_v[a][i]
