@@ -961,6 +961,18 @@ def roa_recheck(roa: RobustROA, axes: Mapping[str, tuple[np.ndarray, np.ndarray,
 #: check uses :data:`nniquad.config.CASCADE_GRID_POINTS_PER_AXIS` (other points than these, but the vertices).
 LMI_POINTS_PER_AXIS = 3
 _MODEL = "full (linearised at hover, 19 states: rigid body, altitude PID, yaw, attitude PD, motors, NNI)"
+_FORM = "P(θ) = P0 + Σ θ_j P_j per decoupled subsystem, θ ∈ [-1, 1] the log factors normalised on the box"
+_COVERAGE = ("the LMI holds at the LMI points (grid of 3 per coordinate: vertices, centre, mid-faces); "
+             "the interior is checked with numpy at the grid points only")
+_ROA_NOTE = ("linear_zone: the level set x'P(θ)x <= c(θ) of the grid-checked Lyapunov matrix inside "
+             "‖K x‖ <= u0 (the generalised sector condition with G = 0: no saturation inside, so it is invariant "
+             "and contracts by the grid's worst rho); gsc: discrete generalised sector condition, scalar "
+             "multiplier. u0 = (min mass factor) g tan(tilt); start: position offset in any direction, "
+             "all else at hover, controller state 0")
+_MARGIN_POINTS = "vertices of the box in the coordinates that reach the horizontal axes"
+_MARGIN_MODEL = "Padé (order 2) model of the sampling, continuous time (nniquad.analysis.fast_margins)"
+#: Wall-clock seconds of the parts of the last :func:`cascade_section` (not stored in the section: not checkable).
+last_timings: dict[str, float] = {}
 
 
 def _assemble_P(lyap: Mapping[str, RobustLyapunov], dims: Mapping[str, Sequence[int]], box: ParameterBox,
@@ -1057,9 +1069,7 @@ def _vertex_margins(fam: CascadeFamily, rate_hz: float) -> dict[str, Any]:
         for k, v in list(w.items()):
             if isinstance(v, float) and not math.isfinite(v):
                 w[k] = str(v)
-    return {"points": "vertices of the box in the coordinates that reach the horizontal axes",
-            "model": "Padé (order 2) model of the sampling, continuous time (nniquad.analysis.fast_margins)",
-            "worst": worst}
+    return {"points": _MARGIN_POINTS, "model": _MARGIN_MODEL, "worst": worst}
 
 
 def linear_zone_reach(lyap: Mapping[str, RobustLyapunov], dims, box: ParameterBox, fam: CascadeFamily,
@@ -1204,11 +1214,7 @@ def cascade_section(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, ti
         "method": method,
         "max_displacement_m": roa_block["gsc"]["max_displacement_m"] if method == "gsc" else min(lz_lmi, lz_grid),
         "linear_zone_reach_lmi_points_m": lz_lmi, "linear_zone_reach_grid_m": lz_grid,
-        "note": ("linear_zone: the level set x'P(θ)x <= c(θ) of the grid-checked Lyapunov matrix inside "
-                 "‖K x‖ <= u0 (the generalised sector condition with G = 0: no saturation inside, so it is invariant "
-                 "and contracts by the grid's worst rho); gsc: discrete generalised sector condition, scalar "
-                 "multiplier. u0 = (min mass factor) g tan(tilt); start: position offset in any direction, "
-                 "all else at hover, controller state 0"),
+        "note": _ROA_NOTE,
     })
     timings["roa_s"] = time.perf_counter() - t0 - timings["widest_s"] - timings["lyapunov_and_grid_s"]
     mdims = tuple(sorted(set(dims["x"]) | set(dims["y"])))
@@ -1224,9 +1230,7 @@ def cascade_section(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, ti
                    else s_bad, "box": mc.scaled(s_ok).to_json() if math.isfinite(s_ok) else None,
                    "scaling": "log space about nominal: [lo^s, hi^s]", "grid_points_per_axis": 3},
         "lyapunov": {
-            "form": "P(θ) = P0 + Σ θ_j P_j per decoupled subsystem, θ ∈ [-1, 1] the log factors normalised on the box",
-            "coverage": "the LMI holds at the LMI points (grid of 3 per coordinate: vertices, centre, mid-faces); "
-                        "the interior is checked with numpy at the grid points only",
+            "form": _FORM, "coverage": _COVERAGE,
             "period_s": T, "rho": max(l.rho for l in lyap.values()), "coupling": coupling(nom),
             "subsystems": {name: {"states": list(SUBSYSTEMS[name]), "dims": [POINT_NAMES[j] for j in dims[name]],
                                   "lmi_points": int(pts[name].shape[0]), "rho": l.rho,
@@ -1240,9 +1244,9 @@ def cascade_section(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, ti
                      "Gamma_d": nom.Gam[0].tolist(), "A_kd": fam.A_kd.tolist(), "B_kd": fam.B_kd.tolist(),
                      "C_k": fam.C_k.tolist(), "D_k": fam.D_k.tolist()},
         "decay_rate_1_s": decay,
-        "seconds": time.perf_counter() - t0,
-        "timings_s": timings,
     }
+    last_timings.clear()
+    last_timings.update(timings, total_s=time.perf_counter() - t0)
     return section
 
 
@@ -1306,6 +1310,15 @@ def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: G
     add("controller variant", section["controller"] == "discrete" and section["attitude_loop"] == "continuous"
         and section["model"] == _MODEL, f"{section['controller']}, attitude {section['attitude_loop']}")
     add("Monte Carlo default box", mc == ParameterBox.monte_carlo_default(), str(mc.to_json()))
+    try:
+        texts = (section["lyapunov"]["form"] == _FORM and section["lyapunov"]["coverage"] == _COVERAGE
+                 and section["region_of_attraction"]["note"] == _ROA_NOTE
+                 and section["margins"]["points"] == _MARGIN_POINTS and section["margins"]["model"] == _MARGIN_MODEL
+                 and all(list(section["lyapunov"]["subsystems"][n]["states"]) == list(SUBSYSTEMS[n])
+                         for n in SUBSYSTEMS))
+    except (KeyError, TypeError):
+        texts = False
+    add("stated method texts and subsystem states", texts, "form, coverage, notes, states")
     add("covers_monte_carlo_default", section["covers_monte_carlo_default"] is box.contains(mc),
         f"stated {section['covers_monte_carlo_default']}, box contains it: {box.contains(mc)}")
     roa = section["region_of_attraction"]
@@ -1419,6 +1432,16 @@ def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: G
                 and _close(gs["max_displacement_m"], roa["max_displacement_m"])
         else:
             ok = False
+        if "gsc" in roa:  # the generalised-sector answer, adopted or not: its re-check numbers are recomputed
+            gs = roa["gsc"]
+            rr = RobustROA(Wk={a: np.asarray(gs["W"][a], float) for a in ("x", "y")},
+                           Zk={a: np.asarray(gs["Z"][a], float) for a in ("x", "y")}, S=float(gs["S"]),
+                           rho=float(gs["rho"]), L=L, reach_m=float(gs["max_displacement_m"]), dims=dims,
+                           status="stored")
+            r1 = roa_recheck(rr, _roa_axes(grid_fam, box, dims), float(gs["max_displacement_m"]))
+            ok = ok and all(_close(gs["recheck_grid"][key], r1[key], 1e-6) for key in r1) and gs["ok"] is (
+                r1["decrease_max_eig"] < 0 and r1["inclusion_margin"] >= 0 and r1["min_eig_W"] > 0
+                and r1["start_level"] <= 1 and gs["recheck_lmi_points"]["decrease_max_eig"] < 0)
         add("region of attraction", ok, f"{method}: reach {roa.get('max_displacement_m')} m")
     except (KeyError, TypeError, ValueError, np.linalg.LinAlgError) as exc:
         add("region of attraction", False, f"unreadable ({exc})")
@@ -1437,6 +1460,7 @@ def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: G
         mdims = set(dims["x"]) | set(dims["y"])
         lo, hi = box.bounds()
         ok = all(_close(_num(v), getattr(got[tuple(p)][bp], key), 1e-6) for bp, key, v, p in wpts) and all(
+            w["stable"] is True for w in worst.values()) and all(got[tuple(p)][bp].stable for bp, _, _, p in wpts) and all(
             all((p[j] == lo[j] or p[j] == hi[j]) if j in mdims else p[j] == 1.0 for j in range(6)) for *_, p in wpts)
         add("margins at the stated worst vertices", ok, f"{len(uniq)} vertices recomputed")
     except (KeyError, TypeError, ValueError, CascadeError) as exc:
