@@ -126,7 +126,9 @@ def _closed_loop(model: str, X: ca.SX, e: ca.SX, p: ca.SX, controller: str = "nn
     if controller == "nni":
         kp = ca.vertcat(P["gains.kp"], P["gains.kpy"])
         a_h = -kp * meas + zc / P["nominal.m"]
-        zc_dot = -P["gains.Gamma"] * P["gains.delta"] * zc + P["gains.Gamma"] * meas
+        # discrete variant: z is constant over the period and advanced by step_function at the samples
+        zc_dot = ca.if_else(P["run.discrete"] > 0.5, ca.SX.zeros(2),
+                            -P["gains.Gamma"] * P["gains.delta"] * zc + P["gains.Gamma"] * meas)
     elif controller == "pd_velocity":
         a_h = -P["gains.kp"] * meas - P["gains.kd"] * vel
         zc_dot = ca.SX.zeros(2)
@@ -210,17 +212,36 @@ def _held_slice(model: str) -> slice:
     return slice(6, 8) if model in ("linear", "reduced") else slice(14, 16)
 
 
+def _zc_slice(model: str) -> slice:
+    return slice(4, 6) if model in ("linear", "reduced") else slice(12, 14)
+
+
 @lru_cache(maxsize=None)
 def step_function(model: str, controller: str = "nni") -> ca.Function:
     """One RK4 step ``step(x, e, p) -> x_next`` of length ``p[dt]``.
 
-    At the start of the step a sample flag ``e[2] = 1`` latches the measurement
+    At the start of the step a sample flag ``e[2] >= 1`` latches the measurement
     ``ξ + n`` into the held states; the step then integrates with it constant.
+    With the discrete NNI controller (``run.discrete = 1``) a later sample
+    (``e[2] = 2``) first advances the controller state by one period on the
+    value held over the period that ends, ``z_{k+1} = e^{-ΓδT} z_k +
+    (1 - e^{-ΓδT})/δ ξ_k`` (:class:`nniquad.control.discrete.DiscreteNNI`), and
+    then latches ``ξ_{k+1}``; the first sample (``e[2] = 1``, ``t = 0``) only latches.
     """
     X, e, p = _symbols(model, controller)
     hs = _held_slice(model)
     pos = X[[0, 2]]
-    Xs = ca.vertcat(X[: hs.start], ca.if_else(e[2] > 0.5, pos + e[0:2], X[hs]), X[hs.stop :])
+    if check_controller(controller) == "nni":
+        P = {f.name: p[i] for i, f in enumerate(param_layout(controller))}
+        zs = _zc_slice(model)
+        gd_T = P["gains.Gamma"] * P["gains.delta"] * P["run.sample_period"]
+        a, b = ca.exp(-gd_T), -ca.expm1(-gd_T) / P["gains.delta"]
+        advance = ca.logic_and(e[2] > 1.5, P["run.discrete"] > 0.5)
+        zc = ca.if_else(advance, a * X[zs] + b * X[hs], X[zs])
+        Xa = ca.vertcat(X[: zs.start], zc, X[zs.stop :])
+    else:
+        Xa = X
+    Xs = ca.vertcat(Xa[: hs.start], ca.if_else(e[2] > 0.5, pos + e[0:2], Xa[hs]), Xa[hs.stop :])
     f = rhs_function(model, controller)
     h = p[[entry.name for entry in param_layout(controller)].index("run.dt")]
     k1 = f(Xs, e, p)

@@ -17,10 +17,17 @@ from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, InnerLoopGains
 from nniquad.errors import SimulationError
 from nniquad.validate import finite_number
 
-__all__ = ["MODELS", "SimOptions", "check_model"]
+__all__ = ["MODELS", "CONTROLLER_SAMPLING", "SimOptions", "check_model"]
 
 #: Models of the closed loop (:mod:`nniquad.sim.models`).
 MODELS: tuple[str, ...] = ("linear", "reduced", "full")
+
+#: How the horizontal controller sees the position (:attr:`SimOptions.controller_sampling`):
+#: ``"continuous"`` measurement and controller; ``"held"`` measurement sampled and held at
+#: ``noise_rate_hz``, controller state integrated continuously on the held value; ``"discrete"``
+#: measurement sampled and the NNI controller run in discrete time at that rate (exact ZOH
+#: equivalent, :class:`nniquad.control.discrete.DiscreteNNI`), its command held over the period.
+CONTROLLER_SAMPLING: tuple[str, ...] = ("continuous", "held", "discrete")
 
 
 def check_model(model: str) -> str:
@@ -28,6 +35,11 @@ def check_model(model: str) -> str:
     if not isinstance(model, str) or model not in MODELS:
         raise SimulationError(f"unknown model {model!r} (choose one of {', '.join(MODELS)})")
     return model
+
+
+def _whole_rates(dt_s: float) -> list[str]:
+    """A few rates whose period is a whole number of steps ``dt_s`` (for error messages)."""
+    return [f"{1.0 / (n * dt_s):g}" for n in (2, 4, 5, 8, 10, 20)]
 
 
 def _finite(name: str, value: Any, *, positive: bool = False, nonneg: bool = False) -> float:
@@ -58,10 +70,20 @@ class SimOptions:
     noise_sigma_m
         Standard deviation of the position noise [m] (≥ 0).
     noise_rate_hz
-        Position-sensor sample rate [Hz] (> 0, at most ``1/dt_s``).
+        Position-sensor sample rate [Hz] (> 0, at most ``1/dt_s``); with
+        ``controller_sampling="discrete"`` also the control rate, and then
+        ``1/noise_rate_hz`` must be a whole multiple of ``dt_s``.
     sample_hold
         Position measurement sampled at ``noise_rate_hz`` and held; ``None``
-        (default) means sampled iff ``noise_sigma_m > 0``, else continuous.
+        (default) means sampled iff ``noise_sigma_m > 0`` (or iff
+        ``controller_sampling`` is ``"held"`` or ``"discrete"`` when that is given).
+    controller_sampling
+        ``"continuous"``, ``"held"`` or ``"discrete"`` (:data:`CONTROLLER_SAMPLING`);
+        ``None`` (default) keeps the behaviour of ``sample_hold``: ``"held"`` when
+        the measurement is sampled, else ``"continuous"``.  ``"discrete"`` runs the
+        NNI law as ``z_{k+1} = e^{-ΓδT} z_k + (1 - e^{-ΓδT})/δ ξ_k``,
+        ``a_k = -k_p ξ_k + z_k/m̂``, ``T = 1/noise_rate_hz``, ``a_k`` held over
+        ``[kT, (k+1)T)``, the first sample at ``t = 0`` (``z_0 = zc0``); NNI law only.
     seed
         Seed of the noise and gust sequences (``numpy.random.default_rng``).
     wind_N
@@ -90,6 +112,7 @@ class SimOptions:
     noise_sigma_m: float = 0.0
     noise_rate_hz: float = 100.0
     sample_hold: bool | None = None
+    controller_sampling: str | None = None
     seed: int = 0
     wind_N: tuple[float, float] = (0.0, 0.0)
     gust_N: float = 0.0
@@ -124,6 +147,19 @@ class SimOptions:
                 f"noise sample rate {rate:g} Hz exceeds the integration rate 1/dt = {1 / self.dt_s:g} Hz"
             )
         set_("noise_rate_hz", rate)
+        cs = self.controller_sampling
+        if cs is not None:
+            if not isinstance(cs, str) or cs not in CONTROLLER_SAMPLING:
+                raise SimulationError(f"unknown controller sampling {cs!r} (choose one of "
+                                      f"{', '.join(CONTROLLER_SAMPLING)})")
+            if self.sample_hold is not None and bool(self.sample_hold) != (cs != "continuous"):
+                raise SimulationError(f"sample_hold={self.sample_hold!r} contradicts controller_sampling={cs!r}")
+            if cs == "discrete":
+                n = 1.0 / (rate * self.dt_s)
+                if abs(n - round(n)) > 1e-6 * n:
+                    raise SimulationError(
+                        f"the discrete controller needs a sample period 1/{rate:g} Hz that is a whole multiple of "
+                        f"the time step {self.dt_s:g} s (e.g. {', '.join(_whole_rates(self.dt_s))} Hz)")
         set_("gust_N", _finite("gust", self.gust_N, nonneg=True))
         set_("gust_tau_s", _finite("gust correlation time", self.gust_tau_s, positive=True))
         if not isinstance(self.seed, (int, np.integer)) or isinstance(self.seed, bool) or self.seed < 0:
@@ -156,7 +192,21 @@ class SimOptions:
     @property
     def sampled(self) -> bool:
         """Whether the position measurement is sampled and held."""
+        if self.controller_sampling is not None:
+            return self.controller_sampling != "continuous"
         return (self.noise_sigma_m > 0) if self.sample_hold is None else bool(self.sample_hold)
+
+    @property
+    def sampling(self) -> str:
+        """The resolved :attr:`controller_sampling`: ``"continuous"``, ``"held"`` or ``"discrete"``."""
+        if self.controller_sampling is not None:
+            return self.controller_sampling
+        return "held" if self.sampled else "continuous"
+
+    @property
+    def rate_hz(self) -> float:
+        """Sample rate of the position measurement (and, when sampled, of the controller) [Hz]."""
+        return self.noise_rate_hz
 
     def with_(self, **changes: Any) -> "SimOptions":
         """Copy with some fields changed (validated again)."""

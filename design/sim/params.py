@@ -59,7 +59,10 @@ __all__ = [
 #: Horizontal controllers: the paper's NNI law and two PD comparison laws (one gain block each).
 CONTROLLERS: tuple[str, ...] = tuple(CONTROLLER_GAINS)
 
-#: Per-step exogenous input ``e``: position noise [m], sample flag (1 at a sensor sample), gust force [N].
+#: Per-step exogenous input ``e``: position noise [m], sample flag, gust force [N].  The sample flag is
+#: 0 between samples, 1 at the first sample of a run (the measurement is latched) and 2 at every later
+#: sample (the discrete controller first advances one period on the previous held value, then the
+#: measurement is latched); the continuous and held variants treat 1 and 2 alike.
 EXO_FIELDS: tuple[str, ...] = ("noise_x", "noise_y", "sample_flag", "gust_x", "gust_y")
 
 #: State of each model.  ``zc_x, zc_y`` is the controller state (NNI: z; ``pd_filtered``: the
@@ -125,6 +128,11 @@ class RunSettings:
         1 when the position measurement is sampled and held, else 0 (continuous).
     dt
         Integration step [s].
+    discrete
+        1 when the NNI controller runs in discrete time (exact ZOH, period
+        ``sample_period``; needs ``sample_hold``), else 0.
+    sample_period
+        Sample period ``T`` of the measurement and of the discrete controller [s].
     """
 
     tilt_limit: float = _u("rad", "tilt limit (reduced, full)")
@@ -133,13 +141,18 @@ class RunSettings:
     wind_y: float = _u("N", "constant wind force, east")
     sample_hold: float = _u("0/1", "position measurement sampled and held (else continuous)")
     dt: float = _u("s", "integration step")
+    discrete: float = field(default=0.0, metadata={"unit": "0/1", "meaning": "NNI controller in discrete time "
+                                                                            "(exact ZOH at the sample period)"})
+    sample_period: float = field(default=0.01, metadata={"unit": "s", "meaning": "sample period of the "
+                                                                                 "measurement and the controller"})
 
     def values(self) -> dict[str, float]:
         return {f.name: getattr(self, f.name) for f in fields(self)}
 
     @classmethod
     def from_values(cls, d: Mapping[str, float]) -> "RunSettings":
-        return cls(**{f.name: d[f.name] for f in fields(cls)})
+        # the two discrete-controller fields may be missing (settings written before they existed)
+        return cls(**{f.name: d[f.name] for f in fields(cls) if f.name in d or f.default is MISSING})
 
 
 # =============================================================================== layout
@@ -305,7 +318,9 @@ class SimParams:
                         tau_motor=nominal.tau_motor if options.tau_motor_s is None else options.tau_motor_s)
         run = RunSettings(tilt_limit=math.radians(options.tilt_limit_deg), motor_lag=1.0 if options.motor_lag else 0.0,
                           wind_x=options.wind_N[0], wind_y=options.wind_N[1],
-                          sample_hold=1.0 if options.sampled else 0.0, dt=options.dt_s)
+                          sample_hold=1.0 if options.sampled else 0.0, dt=options.dt_s,
+                          discrete=1.0 if options.sampling == "discrete" else 0.0,
+                          sample_period=1.0 / options.noise_rate_hz)
         return cls(to_gains(gains), nominal, options.inner, plant, run)
 
     def with_(self, **changes: Any) -> "SimParams":

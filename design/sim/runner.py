@@ -14,6 +14,12 @@ samples of a segment and ``map`` over the runs; a run is cut into about 20
 segments (calls into CasADi), which drive the progress callback.  The
 exogenous input (noise, sample flag, gust) is held constant over a step.
 
+Controller sampling (:attr:`SimOptions.controller_sampling`): ``"continuous"``,
+``"held"`` (the measurement sampled and held at ``noise_rate_hz``, the controller
+state integrated continuously on it) or ``"discrete"`` (the NNI law in discrete
+time at that rate, its command held over the period: what
+:class:`nniquad.control.discrete.DiscreteNNI` runs and ``nniquad export`` writes).
+
 Accuracy at the default step of 1 ms (``tests/test_simulate.py``): the linear
 model agrees with the matrix exponential to ~2e-10 m over 30 s; the full model
 with DOP853 (``solve_ivp``, rtol 1e-11) to ~3e-6 m over 4 s (~2e-5 m with motor
@@ -125,8 +131,10 @@ def exogenous_inputs(options: SimOptions, n_steps: int | None = None, seed: int 
     E = np.zeros((n, len(EXO_FIELDS)))
     t = np.arange(n) * o.dt_s
     idx = np.floor(t * o.noise_rate_hz + 1e-9).astype(np.int64)
-    flag = np.ones(n, dtype=bool)
-    flag[1:] = idx[1:] != idx[:-1]
+    flag = np.full(n, 2.0)  # 2: a later sample (the discrete controller advances, then latches)
+    flag[1:][idx[1:] == idx[:-1]] = 0.0
+    if n:
+        flag[0] = 1.0  # the first sample of the run only latches (EXO_FIELDS)
     E[:, 2] = flag
     if o.noise_sigma_m > 0:
         rng = np.random.default_rng([seed, 0])
@@ -177,6 +185,11 @@ def _check_step(params: Sequence[SimParams]) -> None:
     and, with motor lag, the motor pole -1/τ_m must be resolved (margin: 2.5)."""
     for p in params:
         g, dt = p.gains, p.run.dt
+        if p.run.discrete > 0.5 and not isinstance(g, Gains):
+            raise SimulationError(f"the discrete controller variant is implemented for the NNI law only, not "
+                                  f"{g.controller} (use controller_sampling='held')")
+        if p.run.discrete > 0.5 and p.run.sample_hold < 0.5:
+            raise SimulationError("the discrete controller needs the sampled measurement (run.sample_hold = 1)")
         if isinstance(g, PDFilteredGains) and dt / g.tau_f > 2.5:
             raise SimulationError(f"time step {dt:g} s too large for the derivative filter tau_f = {g.tau_f:g} s "
                                   "(RK4 needs dt/tau_f <= 2.5)")
@@ -423,6 +436,11 @@ def simulate(
     if plist is None:
         plist = [SimParams.from_options(vehicle, g, o) for g, o in zip(glist, olist)]
     _check_step(plist)
+    for p, o in zip(plist, olist):
+        # the discrete controller's period is a parameter; it must be the period the sample flags follow
+        if p.run.discrete > 0.5 and abs(p.run.sample_period * o.noise_rate_hz - 1.0) > 1e-9:
+            raise SimulationError(f"discrete controller period {p.run.sample_period:g} s differs from the sample "
+                                  f"period 1/{o.noise_rate_hz:g} Hz of the options")
     model = first.model
     P = np.stack([p.vector() for p in plist])
     X0 = np.stack([initial_state(model, p, o.xi0, o.zc0) for p, o in zip(plist, olist)])
