@@ -12,7 +12,7 @@ import numpy as np
 from nniquad.analysis.linear import ReducedLoop
 from nniquad.certificates.certificate import (NI_FORM, PERFORMANCE_HORIZON_S, ROA_MODEL, TOLERANCES, Certificate,
                                               reference_run_options)
-from nniquad.config import GAMMA_MAX, MASS_RANGE_FRACTION, TILT_LIMIT_DEG, XI0_M
+from nniquad.config import CONTROL_RATE_HZ, DT_S, GAMMA_MAX, MASS_RANGE_FRACTION, TILT_LIMIT_DEG, XI0_M
 from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, InnerLoopGains
 from nniquad.errors import CertificateError
 from nniquad.model.vehicle import Vehicle
@@ -36,8 +36,15 @@ def _mat(M: np.ndarray) -> list[list[float]]:
 
 def performance_runs(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, tilt_limit_deg: float = TILT_LIMIT_DEG,
                      xi0: Sequence[float] = XI0_M, horizon_s: float = PERFORMANCE_HORIZON_S,
-                     motor_lag: bool = True) -> dict[str, Any]:
+                     motor_lag: bool = True, rate_hz: float | None = None) -> dict[str, Any]:
     """Settings and metrics of the two reference runs (``reduced`` and ``full``).
+
+    The ``reduced`` run is the paper's continuous loop.  With ``rate_hz`` the
+    ``full`` run is what flies: the position sampled at ``rate_hz`` and the NNI
+    controller in discrete time at that rate (``controller_sampling="discrete"``);
+    ``None`` keeps it continuous (:func:`reference_run_options`, what ``verify``
+    expects today).  Each run's ``settings`` are the complete
+    :class:`nniquad.sim.SimOptions` (``to_json``), so the run can be re-simulated exactly.
 
     Parameters
     ----------
@@ -51,6 +58,8 @@ def performance_runs(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, t
         Simulated time [s].
     motor_lag
         Motor lag on in the ``full`` run.
+    rate_hz
+        Control rate of the ``full`` run [Hz], or ``None`` (continuous).
     """
     from nniquad.sim import simulate
 
@@ -59,6 +68,8 @@ def performance_runs(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, t
         # the one definition verify compares the stated settings against
         opts = reference_run_options(model, inner, tilt_limit_deg=tilt_limit_deg, xi0=xi0, horizon_s=horizon_s,
                                      motor_lag=motor_lag)
+        if rate_hz is not None and model == "full":
+            opts = opts.with_(controller_sampling="discrete", noise_rate_hz=float(rate_hz))
         met = simulate(vehicle, gains, opts)[0].metrics()
         out[model] = {"settling_s": met.settling_s, "overshoot_pct": met.overshoot_pct,
                       "peak_tilt_deg": met.peak_tilt_deg, "diverged": met.diverged, "settings": opts.to_json()}
@@ -117,7 +128,8 @@ def build_certificate(vehicle: Vehicle, gains: Gains, *, inner: InnerLoopGains =
                       gamma_max: float = GAMMA_MAX, tilt_limit_deg: float = TILT_LIMIT_DEG,
                       mass_range: tuple[float, float] | None = None, xi0: Sequence[float] = XI0_M,
                       model: str = "reduced", tuning: Mapping[str, Any] | None = None,
-                      progress: Callable[[str], None] | None = None) -> Certificate:
+                      progress: Callable[[str], None] | None = None, rate_hz: float = CONTROL_RATE_HZ,
+                      sampled_full_run: bool = False) -> Certificate:
     """Solve every LMI for ``gains``, simulate, and assemble a signed certificate.
 
     Parameters
@@ -142,17 +154,30 @@ def build_certificate(vehicle: Vehicle, gains: Gains, *, inner: InnerLoopGains =
         How the gains were found (recorded).
     progress
         Called with a short message before each long step.
+    rate_hz
+        Control rate [Hz] (default :data:`nniquad.config.CONTROL_RATE_HZ`): the
+        ``margins`` section is computed at it (``verify`` accepts a rate other
+        than the default only with a ``cascade`` section that states it).
+    sampled_full_run
+        Sample the ``full`` reference run at ``rate_hz`` with the NNI controller
+        in discrete time (:func:`performance_runs`); the ``reduced`` run stays
+        the paper's continuous loop.  Off by default: ``verify`` compares the
+        stated settings with :func:`nniquad.certificates.certificate.reference_run_options`,
+        which has no rate yet.
 
     Raises
     ------
     CertificateError
-        The gains violate the sector bound for ``gamma_max``, or an LMI is
-        infeasible (nothing is certified, so nothing is returned).
+        The gains violate the sector bound for ``gamma_max``, an LMI is
+        infeasible (nothing is certified, so nothing is returned), or the rate
+        is not one the simulator can run (finite, positive, a period of whole RK4 steps).
     """
     from nniquad.analysis.bound import time_optimal_bound
     from nniquad.analysis.lmi import certified_region, closed_loop_decay, ni_lemma_dissipation, reach_of, robust_mass_decay
+    from nniquad.sim.options import check_rate_hz
 
     say = progress or (lambda msg: None)
+    rate_hz = check_rate_hz(rate_hz, DT_S, option="rate", error=CertificateError)
     if gains.kpy is not None and gains.kpy != gains.kp:
         raise CertificateError("certificates cover equal axis gains only (kpy must equal kp)")
     if not 0.0 < gamma_max < 1.0:
@@ -182,9 +207,11 @@ def build_certificate(vehicle: Vehicle, gains: Gains, *, inner: InnerLoopGains =
     reach = reach_of(region)
     u0 = float(roa.values["u0"])
     say("computing the classical margins")
-    margins = margins_section(vehicle, gains, inner, tilt_limit_deg=tilt_limit_deg, gamma_max=gamma_max)
+    margins = margins_section(vehicle, gains, inner, tilt_limit_deg=tilt_limit_deg, gamma_max=gamma_max,
+                              rate_hz=rate_hz)
     say("simulating the reference runs")
-    perf = performance_runs(vehicle, gains, inner, tilt_limit_deg=tilt_limit_deg, xi0=xi0)
+    perf = performance_runs(vehicle, gains, inner, tilt_limit_deg=tilt_limit_deg, xi0=xi0,
+                            rate_hz=rate_hz if sampled_full_run else None)
     bound = time_optimal_bound(vehicle, xi0=xi0, tilt_limit_deg=tilt_limit_deg)
     ratios = {k: (None if v["settling_s"] is None else v["settling_s"] / bound.enter_band_s) for k, v in perf.items()}
     cert = Certificate(

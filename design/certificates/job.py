@@ -16,7 +16,8 @@ __all__ = ["certify", "verify", "unsettled_reference_run"]
 
 
 def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLoopGains | None = None,
-            options: Any = None, progress: Callable[[str], None] | None = None) -> Certificate:
+            options: Any = None, progress: Callable[[str], None] | None = None,
+            rate_hz: float | None = None) -> Certificate:
     """Tune (unless gains are given), solve every LMI, simulate the reference runs and sign.
 
     The certificate is verified independently (:func:`verify`) before it is
@@ -42,6 +43,9 @@ def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLo
         ``TuneOptions()``).
     progress
         Called with one-line status messages.
+    rate_hz
+        Control rate of the certificate [Hz] (default
+        :data:`nniquad.config.CONTROL_RATE_HZ`; :func:`build_certificate`).
 
     Returns
     -------
@@ -79,7 +83,8 @@ def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLo
         tuning = {"source": "given gains"}
     cert = build_certificate(vehicle, gains, inner=inner, gamma_max=options.gamma_max,
                              tilt_limit_deg=options.tilt_limit_deg, mass_range=options.mass_range,
-                             model=options.model, tuning=tuning, progress=progress)
+                             model=options.model, tuning=tuning, progress=progress,
+                             **({} if rate_hz is None else {"rate_hz": rate_hz}))
     unsettled = unsettled_reference_run(cert)
     if unsettled is not None:
         raise CertificateError(f"refused: {unsettled}; nothing certified")

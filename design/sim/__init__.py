@@ -20,7 +20,7 @@ Modules
 
 from nniquad.sim.codegen import cache_dir, compile_status
 from nniquad.sim.models import output_function, rhs_function, step_function, vehicle_dynamics
-from nniquad.sim.options import CONTROLLER_SAMPLING, MODELS, SimOptions
+from nniquad.sim.options import CONTROLLER_SAMPLING, MODELS, SimOptions, check_rate_hz
 from nniquad.sim.params import (CONTROLLERS, EXO_FIELDS, OUTPUT_NAMES, STATE_NAMES, ParamField, RunSettings,
                                 SimParams, VehicleParams, n_params, param_layout, to_gains)
 from nniquad.sim.results import SimulationResult, Trajectory
@@ -41,6 +41,7 @@ __all__ = [
     "to_gains",
     "MODELS",
     "CONTROLLER_SAMPLING",
+    "check_rate_hz",
     "CONTROLLERS",
     "STATE_NAMES",
     "OUTPUT_NAMES",

@@ -17,7 +17,7 @@ from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, InnerLoopGains
 from nniquad.errors import SimulationError
 from nniquad.validate import finite_number
 
-__all__ = ["MODELS", "CONTROLLER_SAMPLING", "SimOptions", "check_model"]
+__all__ = ["MODELS", "CONTROLLER_SAMPLING", "SimOptions", "check_model", "check_rate_hz"]
 
 #: Models of the closed loop (:mod:`nniquad.sim.models`).
 MODELS: tuple[str, ...] = ("linear", "reduced", "full")
@@ -40,6 +40,46 @@ def check_model(model: str) -> str:
 def _whole_rates(dt_s: float) -> list[str]:
     """A few rates whose period is a whole number of steps ``dt_s`` (for error messages)."""
     return [f"{1.0 / (n * dt_s):g}" for n in (2, 4, 5, 8, 10, 20)]
+
+
+def check_rate_hz(rate_hz: Any, dt_s: float = DT_S, *, discrete: bool = True, option: str = "--rate",
+                  error: type[Exception] = SimulationError) -> float:
+    """A control / sensor rate [Hz] the integrator can represent, else a one-line ``error``.
+
+    Parameters
+    ----------
+    rate_hz
+        The rate.
+    dt_s
+        The RK4 step [s]: at most one sample per step (``rate <= 1/dt``).
+    discrete
+        The discrete controller runs at this rate: its period must then be a
+        whole number of steps (the sample instants fall on steps; otherwise the
+        period would alternate between two step counts).
+    option
+        Name of the option in the message.
+    error
+        Exception class raised.
+
+    Returns
+    -------
+    float
+    """
+    if isinstance(rate_hz, bool):
+        raise error(f"{option}: sample rate must be a finite positive number of Hz, got {rate_hz!r}")
+    try:
+        rate = float(rate_hz)
+    except (TypeError, ValueError):
+        raise error(f"{option}: sample rate must be a finite positive number of Hz, got {rate_hz!r}") from None
+    if not math.isfinite(rate) or rate <= 0:
+        raise error(f"{option}: sample rate must be positive and finite, got {rate_hz!r}")
+    if rate * dt_s > 1 + 1e-9:
+        raise error(f"{option}: sample rate {rate:g} Hz exceeds the integration rate 1/dt = {1 / dt_s:g} Hz")
+    n = 1.0 / (rate * dt_s)
+    if discrete and abs(n - round(n)) > 1e-6 * n:
+        raise error(f"{option}: the discrete controller needs a sample period 1/{rate:g} Hz that is a whole multiple "
+                    f"of the time step {dt_s:g} s (e.g. {', '.join(_whole_rates(dt_s))} Hz)")
+    return rate
 
 
 def _finite(name: str, value: Any, *, positive: bool = False, nonneg: bool = False) -> float:
@@ -155,11 +195,7 @@ class SimOptions:
             if self.sample_hold is not None and bool(self.sample_hold) != (cs != "continuous"):
                 raise SimulationError(f"sample_hold={self.sample_hold!r} contradicts controller_sampling={cs!r}")
             if cs == "discrete":
-                n = 1.0 / (rate * self.dt_s)
-                if abs(n - round(n)) > 1e-6 * n:
-                    raise SimulationError(
-                        f"the discrete controller needs a sample period 1/{rate:g} Hz that is a whole multiple of "
-                        f"the time step {self.dt_s:g} s (e.g. {', '.join(_whole_rates(self.dt_s))} Hz)")
+                check_rate_hz(rate, self.dt_s, option="noise_rate_hz")
         set_("gust_N", _finite("gust", self.gust_N, nonneg=True))
         set_("gust_tau_s", _finite("gust correlation time", self.gust_tau_s, positive=True))
         if not isinstance(self.seed, (int, np.integer)) or isinstance(self.seed, bool) or self.seed < 0:

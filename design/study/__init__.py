@@ -15,6 +15,8 @@ inertia                each axis × U[0.8, 1.2]                 true ``Jx, Jy, J
 attitude-loop gain     × U[0.7, 1.3]                           ``att_scale`` (torques)
 motor time constant    nominal × U[0.5, 2], lag on             ``tau_motor``
 position noise σ       U[0, 2] cm, sampled and held at 100 Hz  exogenous input
+                       (the NNI controller runs in discrete
+                       time at that rate)
 wind force             magnitude U[0, 0.3] N,                  ``wind_x, wind_y``
                        direction U[0°, 360°)
 initial displacement   uniform over the disk of radius         ``xi0``, at rest
@@ -33,6 +35,14 @@ was 8× the nominal of a 5 ms motor);
 2 cm is the noise of RTK-GNSS or UWB positioning (motion capture is below
 1 mm); 0.3 N is the drag of a 5 m/s breeze on a drag area C_d A ≈ 0.02 m²
 (6 % of the paper vehicle's weight).
+
+Within the certificate
+----------------------
+:func:`within_certificate_ranges` turns a certificate's ``cascade`` section
+(schema 2) into ranges that stay inside what it certifies: its parameter box,
+its region of attraction, its rate, no noise and no wind.  Every such scenario
+must converge; ``nniquad montecarlo --within-certificate`` exits 1 on any
+failure.
 
 Success
 -------
@@ -81,8 +91,9 @@ from nniquad.errors import MonteCarloError, StudyFailedError
 from nniquad.study.executors import (CONNECT_TIMEOUT_S, StopRequest, StudyRun, auto_batch_size, catch_interrupts,
                                      close_client, cluster_threads, connect_scheduler, make_batches, run_study)
 from nniquad.study.runs import ScenarioResult, run_scenarios
-from nniquad.study.scenarios import (DEFAULT_HORIZON_S, DEFAULT_RANGES, Scenario, ScenarioRanges, StudySetup,
-                                     draw_scenario, draw_scenarios, study_setup, study_setup_from)
+from nniquad.study.scenarios import (BOX_KEYS, DEFAULT_HORIZON_S, DEFAULT_RANGES, Scenario, ScenarioRanges,
+                                     StudySetup, certificate_rate_hz, draw_scenario, draw_scenarios, study_setup,
+                                     study_setup_from, within_certificate_ranges)
 from nniquad.study.statistics import Summary, pareto_front, quantile_ci, summarize, wilson_interval
 
 __all__ = [
@@ -97,6 +108,9 @@ __all__ = [
     "Summary",
     "study_setup",
     "study_setup_from",
+    "within_certificate_ranges",
+    "certificate_rate_hz",
+    "BOX_KEYS",
     "draw_scenario",
     "draw_scenarios",
     "run_scenarios",

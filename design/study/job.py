@@ -6,9 +6,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
-from nniquad.errors import StudyFailedError
+from nniquad.errors import MonteCarloError, StudyFailedError
 from nniquad.study.executors import StopRequest, StudyRun, run_study
-from nniquad.study.scenarios import DEFAULT_RANGES, ScenarioRanges, StudySetup, draw_scenarios, study_setup
+from nniquad.study.scenarios import (DEFAULT_RANGES, ScenarioRanges, StudySetup, draw_scenarios, study_setup,
+                                     within_certificate_ranges)
 from nniquad.study.statistics import Summary, summarize
 
 __all__ = ["MonteCarloResult", "montecarlo"]
@@ -91,8 +92,8 @@ def montecarlo(certificate: Any, samples: int = 1000, seed: int = 0, *, ranges: 
                horizon_s: float | None = None, workers: int | None = None, scheduler: str | None = None,
                client: Any = None, batch_size: int | None = None, n_worst: int = 10,
                progress: Callable[[int, int], None] | None = None, stall_timeout_s: float | None = None,
-               stop: StopRequest | None = None, notify: Callable[[str], None] | None = None
-               ) -> MonteCarloResult:
+               stop: StopRequest | None = None, notify: Callable[[str], None] | None = None,
+               within_certificate: bool = False) -> MonteCarloResult:
     """Simulate perturbed scenarios of a certificate's gain set on the full vehicle and summarise them.
 
     Parameters
@@ -125,6 +126,11 @@ def montecarlo(certificate: Any, samples: int = 1000, seed: int = 0, *, ranges: 
         See :func:`nniquad.study.run_study` (a pool or cluster on which no
         batch finished for this long has stalled; a stop request, set by
         Ctrl-C by default; one-line notes while waiting).
+    within_certificate
+        Draw only inside what the certificate's ``cascade`` section certifies
+        (:func:`nniquad.study.within_certificate_ranges`: its box, region and
+        rate, no noise, no wind); ``ranges`` must then be left at the default.
+        Every scenario of such a study is expected to converge.
 
     Returns
     -------
@@ -149,7 +155,15 @@ def montecarlo(certificate: Any, samples: int = 1000, seed: int = 0, *, ranges: 
     elif not isinstance(certificate, (Mapping, StudySetup)):
         to_json = getattr(certificate, "to_json", None)
         certificate = to_json() if callable(to_json) else certificate
-    setup = study_setup(certificate, ranges, horizon_s=horizon_s)
+    if within_certificate:
+        if isinstance(certificate, StudySetup) or not isinstance(certificate, Mapping):
+            raise MonteCarloError("within_certificate needs the certificate itself (a mapping), not a StudySetup")
+        if ranges is not DEFAULT_RANGES:
+            raise MonteCarloError("within_certificate takes its ranges from the certificate: give no ranges")
+        ranges, region, _ = within_certificate_ranges(certificate)
+        setup = study_setup(certificate, ranges, horizon_s=horizon_s, region_m=region)
+    else:
+        setup = study_setup(certificate, ranges, horizon_s=horizon_s)
     scenarios = draw_scenarios(samples, seed, ranges, setup)
     try:
         run = run_study(scenarios, workers=workers, scheduler=scheduler, client=client, batch_size=batch_size,

@@ -85,7 +85,8 @@ def _run_one(s: Scenario) -> ScenarioResult:
     desc = s.describe()
     try:
         opts = SimOptions(model="full", horizon_s=s.horizon_s, dt_s=s.dt_s, output_dt_s=s.output_dt_s,
-                          noise_sigma_m=s.noise_sigma_m, noise_rate_hz=s.noise_rate_hz, sample_hold=True,
+                          noise_sigma_m=s.noise_sigma_m, noise_rate_hz=s.noise_rate_hz,
+                          controller_sampling=s.controller_sampling,
                           seed=s.noise_seed, xi0=s.xi0_m)
         with np.errstate(all="ignore"):
             res = simulate(None, None, opts, params=[s.sim_params])

@@ -12,7 +12,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from nniquad.config import (ALTITUDE_LIMIT_M, BAND_FRACTION, DT_S, OUTPUT_DT_S, TAU_MOTOR_FACTOR_RANGE, TILT_LIMIT_DEG,
+from nniquad.config import (ALTITUDE_LIMIT_M, BAND_FRACTION, CONTROL_RATE_HZ, DT_S, OUTPUT_DT_S, TAU_MOTOR_FACTOR_RANGE, TILT_LIMIT_DEG,
                              WIND_WEIGHT_FRACTION_RANGE, XI0_M)
 from nniquad.errors import MonteCarloError
 from nniquad.sim import SimOptions, SimParams, to_gains
@@ -27,6 +27,9 @@ __all__ = [
     "draw_scenario",
     "draw_scenarios",
     "DEFAULT_HORIZON_S",
+    "certificate_rate_hz",
+    "within_certificate_ranges",
+    "BOX_KEYS",
 ]
 
 #: Default simulated time of a scenario [s].
@@ -76,7 +79,9 @@ class ScenarioRanges:
     noise_sigma_m
         Standard deviation of the position noise [m] (default 0-0.02).
     noise_rate_hz
-        Position-sensor sample rate [Hz] (default 100; the measurement is sampled and held).
+        Position-sensor sample rate [Hz], also the control rate (default 100; the
+        measurement is sampled and held, and an NNI controller runs in discrete
+        time at this rate unless the study setup says otherwise).
     wind_weight_fraction
         Magnitude of the constant horizontal wind force as a fraction of the
         nominal weight ``m g`` (default :data:`nniquad.config.WIND_WEIGHT_FRACTION_RANGE`,
@@ -164,6 +169,10 @@ class StudySetup:
         Horizontal law of :attr:`base_params` (``"nni"``, ``"pd_velocity"``,
         ``"pd_filtered"``: :data:`nniquad.sim.CONTROLLERS`); it fixes the layout
         of the parameter vector.
+    controller_sampling
+        ``"discrete"`` (the NNI law in discrete time at the sample rate, what
+        flies) or ``"held"`` (the controller integrated continuously on the held
+        measurement; the PD laws): :attr:`nniquad.sim.SimOptions.controller_sampling`.
     """
 
     base_params: tuple[float, ...]
@@ -175,6 +184,7 @@ class StudySetup:
     output_dt_s: float = OUTPUT_DT_S
     label: str = ""
     controller: str = "nni"
+    controller_sampling: str = "held"
 
     @property
     def base(self) -> SimParams:
@@ -195,6 +205,8 @@ class StudySetup:
             "horizon_s": self.horizon_s,
             "dt_s": self.dt_s,
             "output_dt_s": self.output_dt_s,
+            "controller_sampling": self.controller_sampling,
+            "rate_hz": 1.0 / b.run.sample_period,
         }
 
 
@@ -209,7 +221,7 @@ def _cert_float(value: Any) -> float | None:
 def study_setup_from(vehicle: Any, gains: Any, *, inner: Any = None, tilt_limit_deg: float = TILT_LIMIT_DEG,
                      xi0_m: Sequence[float] = XI0_M, region_m: float | None = None,
                      ranges: ScenarioRanges = DEFAULT_RANGES, horizon_s: float = DEFAULT_HORIZON_S,
-                     label: str = "") -> StudySetup:
+                     label: str = "", controller_sampling: str | None = None) -> StudySetup:
     """The shared part of a study from a vehicle, a gain set and inner-loop gains (no certificate).
 
     ``gains`` is any controller's gain block (:class:`~nniquad.control.gains.Gains`,
@@ -238,6 +250,10 @@ def study_setup_from(vehicle: Any, gains: Any, *, inner: Any = None, tilt_limit_
         Simulated time per scenario [s].
     label
         Identification of the design for the report.
+    controller_sampling
+        ``"discrete"`` or ``"held"``; default ``"discrete"`` for the NNI law (its
+        discrete-time controller at ``ranges.noise_rate_hz``), ``"held"`` for the
+        PD laws.
 
     Returns
     -------
@@ -246,7 +262,8 @@ def study_setup_from(vehicle: Any, gains: Any, *, inner: Any = None, tilt_limit_
     Raises
     ------
     MonteCarloError
-        A non-positive horizon or a bad initial position.
+        A non-positive horizon, a bad initial position, or a rate the discrete
+        controller cannot run at (its period must be a whole number of RK4 steps).
     """
     h = _cert_float(horizon_s)
     if h is None:
@@ -257,12 +274,19 @@ def study_setup_from(vehicle: Any, gains: Any, *, inner: Any = None, tilt_limit_
             raise ValueError
     except (TypeError, ValueError):
         raise MonteCarloError(f"initial position xi0_m must be a non-zero pair of numbers, got {xi0_m!r}") from None
-    opts: dict[str, Any] = {"model": "full", "horizon_s": h, "motor_lag": True, "sample_hold": True,
+    block = gains if hasattr(gains, "controller") else to_gains(gains, "nni")
+    sampling = controller_sampling or ("discrete" if block.controller == "nni" else "held")
+    if sampling not in ("discrete", "held"):
+        raise MonteCarloError(f"controller sampling of a study must be 'discrete' or 'held', got {sampling!r}")
+    if sampling == "discrete":
+        from nniquad.sim.options import check_rate_hz
+
+        check_rate_hz(ranges.noise_rate_hz, DT_S, option="rate", error=MonteCarloError)
+    opts: dict[str, Any] = {"model": "full", "horizon_s": h, "motor_lag": True, "controller_sampling": sampling,
                             "noise_rate_hz": ranges.noise_rate_hz, "tilt_limit_deg": tilt_limit_deg}
     if inner is not None:
         opts["inner"] = inner
     options = SimOptions(**opts)
-    block = gains if hasattr(gains, "controller") else to_gains(gains, "nni")
     base = SimParams.from_options(vehicle, block, options)
     region = _cert_float(region_m)
     if region is None:
@@ -277,6 +301,7 @@ def study_setup_from(vehicle: Any, gains: Any, *, inner: Any = None, tilt_limit_
         output_dt_s=options.output_dt_s,
         label=label,
         controller=base.controller,
+        controller_sampling=sampling,
     )
 
 
@@ -291,7 +316,7 @@ def _certificate_label(cert: Mapping[str, Any]) -> str:
 
 
 def study_setup(cert: Mapping[str, Any] | StudySetup, ranges: ScenarioRanges = DEFAULT_RANGES, *,
-                horizon_s: float | None = None) -> StudySetup:
+                horizon_s: float | None = None, region_m: float | None = None) -> StudySetup:
     """The shared part of a study from a loaded certificate (:func:`nniquad.certificates.certificate.load_certificate`).
 
     ``horizon_s`` defaults to :data:`DEFAULT_HORIZON_S` for a certificate.  A
@@ -303,7 +328,9 @@ def study_setup(cert: Mapping[str, Any] | StudySetup, ranges: ScenarioRanges = D
     :func:`nniquad.certificates.certificate.certificate_gains`, ``certificate_vehicle`` and
     ``certificate_inner_loop``; the displacement radius from
     ``region_of_attraction.max_displacement_m`` (the nominal ``‖xi0_m‖`` when the
-    certificate states no region), capped at ``ranges.max_displacement_m``.
+    certificate states no region), capped at ``ranges.max_displacement_m``;
+    ``region_m`` replaces the certificate's region (e.g. the cascade's,
+    :func:`within_certificate_ranges`), capped the same way.
 
     Raises
     ------
@@ -324,7 +351,8 @@ def study_setup(cert: Mapping[str, Any] | StudySetup, ranges: ScenarioRanges = D
     return study_setup_from(
         C.certificate_vehicle(cert), C.certificate_gains(cert), inner=C.certificate_inner_loop(cert),
         tilt_limit_deg=TILT_LIMIT_DEG if tilt is None else tilt, xi0_m=cert.get("xi0_m", XI0_M),
-        region_m=roa.get("max_displacement_m") if isinstance(roa, Mapping) else None,
+        region_m=region_m if region_m is not None else
+        (roa.get("max_displacement_m") if isinstance(roa, Mapping) else None),
         ranges=ranges, horizon_s=DEFAULT_HORIZON_S if horizon_s is None else horizon_s,
         label=_certificate_label(cert),
     )
@@ -358,6 +386,8 @@ class Scenario:
         The drawn factors (mass, inertia per axis, attitude gain), for the report.
     controller
         Horizontal law (the layout of :attr:`params`).
+    controller_sampling
+        ``"discrete"`` or ``"held"`` (:attr:`StudySetup.controller_sampling`).
     """
 
     index: int
@@ -374,6 +404,7 @@ class Scenario:
     altitude_limit_m: float
     factors: tuple[tuple[str, float], ...] = ()
     controller: str = "nni"
+    controller_sampling: str = "held"
 
     @property
     def sim_params(self) -> SimParams:
@@ -463,7 +494,9 @@ def draw_scenario(index: int, seed: int, ranges: ScenarioRanges, setup: StudySet
         plant={"m": plant.m * f_m, "Jx": Jx, "Jy": Jy, "Jz": Jz, "tau_motor": tau},
         inner={"attitude_gain_scale": base.inner.attitude_gain_scale * f_att},
         run={"motor_lag": 1.0, "wind_x": wind * math.cos(wdir), "wind_y": wind * math.sin(wdir),
-             "sample_hold": 1.0, "dt": setup.dt_s},
+             "sample_hold": 1.0, "dt": setup.dt_s,
+             "discrete": 1.0 if setup.controller_sampling == "discrete" else 0.0,
+             "sample_period": 1.0 / ranges.noise_rate_hz},
     )
     return Scenario(
         index=int(index), study_seed=seed, params=tuple(float(v) for v in params.vector()),
@@ -472,7 +505,7 @@ def draw_scenario(index: int, seed: int, ranges: ScenarioRanges, setup: StudySet
         horizon_s=setup.horizon_s, dt_s=setup.dt_s, output_dt_s=setup.output_dt_s,
         band_m=setup.band_m, altitude_limit_m=ranges.altitude_limit_m,
         factors=(("mass", f_m), ("Jx", f_J[0]), ("Jy", f_J[1]), ("Jz", f_J[2]), ("attitude_gain", f_att)),
-        controller=setup.controller,
+        controller=setup.controller, controller_sampling=setup.controller_sampling,
     )
 
 
@@ -495,3 +528,79 @@ def draw_scenarios(n: int, seed: int, ranges: ScenarioRanges = DEFAULT_RANGES,
         raise MonteCarloError("a certificate (or a StudySetup) is required")
     setup = study_setup(cert, ranges, horizon_s=horizon_s)
     return [draw_scenario(i, seed, ranges, setup) for i in range(int(n))]
+
+
+# =============================================================================== the certificate's own box
+
+#: Keys of a certificate's ``cascade.box``: factors on the vehicle's nominal values, as :class:`ScenarioRanges`.
+BOX_KEYS: tuple[str, ...] = ("mass_factor", "inertia_factor", "attitude_gain_factor", "tau_motor_factor")
+
+
+def certificate_rate_hz(cert: Mapping[str, Any]) -> float:
+    """The control rate a certificate states [Hz]: ``cascade.rate_hz``, else ``margins.rate_hz``, else the default.
+
+    The default is :data:`nniquad.config.CONTROL_RATE_HZ` (a certificate that states no rate).
+    """
+    for section in ("cascade", "margins"):
+        sec = cert.get(section)
+        if isinstance(sec, Mapping):
+            v = _cert_float(sec.get("rate_hz"))
+            if v is not None:
+                return v
+    return float(CONTROL_RATE_HZ)
+
+
+def within_certificate_ranges(cert: Mapping[str, Any]) -> tuple[ScenarioRanges, float, float]:
+    """Scenario ranges that stay inside what a certificate's ``cascade`` section certifies.
+
+    The mass, inertia (each axis), attitude-gain and motor time-constant
+    factors are drawn from ``cascade.box``; the initial displacement from the
+    disk of radius ``cascade.region_of_attraction.max_displacement_m``; the
+    rate is ``cascade.rate_hz`` (the NNI controller in discrete time).  Noise
+    and wind are off: the certificate covers neither.  The capped ``Jz``
+    (``min(f_z Jz, f_x Jx + f_y Jy)``) stays inside the box too, since
+    ``Jx + Jy >= Jz``.
+
+    Parameters
+    ----------
+    cert
+        A loaded certificate (a mapping).
+
+    Returns
+    -------
+    ranges : ScenarioRanges
+        The box, no noise, no wind, ``noise_rate_hz`` the certified rate,
+        ``max_displacement_m`` the certified radius.
+    region_m : float
+        The certified initial-displacement radius [m] (pass it to :func:`study_setup`).
+    rate_hz : float
+        The certified rate [Hz].
+
+    Raises
+    ------
+    MonteCarloError
+        The certificate has no ``cascade`` section (it certifies no box), or
+        the section lacks a usable box, region or rate.
+    """
+    cas = cert.get("cascade") if isinstance(cert, Mapping) else None
+    if not isinstance(cas, Mapping):
+        raise MonteCarloError("the certificate certifies no parameter box (it has no 'cascade' section; schema "
+                              f"{cert.get('schema_version', '?') if isinstance(cert, Mapping) else '?'}): "
+                              "--within-certificate needs a cascade certificate")
+    box = cas.get("box")
+    if not isinstance(box, Mapping):
+        raise MonteCarloError("the certificate's cascade section has no 'box'")
+    missing = [k for k in BOX_KEYS if k not in box]
+    if missing:
+        raise MonteCarloError(f"the certificate's cascade box lacks '{missing[0]}'")
+    factors = {k: _pair(f"cascade.box.{k}", box[k], positive=True) for k in BOX_KEYS}
+    roa = cas.get("region_of_attraction")
+    region = _cert_float(roa.get("max_displacement_m")) if isinstance(roa, Mapping) else None
+    if region is None:
+        raise MonteCarloError("the certificate's cascade section states no region_of_attraction.max_displacement_m")
+    rate = _cert_float(cas.get("rate_hz"))
+    if rate is None:
+        raise MonteCarloError("the certificate's cascade section states no rate_hz")
+    ranges = ScenarioRanges(**factors, tau_motor_s=None, noise_sigma_m=(0.0, 0.0), noise_rate_hz=rate,
+                            wind_weight_fraction=(0.0, 0.0), wind_N=None, max_displacement_m=region)
+    return ranges, region, rate

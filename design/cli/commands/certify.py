@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from nniquad.config import CONTROL_RATE_HZ
 from nniquad.errors import NniquadError
 from nniquad.format import fmt
 
@@ -23,8 +24,10 @@ and gamma_max), the stability margin and poles, the LMI matrices (plant and
 controller NI certificates, closed-loop Lyapunov P with its decay rate, the
 parameter-dependent P0 + P1/m over the mass interval, the region-of-attraction
 ellipsoid under tilt saturation with its multipliers), whether the start state
-lies in the certified region, the performance on the reduced and full models
-with their simulation settings, the time-optimal bound, software versions and
+lies in the certified region, the performance on the reduced model (the
+paper's continuous loop) and on the full model (position sampled at --rate,
+the NNI controller in discrete time) with their simulation settings, the
+classical margins at --rate, the time-optimal bound, software versions and
 a SHA-256 digest.  Gains outside the sector bound, or with an infeasible LMI,
 are refused: no file is written.  Check a certificate with 'nniquad verify'."""
 
@@ -39,6 +42,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--attitude-zeta", type=float, default=None, metavar="Z", help="attitude damping ratio")
     g.add_argument("--attitude-accel", type=float, default=None, metavar="RAD_S2",
                    help="deceleration of the attitude error shaping in rad/s^2")
+    parser.add_argument("--rate", type=float, default=None, metavar="HZ",
+                        help=f"control rate in Hz (default {CONTROL_RATE_HZ:g}): the margins are computed at it and "
+                             "the full reference run samples the position at it, the NNI controller in discrete "
+                             "time; a period of whole 1 ms steps")
     from .common import add_output_option
 
     add_output_option(parser, "--out", required=True, metavar="FILE", help="certificate file to write (JSON)")
@@ -54,6 +61,12 @@ def run(args: argparse.Namespace) -> int:
     from .common import finite_positive, vehicle_from_args
 
     out = Path(args.out)  # checked by main before this runs (nniquad.io.check_output_path)
+    from nniquad.config import DT_S
+    from nniquad.errors import CertificateError
+    from nniquad.sim.options import check_rate_hz
+
+    # before any tuning: a bad rate fails at once
+    rate = check_rate_hz(CONTROL_RATE_HZ if args.rate is None else args.rate, DT_S, error=CertificateError)
     vehicle = vehicle_from_args(args)
     options = tune_options_from_args(args)
     given = [args.kp, args.Gamma, args.delta]
@@ -72,11 +85,11 @@ def run(args: argparse.Namespace) -> int:
         # the certificate's full-model runs use motor lag with the vehicle's time constant and the RK4 step DT_S
         check_rk4_step(inner_loop_poles(inner, tau_motor_s=vehicle.tau_motor), DT_S, error=SimulationError,
                        hint={"attitude": "--attitude-wn", "motor lag": "the vehicle's tau_motor"})
-        cert = certify(vehicle, gains, inner=inner, options=options, progress=progress.message)
+        cert = certify(vehicle, gains, inner=inner, options=options, progress=progress.message, rate_hz=rate)
     else:
         tuned = tune(vehicle, options, progress=progress.message)
         print_tune_result(tuned)
-        cert = certify(vehicle, tuned, options=options, progress=progress.message)
+        cert = certify(vehicle, tuned, options=options, progress=progress.message, rate_hz=rate)
     progress.close()
     path = cert.write(out)
     gains, perf = cert.gains, cert.performance

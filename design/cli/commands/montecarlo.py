@@ -9,7 +9,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from nniquad.config import MC_STALL_TIMEOUT_S
+from nniquad.config import CONTROL_RATE_HZ, MC_STALL_TIMEOUT_S
 from nniquad.io import atomic_write_json
 from nniquad.resources import usable_cpu_count
 
@@ -40,6 +40,20 @@ peak-tilt quantiles (p50, p95, p99) with distribution-free 95 % intervals
 Scenario i of seed S is the same whatever N, the batch size or the number of
 workers: rerun it alone with --seed S --rerun i.
 
+The position is sampled at --rate (default the certificate's rate, else 100 Hz)
+and an NNI controller runs in discrete time at that rate (exact ZOH, as 'nniquad
+export' writes it); the attitude loop, motors and altitude loop are continuous.
+
+--within-certificate draws only inside what a schema-2 certificate's cascade
+section certifies: mass, inertia, attitude-gain and motor time-constant
+factors from cascade.box, the initial displacement from the disk of
+cascade.region_of_attraction.max_displacement_m, the rate cascade.rate_hz, no
+noise and no wind (the certificate covers neither); the range options cannot
+be combined with it.  Every such scenario must converge: each failure is
+printed with its index and the --rerun command that reproduces it, and the
+exit status is 1.  A certificate without a cascade section certifies no box:
+exit status 2.
+
 Execution: a local process pool on all cores (--workers N), or an existing
 Dask cluster (--scheduler tcp://host:port; start one with 'dask scheduler'
 and 'dask worker tcp://host:8786 --nworkers N --nthreads 1', nniquad
@@ -64,6 +78,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--horizon", type=float, default=20.0, metavar="T", help="simulated time in s (default 20)")
     parser.add_argument("--rerun", metavar="INDEX[,INDEX...]", default=None,
                         help="rerun only these scenario indices of --seed (in this process) and show them in detail")
+    parser.add_argument("--rate", type=float, default=None, metavar="HZ",
+                        help="control rate: the position is sampled at HZ and the NNI controller runs in discrete "
+                             "time at HZ (default: the certificate's rate, cascade.rate_hz or margins.rate_hz, "
+                             f"else {CONTROL_RATE_HZ:g})")
+    parser.add_argument("--within-certificate", action="store_true",
+                        help="draw only inside what the certificate certifies (its cascade section: parameter box, "
+                             "region of attraction, rate; no noise, no wind); every scenario must converge, "
+                             "exit status 1 if one does not")
     x = parser.add_argument_group("execution")
     x.add_argument("--scheduler", metavar="ADDRESS", default=None,
                    help="Dask scheduler address, e.g. tcp://10.0.0.5:8786 (default: local process pool)")
@@ -117,16 +139,34 @@ _RANGE_OPTIONS = (
 )
 
 
-def _ranges(args: argparse.Namespace):
-    from nniquad.study import ScenarioRanges
+def _ranges(args: argparse.Namespace, cert: Any = None):
+    """The ranges of the study and, with --within-certificate, the certified region [m] (else ``None``)."""
+    from nniquad.sim.options import check_rate_hz
+    from nniquad.study import MonteCarloError, ScenarioRanges, certificate_rate_hz, within_certificate_ranges
 
-    changes = {field: (tuple(v) if isinstance(v, list) else v)
-               for attr, field, _ in _RANGE_OPTIONS if (v := getattr(args, attr)) is not None}
-    return ScenarioRanges(**changes)
+    given = [flag for attr, _, flag in _RANGE_OPTIONS if getattr(args, attr) is not None]
+    if args.within_certificate:
+        if given:
+            raise MonteCarloError(f"--within-certificate takes its ranges from the certificate: drop {given[0]}")
+        if args.rate is not None:
+            raise MonteCarloError("--within-certificate runs at the certificate's rate: drop --rate")
+        ranges, region, rate = within_certificate_ranges(cert)
+        check_rate_hz(rate, error=MonteCarloError, option="the certificate's cascade.rate_hz")
+        return ranges, region
+    changes: dict[str, Any] = {field: (tuple(v) if isinstance(v, list) else v)
+                               for attr, field, _ in _RANGE_OPTIONS if (v := getattr(args, attr)) is not None}
+    rate = certificate_rate_hz(cert) if args.rate is None else args.rate
+    changes["noise_rate_hz"] = check_rate_hz(rate, error=MonteCarloError,
+                                             option="--rate" if args.rate is not None else "the certificate's rate")
+    return ScenarioRanges(**changes), None
 
 
 def _rerun_hint(args: argparse.Namespace) -> str:
     parts = ["nniquad", "montecarlo", "--certificate", str(args.certificate), "--seed", str(args.seed)]
+    if args.within_certificate:
+        parts += ["--within-certificate"]
+    if args.rate is not None:
+        parts += ["--rate", f"{args.rate:g}"]
     if args.horizon != 20.0:
         parts += ["--horizon", f"{args.horizon:g}"]
     for attr, _, flag in _RANGE_OPTIONS:
@@ -189,6 +229,8 @@ def _rerun(args: argparse.Namespace, setup, ranges) -> int:
         atomic_write_json(args.json, {"study": _study_json(args, setup, ranges),
                                       "rerun": [r.to_json() for r in results]})
         print(f"wrote {args.json}", file=sys.stderr)
+    if args.within_certificate:
+        return _within_certificate_verdict(results, _rerun_hint(args))
     return 0
 
 
@@ -216,9 +258,9 @@ def run(args: argparse.Namespace) -> int:
     if args.json is not None:
         # --json itself is checked by main; an interrupted study writes FILE.partial.json beside it
         check_output_paths([("--json", args.json), ("--json's partial file", partial_path(args.json, args.seed))])
-    ranges = _ranges(args)
     cert = load_certificate(args.certificate)
-    setup = study_setup(cert, ranges, horizon_s=args.horizon)
+    ranges, region = _ranges(args, cert)
+    setup = study_setup(cert, ranges, horizon_s=args.horizon, region_m=region)
     # RK4 step against the fastest inner-loop pole the ranges can draw (strongest attitude gain, fastest motor)
     tau_lo = (ranges.tau_motor_s[0] if ranges.tau_motor_s is not None
               else setup.base.plant.tau_motor * ranges.tau_motor_factor[0])
@@ -300,7 +342,19 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         atomic_write_json(args.json, data)
         print(f"wrote {args.json}", file=sys.stderr)
+    if args.within_certificate:
+        return _within_certificate_verdict(study.results, hint)
     return 0
+
+
+def _within_certificate_verdict(results, hint: str) -> int:
+    """Every scenario inside the certificate must converge: list each failure with its rerun command."""
+    failed = [r for r in results if not r.success]
+    for r in failed:
+        print(f"FAILED within certificate: scenario {r.index} ({r.failure}); rerun: "
+              f"{hint.replace('INDEX', str(r.index))}")
+    print(f"within certificate: {len(results) - len(failed)}/{len(results)} converged")
+    return 1 if failed else 0
 
 
 def _save_partial(target: Path, data: dict[str, Any]) -> Path:

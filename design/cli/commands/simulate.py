@@ -6,10 +6,11 @@ import argparse
 import sys
 from pathlib import Path
 
-from nniquad.config import ALTITUDE_LIMIT_M, XI0_M
+from nniquad.config import ALTITUDE_LIMIT_M, CONTROL_RATE_HZ, XI0_M
 from nniquad.errors import GainError, NniquadError
 from nniquad.format import fmt
 from nniquad.progress import Progress
+from nniquad.sim.options import CONTROLLER_SAMPLING
 from .common import (add_json_option, add_output_option, add_tilt_limit_option, add_vehicle_option, add_xi0_option,
                      vehicle_from_args)
 
@@ -28,7 +29,11 @@ Models:
            commands, and the tilt limit.  No horizontal velocity is used.
 
 The horizontal command is the paper's: -kp xi + z/m, z the output of the NNI
-controller z' = -Gamma delta z + Gamma xi, in positive feedback.  Defaults are
+controller z' = -Gamma delta z + Gamma xi, in positive feedback.  With --rate HZ
+(or --noise) the position is sampled at HZ and the controller runs in discrete
+time at that rate, z[k+1] = exp(-Gamma delta T) z[k] + (1 - exp(-Gamma delta T))/delta
+xi[k], a[k] = -kp xi[k] + z[k]/m, T = 1/HZ, a[k] held over the period; the
+attitude loop, motors and altitude loop stay continuous.  Defaults are
 the paper's gains (kp = 5, Gamma = 160, delta = 0.6) and initial state.
 
 Prints settling time (2 % band, last exit), overshoot, peak tilt, whether
@@ -59,7 +64,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     d = parser.add_argument_group("disturbances and uncertainty")
     d.add_argument("--noise", type=float, default=0.0, metavar="SIGMA",
                    help="position-noise standard deviation in m (default 0); the measurement is sampled and held")
-    d.add_argument("--rate", type=float, default=100.0, metavar="HZ", help="position-sensor sample rate (default 100)")
+    d.add_argument("--rate", type=float, default=None, metavar="HZ",
+                   help=f"control rate: the position is sampled at HZ and the NNI controller runs in discrete time "
+                        f"at HZ (exact ZOH, as 'nniquad export' writes it); default {CONTROL_RATE_HZ:g} with --noise, "
+                        "else continuous measurement and controller (the paper's model)")
+    d.add_argument("--sampling", choices=CONTROLLER_SAMPLING, default=None,
+                   help="how the controller sees the position: continuous; held (sampled and held, controller "
+                        "integrated continuously on it); discrete (default with --rate or --noise)")
     d.add_argument("--seed", type=int, default=0, metavar="N", help="seed of the noise and gust (default 0)")
     d.add_argument("--wind", type=float, nargs=2, default=[0.0, 0.0], metavar=("FX", "FY"),
                    help="constant wind force north/east in N (default 0 0)")
@@ -127,11 +138,28 @@ def _inner(args: argparse.Namespace):
     return replace(inner, **changes)
 
 
+def _sampling(args: argparse.Namespace) -> tuple[float, str]:
+    """The rate and the controller sampling of the run (see --rate and --sampling)."""
+    from nniquad.errors import SimulationError
+    from nniquad.sim.options import check_rate_hz
+
+    sampling = args.sampling
+    if sampling is None:
+        sampling = "discrete" if (args.rate is not None or (args.noise or 0.0) > 0) else "continuous"
+    if args.rate is not None and sampling == "continuous":
+        raise SimulationError("--rate samples the measurement: it cannot be used with --sampling continuous")
+    rate = CONTROL_RATE_HZ if args.rate is None else args.rate
+    # the step is validated again by SimOptions; a bad --dt is named there
+    dt = args.dt if isinstance(args.dt, (int, float)) and args.dt > 0 else 1e-3
+    return check_rate_hz(rate, dt, discrete=sampling == "discrete"), sampling
+
+
 def run(args: argparse.Namespace) -> int:
     from nniquad.sim import SimOptions, simulate
 
     vehicle = vehicle_from_args(args)
     gains = _gains(args)
+    rate, sampling = _sampling(args)
     options = SimOptions(
         model=args.model,
         horizon_s=args.horizon,
@@ -140,7 +168,8 @@ def run(args: argparse.Namespace) -> int:
         tilt_limit_deg=args.tilt_limit,
         xi0=tuple(args.xi0),
         noise_sigma_m=args.noise,
-        noise_rate_hz=args.rate,
+        noise_rate_hz=rate,
+        controller_sampling=sampling,
         seed=args.seed,
         wind_N=tuple(args.wind),
         gust_N=args.gust,
