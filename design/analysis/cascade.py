@@ -189,7 +189,7 @@ def linearise(model: str, params: SimParams, *, offset: float = LINEARISATION_OF
         raise CascadeError(f"the cascade is linearised on the 'linear' or 'full' model, not {model!r}")
     if not isinstance(params, SimParams) or params.controller != "nni":
         raise CascadeError("the cascade is linearised with a SimParams of the NNI controller")
-    p = params.with_(run={"sample_hold": 1.0})
+    p = params.with_(run={"sample_hold": 1.0, "discrete": 0.0})  # the continuous controller's Jacobian
     names = STATE_NAMES[model]
     x_eq = initial_state(model, p, (0.0, 0.0))
     fn = _jacobian_function(model)
