@@ -171,7 +171,7 @@ def linearise(model: str, params: SimParams, *, offset: float = LINEARISATION_OF
         ``"linear"`` or ``"full"`` (``"reduced"`` equals ``"linear"`` near hover).
     params
         Parameter set (:class:`nniquad.sim.SimParams`, NNI gains); its
-        ``run.sample_hold`` is set to 1 here.
+        ``run.sample_hold`` is set to 1 and ``run.discrete`` to 0 here.
     offset
         Symmetric offset of the held measurement [m] (module docstring).
 

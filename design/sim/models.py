@@ -47,6 +47,16 @@ acceleration command ``a_h`` (before the tilt limit), in every model:
     vehicle starts at rest, so ``v̂(0) = 0``); gains
     :class:`nniquad.control.gains.PDFilteredGains`.
 
+Controller sampling
+-------------------
+``run.sample_hold = 1`` feeds every law the measurement sampled at the sensor
+rate and held (``ξ_m`` above = the held value).  With ``run.discrete = 1`` the
+NNI law also runs in discrete time at that rate (period ``run.sample_period``):
+``z`` is constant over a period and :func:`step_function` advances it at each
+later sample by the exact ZOH equivalent ``z ← e^{-ΓδT} z + (1 - e^{-ΓδT})/δ ξ_m``
+of the period that ends, before it latches the new measurement, so ``a_h``
+is held over the period (:class:`nniquad.control.discrete.DiscreteNNI`).
+
 Every law has its own parameter layout (:func:`nniquad.sim.params.param_layout`,
 the gain entries named after the block's fields) and its own compiled
 function; all share the state layout (:data:`STATE_NAMES`: ``zc_x, zc_y`` hold
