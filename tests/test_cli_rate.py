@@ -60,24 +60,31 @@ def test_build_certificate_takes_the_rate():
     assert inspect.signature(build_certificate).parameters["rate_hz"].default == CONTROL_RATE_HZ
 
 
-def test_certify_rate_reaches_margins_and_the_full_run(run_cli, tmp_path):
-    out_path = tmp_path / "c.json"
-    code, out, err = run_cli("certify", "--kp", str(GAINS.kp), "--Gamma", str(GAINS.Gamma), "--delta",
-                             str(GAINS.delta), "--attitude-wn", "101.56", "--attitude-zeta", "1.132",
-                             "--attitude-accel", "31.14", "--model", "full", "--rate", "50", "--out", str(out_path))
-    assert code == 0, err
-    cert = json.loads(out_path.read_text())
+def test_build_certificate_rate_reaches_margins_and_the_sampled_full_run():
+    from nniquad.certificates.build import build_certificate
+
+    cert = build_certificate(V, GAINS, inner=INNER, model="full", rate_hz=50.0, sampled_full_run=True).to_json()
     assert cert["margins"]["rate_hz"] == 50.0
     full, reduced = cert["performance"]["full"]["settings"], cert["performance"]["reduced"]["settings"]
     assert full["controller_sampling"] == "discrete" and full["noise_rate_hz"] == 50.0
     assert reduced["controller_sampling"] is None and reduced["sample_hold"] is None  # the paper's continuous loop
-    # the stated full run is the discrete-controller run at 50 Hz (not the continuous one)
+    # the stated full run is the discrete-controller run at 50 Hz, re-simulated from its settings
     opts = SimOptions(**{**{k: v for k, v in full.items() if k != "inner"}, "xi0": tuple(full["xi0"]),
                          "zc0": tuple(full["zc0"]), "wind_N": tuple(full["wind_N"]), "inner": INNER})
     met = simulate(V, GAINS, opts)[0].metrics()
     assert cert["performance"]["full"]["settling_s"] == pytest.approx(met.settling_s, rel=1e-9)
     cont = simulate(V, GAINS, opts.with_(controller_sampling=None, sample_hold=None))[0].metrics()
     assert abs(cont.settling_s - met.settling_s) > 1e-3
+
+
+def test_certify_rate_reaches_the_margins(run_cli, tmp_path):
+    """certify --rate 100 (the default; verify accepts another rate only with a cascade section that states it)."""
+    out_path = tmp_path / "c.json"
+    code, out, err = run_cli("certify", "--kp", str(GAINS.kp), "--Gamma", str(GAINS.Gamma), "--delta",
+                             str(GAINS.delta), "--attitude-wn", "101.56", "--attitude-zeta", "1.132",
+                             "--attitude-accel", "31.14", "--model", "full", "--rate", "100", "--out", str(out_path))
+    assert code == 0, err
+    assert json.loads(out_path.read_text())["margins"]["rate_hz"] == 100.0
     code, out, err = run_cli("verify", str(out_path))
     assert code == 0, out + err
 

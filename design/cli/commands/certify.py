@@ -24,10 +24,8 @@ and gamma_max), the stability margin and poles, the LMI matrices (plant and
 controller NI certificates, closed-loop Lyapunov P with its decay rate, the
 parameter-dependent P0 + P1/m over the mass interval, the region-of-attraction
 ellipsoid under tilt saturation with its multipliers), whether the start state
-lies in the certified region, the performance on the reduced model (the
-paper's continuous loop) and on the full model (position sampled at --rate,
-the NNI controller in discrete time) with their simulation settings, the
-classical margins at --rate, the time-optimal bound, software versions and
+lies in the certified region, the performance on the reduced and full models
+with their simulation settings, the classical margins at --rate, the time-optimal bound, software versions and
 a SHA-256 digest.  Gains outside the sector bound, or with an infeasible LMI,
 are refused: no file is written.  Check a certificate with 'nniquad verify'."""
 
@@ -43,9 +41,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--attitude-accel", type=float, default=None, metavar="RAD_S2",
                    help="deceleration of the attitude error shaping in rad/s^2")
     parser.add_argument("--rate", type=float, default=None, metavar="HZ",
-                        help=f"control rate in Hz (default {CONTROL_RATE_HZ:g}): the margins are computed at it and "
-                             "the full reference run samples the position at it, the NNI controller in discrete "
-                             "time; a period of whole 1 ms steps")
+                        help=f"control rate in Hz (default {CONTROL_RATE_HZ:g}), a period of whole 1 ms steps: the "
+                             "classical margins (NNI controller in discrete time) are computed at it")
     from .common import add_output_option
 
     add_output_option(parser, "--out", required=True, metavar="FILE", help="certificate file to write (JSON)")
