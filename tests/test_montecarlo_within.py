@@ -37,6 +37,7 @@ def _with_cascade(box=BOX, region=REGION_M, rate=RATE_HZ) -> dict:
 
 def _signed_file(tmp_path, cert: dict) -> Path:
     cert = {k: v for k, v in cert.items() if k != "digest"}
+    cert["schema_version"] = 2  # a cascade section makes a schema-2 certificate
     cert["digest"] = {"algorithm": "sha256", "value": canonical_digest(cert)}
     path = tmp_path / "cascade_cert.json"
     path.write_text(json.dumps(cert))

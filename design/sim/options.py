@@ -252,4 +252,7 @@ class SimOptions:
         d = asdict(self)
         d["inner"] = self.inner.as_dict()
         d["xi0"], d["zc0"], d["wind_N"] = list(self.xi0), list(self.zc0), list(self.wind_N)
+        if d["controller_sampling"] is None:
+            # unset: the record of a run stays what it was before the field existed (stated certificate settings)
+            del d["controller_sampling"]
         return d
