@@ -41,6 +41,7 @@ __all__ = [
     "CASCADE_ROA_DECAY_FRACTION",
     "CASCADE_WIDEST_SCALE_MAX",
     "CASCADE_WIDEST_STEPS",
+    "CASCADE_FALLBACK_SCALES",
 ]
 
 #: Initial horizontal position of the paper's run, north/east [m], at rest (DESIGN.md).
@@ -123,3 +124,6 @@ CASCADE_ROA_DECAY_FRACTION: float = 0.01
 CASCADE_WIDEST_SCALE_MAX: float = 2.0
 #: Bisection steps of the widest-box search.
 CASCADE_WIDEST_STEPS: int = 2
+#: When neither the Monte Carlo box nor the widest-box bisection (which stops at a quarter of it) certifies,
+#: certify tries these scales of the Monte Carlo box (log space about nominal) in turn before refusing.
+CASCADE_FALLBACK_SCALES: tuple[float, ...] = (0.1, 0.03)

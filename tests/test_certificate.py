@@ -8,7 +8,9 @@ import json
 import numpy as np
 import pytest
 
-from nniquad.certificates import (SCHEMA_VERSION, Certificate, build_certificate, canonical_digest, load_certificate,
+from nniquad.analysis.robust_cascade import ParameterBox
+
+from nniquad.certificates import (SCHEMA_VERSION, SCHEMA_VERSIONS, Certificate, build_certificate, canonical_digest, load_certificate,
                                   read_certificate, verify_certificate, write_certificate)
 from nniquad.errors import CertificateError
 from nniquad.control.gains import InnerLoopGains
@@ -19,16 +21,40 @@ from nniquad.model.vehicle import PAPER_VEHICLE as V
 GAINS = Gains(13.148341568334407, 25.27258951977003, 0.19046572101699574)
 INNER = InnerLoopGains(attitude_wn_rad_s=101.56, attitude_zeta=1.132, attitude_accel_limit_rad_s2=31.14)
 
+# the test design tolerates only a slightly slower motor: its cascade box is a tenth of the Monte Carlo
+# ranges (log scale), as the widest-box search finds
+SMALL_BOX = ParameterBox.monte_carlo_default().scaled(0.1)
+
 
 @pytest.fixture(scope="module")
 def certificate() -> Certificate:
-    return build_certificate(V, GAINS, inner=INNER, model="full")
+    return build_certificate(V, GAINS, inner=INNER, model="full", box=SMALL_BOX)
 
 
 @pytest.fixture(scope="module")
 def cert(certificate) -> dict:
     """The certificate's JSON document (what the tamper tests edit)."""
     return certificate.to_json()
+
+
+@pytest.fixture(scope="module")
+def certificate1() -> Certificate:
+    """A schema-1 certificate of the same design (no cascade section)."""
+    return build_certificate(V, GAINS, inner=INNER, model="full", cascade=False)
+
+
+@pytest.fixture(scope="module")
+def cert1(certificate1) -> dict:
+    return certificate1.to_json()
+
+
+def test_default_certificate_is_schema_2_with_the_sampled_full_run(certificate, certificate1):
+    assert certificate.schema_version == 2 and certificate.cascade["rate_hz"] == 100.0
+    assert certificate.performance["full"]["settings"]["controller_sampling"] == "discrete"
+    assert certificate1.schema_version == 1 and certificate1.cascade is None
+    assert "controller_sampling" not in certificate1.performance["full"]["settings"]
+    # the sampled run is a different run from the continuous one
+    assert certificate.performance["full"]["settling_s"] != certificate1.performance["full"]["settling_s"]
 
 
 def _resign(c: dict) -> dict:
@@ -119,7 +145,7 @@ def test_resigned_tampering_fails_the_recomputation(cert, tamper, failing):
 @pytest.mark.parametrize("edit, message", [
     (lambda c: c["gains"].__setitem__("Gamma", c["gains"]["Gamma"] + 1), "digest mismatch"),
     (lambda c: c["performance"]["reduced"].__setitem__("settling_s", 0.5), "digest mismatch"),
-    (lambda c: c.__setitem__("schema_version", SCHEMA_VERSION + 1), "schema version"),
+    (lambda c: c.__setitem__("schema_version", max(SCHEMA_VERSIONS) + 1), "schema version"),
     (lambda c: c.__setitem__("schema", "something-else"), "schema"),
     (lambda c: c.pop("digest"), "no digest"),
 ])
@@ -147,7 +173,8 @@ def test_broken_json_and_missing_file(tmp_path, run_cli, cert):
 def test_cli_verify_table_and_failure_exit(cert, tmp_path, run_cli):
     good = write_certificate(cert, tmp_path / "good.json")
     code, out, _ = run_cli("verify", str(good))
-    assert code == 0 and "all 16 checks pass" in out and "lmi.robust_mass" in out and "margins" in out
+    n_checks = len(verify_certificate(cert, simulate=True).checks)  # the library's own count, cascade rows included
+    assert n_checks > 16 and code == 0 and f"all {n_checks} checks pass" in out and "lmi.robust_mass" in out and "margins" in out
     c = copy.deepcopy(cert)
     _tamper_matrix(c)
     bad = tmp_path / "resigned.json"
@@ -170,7 +197,7 @@ def test_certify_given_gains_writes_a_verifiable_certificate(tmp_path, run_cli):
     code, stdout, err = run_cli("certify", "--kp", repr(GAINS.kp), "--Gamma", repr(GAINS.Gamma), "--delta",
                                 repr(GAINS.delta), "--attitude-wn", repr(INNER.attitude_wn_rad_s), "--attitude-zeta",
                                 repr(INNER.attitude_zeta), "--attitude-accel", repr(INNER.attitude_accel_limit_rad_s2),
-                                "--model", "full", "--out", str(out))
+                                "--model", "full", "--box-scale", "0.1", "--out", str(out))
     assert code == 0, err
     c = load_certificate(out)
     assert c["sector"]["gamma"] == pytest.approx(1 / (0.5 * GAINS.kp * GAINS.delta))
@@ -402,7 +429,7 @@ def test_tilt_limit_alone_changed_to_60_fails_and_a_consistent_60_certificate_is
     for run in c["performance"].values():
         run["settings"]["tilt_limit_deg"] = 60.0
     assert {"lmi.region_of_attraction", "bound"} <= _failed(c)
-    c60 = build_certificate(V, GAINS, inner=INNER, model="full", tilt_limit_deg=60.0).to_json()
+    c60 = build_certificate(V, GAINS, inner=INNER, model="full", tilt_limit_deg=60.0, box=SMALL_BOX).to_json()
     assert verify_certificate(c60).ok
     setup = study_setup(c60).to_json()
     assert setup["tilt_limit_deg"] == pytest.approx(60.0)
@@ -451,7 +478,8 @@ def test_re_simulation_is_cached_by_its_exact_inputs(cert, monkeypatch):
     assert sorted(calls[2:]) == ["full", "reduced"]
 
 
-def test_notes_say_what_schema_1_does_not_cover_and_which_fields_are_records(cert, tmp_path, run_cli):
+def test_notes_say_what_schema_1_does_not_cover_and_which_fields_are_records(cert1, tmp_path, run_cli):
+    cert = cert1
     res = verify_certificate(cert, simulate=False)
     assert any("schema 1" in n and "no sampled-data cascade" in n and "no parameter box" in n for n in res.notes)
     assert any("records, not verified" in n and "software" in n and "tuning" in n for n in res.notes)
@@ -468,8 +496,8 @@ def test_notes_say_what_schema_1_does_not_cover_and_which_fields_are_records(cer
     (lambda c: c.__setitem__("schema_version", 3), "schema version 3 is not supported"),
     (lambda c: c.update(schema_version=2, cascade=[1]), "needs a 'cascade' object"),
 ])
-def test_schema_version_and_cascade_section_must_agree(cert, tmp_path, run_cli, edit, message):
-    c = copy.deepcopy(cert)
+def test_schema_version_and_cascade_section_must_agree(cert1, tmp_path, run_cli, edit, message):
+    c = copy.deepcopy(cert1)
     edit(c)
     path = tmp_path / "v.json"
     path.write_text(json.dumps(_resign(c)))
@@ -477,9 +505,10 @@ def test_schema_version_and_cascade_section_must_agree(cert, tmp_path, run_cli, 
     assert code == 2 and message in err and len(err.strip().splitlines()) == 1
 
 
-def test_schema_2_certificate_round_trips_and_keeps_schema_1_digests(certificate, cert):
+def test_schema_2_certificate_round_trips_and_keeps_schema_1_digests(certificate1, cert1):
     import dataclasses
 
+    certificate, cert = certificate1, cert1
     assert certificate.cascade is None and certificate.schema_version == 1 and "cascade" not in cert
     section = {"rate_hz": 100.0, "controller": "discrete", "region_of_attraction": {"tilt_limit_deg": 30.0}}
     two = dataclasses.replace(certificate, cascade=section).signed()

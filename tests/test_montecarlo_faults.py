@@ -24,10 +24,11 @@ import time
 
 import pytest
 
+
 import nniquad.study as mc
 from nniquad.errors import EXIT_STUDY_FAILED
 from nniquad.progress import Progress
-from test_montecarlo import GAINS, INNER
+from test_montecarlo import GAINS, INNER, SMALL_BOX
 
 HORIZON = "2"
 
@@ -39,7 +40,7 @@ def cert_path(tmp_path_factory):
     from nniquad.model.vehicle import PAPER_VEHICLE
 
     path = tmp_path_factory.mktemp("mcfaults") / "cert.json"
-    write_certificate(build_certificate(PAPER_VEHICLE, GAINS, inner=INNER, model="full"), path)
+    write_certificate(build_certificate(PAPER_VEHICLE, GAINS, inner=INNER, model="full", box=SMALL_BOX), path)
     return path
 
 

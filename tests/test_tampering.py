@@ -37,12 +37,13 @@ from typing import Any, Iterator
 
 import pytest
 
+
 from nniquad.certificates import TOLERANCES, build_certificate, canonical_digest, verify_certificate
 from nniquad.certificates.verify import RECORD_FIELDS, clear_cache
 from nniquad.errors import NniquadError
 from nniquad.model.vehicle import PAPER_VEHICLE as V
 from nniquad.study.scenarios import study_setup
-from tests.test_certificate import GAINS, INNER
+from tests.test_certificate import GAINS, INNER, SMALL_BOX
 
 #: Inputs of the certified statement that no stated number depends on (path -> why).  An edit of one
 #: leaves every claim true, for the edited input; the loop checks that and that Monte Carlo uses it.
@@ -157,7 +158,7 @@ def doc() -> dict:
 
     committed = Path(__file__).resolve().parents[1] / "notebooks" / "data" / "full_model_certificate.json"
     tuning = json.loads(committed.read_text())["tuning"]
-    return build_certificate(V, GAINS, inner=INNER, model="full", tuning=tuning).to_json()
+    return build_certificate(V, GAINS, inner=INNER, model="full", tuning=tuning, box=SMALL_BOX).to_json()
 
 
 def _verify_passes(c: dict, fail_fast: bool):

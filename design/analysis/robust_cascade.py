@@ -86,7 +86,7 @@ import scipy.linalg as sla
 from nniquad.analysis.cascade import (SPLIT_TOL, EQUILIBRIUM_TOL, LINEARISATION_OFFSET_M, LinearCascade, Linearisation,
                                       _hover_params, _jacobian_function, allocation_jacobian)
 from nniquad.analysis.sampled import _conditioning_transform, _period
-from nniquad.config import (CASCADE_GRID_POINTS_PER_AXIS, CASCADE_ROA_DECAY_FRACTION, CASCADE_WIDEST_SCALE_MAX,
+from nniquad.config import (CASCADE_GRID_POINTS_PER_AXIS, CASCADE_ROA_DECAY_FRACTION, CASCADE_FALLBACK_SCALES, CASCADE_WIDEST_SCALE_MAX,
                             CASCADE_WIDEST_STEPS, CONTROL_RATE_HZ, TILT_LIMIT_DEG)
 from nniquad.control.gains import Gains, InnerLoopGains
 from nniquad.errors import CascadeError, SolverError
@@ -1165,11 +1165,25 @@ def cascade_section(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, ti
         t1 = time.perf_counter()
         s_ok, s_bad = widest_box(vehicle, gains, inner, mc, tilt_limit_deg=tilt_limit_deg, rate_hz=rate_hz, dims=dims)
         timings["widest_s"] = time.perf_counter() - t1
+        if box is None and s_ok <= 0.0:
+            # the bisection has not gone below a quarter of the box: try the fallback scales in turn
+            for s in CASCADE_FALLBACK_SCALES:
+                try:
+                    _certify_box(vehicle, gains, inner, mc.scaled(s), tilt_limit_deg=tilt_limit_deg,
+                                 rate_hz=rate_hz, dims=dims, grid_n=3)
+                except (SolverError, CascadeError):
+                    s_bad = s
+                    continue
+                s_ok = s
+                break
         if box is None:
             if s_ok <= 0.0:
-                raise SolverError("the cascade is not certified even at a small box about the nominal point")
+                raise SolverError(f"the cascade is not certified even on the Monte Carlo box scaled by "
+                                  f"{min(CASCADE_FALLBACK_SCALES):g} (log space) about the nominal point")
             box = mc if s_ok >= 1.0 else mc.scaled(s_ok)
     if fam is None:
+        if box != ref:  # the check probes the certified box: the relevant coordinates are those of this box
+            dims = relevant_coordinates(vehicle, gains, inner, box, tilt_limit_deg=tilt_limit_deg, rate_hz=rate_hz)
         fam, pts, lyap, grid_fam, gc = _certify_box(vehicle, gains, inner, box, tilt_limit_deg=tilt_limit_deg,
                                                     rate_hz=rate_hz, dims=dims, grid_n=grid_n)
     T = fam.T
@@ -1290,7 +1304,7 @@ def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: G
     out: list[tuple[str, bool, str]] = []
 
     def add(name: str, ok: bool, detail: str = "") -> bool:
-        out.append((f"cascade: {name}", bool(ok), detail))
+        out.append((name, bool(ok), detail))
         return bool(ok)
 
     need = ("rate_hz", "controller", "attitude_loop", "model", "box", "monte_carlo_default_box",

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 import platform
 from importlib import metadata
-from typing import Any, Callable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -16,6 +16,9 @@ from nniquad.config import CONTROL_RATE_HZ, DT_S, GAMMA_MAX, MASS_RANGE_FRACTION
 from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, InnerLoopGains
 from nniquad.errors import CertificateError
 from nniquad.model.vehicle import Vehicle
+
+if TYPE_CHECKING:
+    from nniquad.analysis.robust_cascade import ParameterBox
 
 __all__ = ["build_certificate", "performance_runs", "margins_section", "MARGIN_FIELDS", "sector_pm_ceiling_deg"]
 
@@ -42,8 +45,8 @@ def performance_runs(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, t
     The ``reduced`` run is the paper's continuous loop.  With ``rate_hz`` the
     ``full`` run is what flies: the position sampled at ``rate_hz`` and the NNI
     controller in discrete time at that rate (``controller_sampling="discrete"``);
-    ``None`` keeps it continuous (:func:`reference_run_options`, what ``verify``
-    expects today).  Each run's ``settings`` are the complete
+    ``None`` keeps it continuous (a schema-1 certificate;
+    :func:`nniquad.certificates.certificate.reference_run_options`).  Each run's ``settings`` are the complete
     :class:`nniquad.sim.SimOptions` (``to_json``), so the run can be re-simulated exactly.
 
     Parameters
@@ -67,9 +70,7 @@ def performance_runs(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, t
     for model in ("reduced", "full"):
         # the one definition verify compares the stated settings against
         opts = reference_run_options(model, inner, tilt_limit_deg=tilt_limit_deg, xi0=xi0, horizon_s=horizon_s,
-                                     motor_lag=motor_lag)
-        if rate_hz is not None and model == "full":
-            opts = opts.with_(controller_sampling="discrete", noise_rate_hz=float(rate_hz))
+                                     motor_lag=motor_lag, rate_hz=rate_hz)
         met = simulate(vehicle, gains, opts)[0].metrics()
         out[model] = {"settling_s": met.settling_s, "overshoot_pct": met.overshoot_pct,
                       "peak_tilt_deg": met.peak_tilt_deg, "diverged": met.diverged, "settings": opts.to_json()}
@@ -129,7 +130,8 @@ def build_certificate(vehicle: Vehicle, gains: Gains, *, inner: InnerLoopGains =
                       mass_range: tuple[float, float] | None = None, xi0: Sequence[float] = XI0_M,
                       model: str = "reduced", tuning: Mapping[str, Any] | None = None,
                       progress: Callable[[str], None] | None = None, rate_hz: float = CONTROL_RATE_HZ,
-                      sampled_full_run: bool = False) -> Certificate:
+                      cascade: bool = True, box: "ParameterBox | None" = None,
+                      widest_box: bool = False, refuse_unsettled: bool = False) -> Certificate:
     """Solve every LMI for ``gains``, simulate, and assemble a signed certificate.
 
     Parameters
@@ -156,14 +158,25 @@ def build_certificate(vehicle: Vehicle, gains: Gains, *, inner: InnerLoopGains =
         Called with a short message before each long step.
     rate_hz
         Control rate [Hz] (default :data:`nniquad.config.CONTROL_RATE_HZ`): the
-        ``margins`` section is computed at it (``verify`` accepts a rate other
-        than the default only with a ``cascade`` section that states it).
-    sampled_full_run
-        Sample the ``full`` reference run at ``rate_hz`` with the NNI controller
-        in discrete time (:func:`performance_runs`); the ``reduced`` run stays
-        the paper's continuous loop.  Off by default: ``verify`` compares the
-        stated settings with :func:`nniquad.certificates.certificate.reference_run_options`,
-        which has no rate yet.
+        rate of the ``cascade`` section, of the ``margins`` section and of the
+        ``full`` reference run (position sampled, NNI controller in discrete time).
+    cascade
+        Certify the sampled-data cascade over a parameter box (schema 2, the
+        default; :func:`nniquad.analysis.robust_cascade.cascade_section`).
+        ``False`` writes a schema-1 certificate: the continuous reduced loop
+        only, the ``full`` reference run continuous, margins at the default rate.
+    box
+        The parameter box of the cascade section
+        (:class:`nniquad.analysis.robust_cascade.ParameterBox`); ``None``: the
+        Monte Carlo default box if it certifies, else the widest scaled box found.
+    widest_box
+        Search the widest scale of the Monte Carlo default box that certifies
+        (bisection, about a minute on 2 cores) and certify that box (with
+        ``box=None``); the section's ``widest`` entry states the search.
+    refuse_unsettled
+        Refuse (before the cascade section) when a reference run is not shown
+        to settle (:func:`nniquad.certificates.job.unsettled_reference_run`;
+        what ``certify`` does).
 
     Raises
     ------
@@ -206,12 +219,33 @@ def build_certificate(vehicle: Vehicle, gains: Gains, *, inner: InnerLoopGains =
     pd = loop.poles_and_damping()
     reach = reach_of(region)
     u0 = float(roa.values["u0"])
+    if not cascade and rate_hz != CONTROL_RATE_HZ:
+        raise CertificateError(f"a schema-1 certificate (no cascade section) states no rate: it cannot be "
+                               f"built at {rate_hz:g} Hz")
     say("computing the classical margins")
     margins = margins_section(vehicle, gains, inner, tilt_limit_deg=tilt_limit_deg, gamma_max=gamma_max,
                               rate_hz=rate_hz)
+    # the reference runs first (seconds): a design that does not settle is refused before the cascade (a minute)
     say("simulating the reference runs")
     perf = performance_runs(vehicle, gains, inner, tilt_limit_deg=tilt_limit_deg, xi0=xi0,
-                            rate_hz=rate_hz if sampled_full_run else None)
+                            rate_hz=rate_hz if cascade else None)
+    if refuse_unsettled:
+        from nniquad.certificates.job import unsettled_reference_run
+
+        unsettled = unsettled_reference_run({"performance": perf})
+        if unsettled is not None:
+            raise CertificateError(f"refused: {unsettled}; nothing certified")
+    section = None
+    if cascade:
+        from nniquad.analysis.robust_cascade import cascade_section
+        from nniquad.errors import CascadeError, SolverError
+
+        say(f"certifying the sampled-data cascade at {rate_hz:g} Hz over the parameter box")
+        try:
+            section = cascade_section(vehicle, gains, inner, tilt_limit_deg=tilt_limit_deg, rate_hz=rate_hz, box=box,
+                                      widest=widest_box)
+        except (CascadeError, SolverError) as exc:
+            raise CertificateError(f"the sampled-data cascade is not certified at {rate_hz:g} Hz: {exc}") from None
     bound = time_optimal_bound(vehicle, xi0=xi0, tilt_limit_deg=tilt_limit_deg)
     ratios = {k: (None if v["settling_s"] is None else v["settling_s"] / bound.enter_band_s) for k, v in perf.items()}
     cert = Certificate(
@@ -251,5 +285,6 @@ def build_certificate(vehicle: Vehicle, gains: Gains, *, inner: InnerLoopGains =
         tuning=dict(tuning) if tuning is not None else None,
         software=_software(),
         margins=margins,
+        cascade=section,
     )
     return cert.signed()

@@ -119,13 +119,18 @@ PERFORMANCE_OUTPUT_DT_S = 0.005
 
 
 def reference_run_options(model: str, inner: InnerLoopGains, *, tilt_limit_deg: float, xi0: Any,
-                          horizon_s: float = PERFORMANCE_HORIZON_S, motor_lag: bool = True) -> Any:
+                          horizon_s: float = PERFORMANCE_HORIZON_S, motor_lag: bool = True,
+                          rate_hz: float | None = None) -> Any:
     """The simulation options of a certificate's reference run (``reduced`` or ``full``).
 
     The one definition :func:`nniquad.certificates.build.performance_runs` simulates
     with and :func:`nniquad.certificates.verify.verify_certificate` compares the stated
     ``performance.*.settings`` against: the nominal vehicle at rest at ``xi0``, no noise,
-    wind or gust, continuous measurement, motor lag in ``full`` only.
+    wind or gust, motor lag in ``full`` only.  The ``reduced`` run is the paper's
+    continuous loop; the ``full`` run is what flies when ``rate_hz`` is given (a
+    schema-2 certificate: the position sampled at the certified rate, the NNI
+    controller in discrete time, its exact ZOH equivalent) and continuous otherwise
+    (schema 1).
 
     Parameters
     ----------
@@ -141,6 +146,8 @@ def reference_run_options(model: str, inner: InnerLoopGains, *, tilt_limit_deg: 
         Simulated time [s].
     motor_lag
         Motor lag on in the ``full`` run.
+    rate_hz
+        Control rate of the ``full`` run [Hz]; ``None``: continuous measurement.
 
     Returns
     -------
@@ -148,9 +155,12 @@ def reference_run_options(model: str, inner: InnerLoopGains, *, tilt_limit_deg: 
     """
     from nniquad.sim import SimOptions  # lazily: reading a certificate needs no CasADi
 
-    return SimOptions(model=model, horizon_s=horizon_s, output_dt_s=PERFORMANCE_OUTPUT_DT_S,
+    opts = SimOptions(model=model, horizon_s=horizon_s, output_dt_s=PERFORMANCE_OUTPUT_DT_S,
                       tilt_limit_deg=tilt_limit_deg, xi0=tuple(xi0), motor_lag=motor_lag and model == "full",
                       inner=inner)
+    if rate_hz is not None and model == "full":
+        opts = opts.with_(controller_sampling="discrete", noise_rate_hz=float(rate_hz))
+    return opts
 
 
 # ----------------------------------------------------------------------------- digest and form

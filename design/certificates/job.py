@@ -17,7 +17,7 @@ __all__ = ["certify", "verify", "unsettled_reference_run"]
 
 def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLoopGains | None = None,
             options: Any = None, progress: Callable[[str], None] | None = None,
-            rate_hz: float | None = None) -> Certificate:
+            rate_hz: float | None = None, box: Any = None, widest_box: bool = False) -> Certificate:
     """Tune (unless gains are given), solve every LMI, simulate the reference runs and sign.
 
     The certificate is verified independently (:func:`verify`) before it is
@@ -43,6 +43,13 @@ def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLo
         ``TuneOptions()``).
     progress
         Called with one-line status messages.
+    box
+        Parameter box of the sampled-data cascade section
+        (:class:`nniquad.analysis.robust_cascade.ParameterBox`); ``None``: the Monte
+        Carlo default box if it certifies, else the widest scaled box found.
+    widest_box
+        Also search the widest scale of the Monte Carlo default box that certifies
+        (about a minute more) and certify that box.
     rate_hz
         Control rate of the certificate [Hz] (default
         :data:`nniquad.config.CONTROL_RATE_HZ`; :func:`build_certificate`).
@@ -84,6 +91,7 @@ def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLo
     cert = build_certificate(vehicle, gains, inner=inner, gamma_max=options.gamma_max,
                              tilt_limit_deg=options.tilt_limit_deg, mass_range=options.mass_range,
                              model=options.model, tuning=tuning, progress=progress,
+                             box=box, widest_box=widest_box, refuse_unsettled=True,
                              **({} if rate_hz is None else {"rate_hz": rate_hz}))
     unsettled = unsettled_reference_run(cert)
     if unsettled is not None:

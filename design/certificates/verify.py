@@ -373,8 +373,13 @@ def _settings_check(cert: Certificate) -> Check:
     for model in ("reduced", "full"):
         run = cert.performance.get(model)
         stated = _thaw_json(run.get("settings")) if isinstance(run, Mapping) else None
-        want = reference_run_options(model, cert.inner_loop, tilt_limit_deg=cert.tilt_limit_deg, xi0=cert.xi0_m,
-                                     horizon_s=PERFORMANCE_HORIZON_S).to_json()
+        rate = cert.cascade.get("rate_hz") if cert.cascade is not None else None
+        try:
+            want = reference_run_options(model, cert.inner_loop, tilt_limit_deg=cert.tilt_limit_deg,
+                                         xi0=cert.xi0_m, horizon_s=PERFORMANCE_HORIZON_S, rate_hz=rate).to_json()
+        except (TypeError, ValueError, NniquadError):
+            bad.append(f"performance.{model}.settings (cascade.rate_hz {rate!r} is not a rate)")
+            continue
         if stated != want:
             diff = sorted(k for k in set(want) | set(stated or {}) if (stated or {}).get(k) != want.get(k))
             bad.append(f"performance.{model}.settings ({', '.join(diff) or 'not an object'})")

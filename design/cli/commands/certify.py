@@ -43,6 +43,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--rate", type=float, default=None, metavar="HZ",
                         help=f"control rate in Hz (default {CONTROL_RATE_HZ:g}), a period of whole 1 ms steps: the "
                              "classical margins (NNI controller in discrete time) are computed at it")
+    b = parser.add_argument_group("parameter box of the sampled-data cascade section")
+    b.add_argument("--box-scale", type=float, default=None, metavar="S",
+                   help="certify the Monte Carlo default ranges scaled by S about nominal in log space "
+                        "([lo^S, hi^S]; default: the ranges themselves if they certify, else the widest scale found)")
+    b.add_argument("--widest-box", action="store_true",
+                   help="search the widest scale of the Monte Carlo ranges that certifies (about a minute more) "
+                        "and certify it")
     from .common import add_output_option
 
     add_output_option(parser, "--out", required=True, metavar="FILE", help="certificate file to write (JSON)")
@@ -64,6 +71,13 @@ def run(args: argparse.Namespace) -> int:
 
     # before any tuning: a bad rate fails at once
     rate = check_rate_hz(CONTROL_RATE_HZ if args.rate is None else args.rate, DT_S, error=CertificateError)
+    box = None
+    if args.box_scale is not None:
+        from nniquad.analysis.robust_cascade import ParameterBox
+
+        if args.widest_box:
+            raise NniquadError("give --box-scale or --widest-box, not both")
+        box = ParameterBox.monte_carlo_default().scaled(finite_positive("--box-scale", args.box_scale))
     vehicle = vehicle_from_args(args)
     options = tune_options_from_args(args)
     given = [args.kp, args.Gamma, args.delta]
@@ -82,11 +96,13 @@ def run(args: argparse.Namespace) -> int:
         # the certificate's full-model runs use motor lag with the vehicle's time constant and the RK4 step DT_S
         check_rk4_step(inner_loop_poles(inner, tau_motor_s=vehicle.tau_motor), DT_S, error=SimulationError,
                        hint={"attitude": "--attitude-wn", "motor lag": "the vehicle's tau_motor"})
-        cert = certify(vehicle, gains, inner=inner, options=options, progress=progress.message, rate_hz=rate)
+        cert = certify(vehicle, gains, inner=inner, options=options, progress=progress.message, rate_hz=rate,
+                       box=box, widest_box=args.widest_box)
     else:
         tuned = tune(vehicle, options, progress=progress.message)
         print_tune_result(tuned)
-        cert = certify(vehicle, tuned, options=options, progress=progress.message, rate_hz=rate)
+        cert = certify(vehicle, tuned, options=options, progress=progress.message, rate_hz=rate,
+                       box=box, widest_box=args.widest_box)
     progress.close()
     path = cert.write(out)
     gains, perf = cert.gains, cert.performance
@@ -98,5 +114,15 @@ def run(args: argparse.Namespace) -> int:
               f"({fmt(cert.ratio_to_bound[model], digits=3)} x bound {fmt(cert.bound['enter_band_s'], 's')}), "
               f"peak tilt {fmt(perf[model]['peak_tilt_deg'], 'deg')}")
     print(f"  certified reach {fmt(cert.certified_reach_m, 'm')}; start state certified: {fmt(cert.start_certified)}")
+    if cert.cascade is not None:
+        cas = cert.cascade
+        bx = cas["box"]
+        print(f"  sampled-data cascade at {cas['rate_hz']:g} Hz certified over mass x{bx['mass_factor'][0]:.3g}-"
+              f"{bx['mass_factor'][1]:.3g}, inertia x{bx['inertia_factor'][0]:.3g}-{bx['inertia_factor'][1]:.3g}, "
+              f"attitude gain x{bx['attitude_gain_factor'][0]:.3g}-{bx['attitude_gain_factor'][1]:.3g}, "
+              f"motor tau x{bx['tau_motor_factor'][0]:.3g}-{bx['tau_motor_factor'][1]:.3g} "
+              f"(covers the Monte Carlo ranges: {cas['covers_monte_carlo_default']}); decay "
+              f"{fmt(cas['decay_rate_1_s'], '1/s')}, grid {cas['grid']['size']} points worst rho "
+              f"{cas['grid']['worst_rho']:.6f}, cascade reach {fmt(cas['region_of_attraction']['max_displacement_m'], 'm')}")
     print(f"  digest sha256 {cert.signature}")
     return 0
