@@ -330,7 +330,9 @@ def study_setup(cert: Mapping[str, Any] | StudySetup, ranges: ScenarioRanges = D
     ``region_of_attraction.max_displacement_m`` (the nominal ``‖xi0_m‖`` when the
     certificate states no region), capped at ``ranges.max_displacement_m``;
     ``region_m`` replaces the certificate's region (e.g. the cascade's,
-    :func:`within_certificate_ranges`), capped the same way.
+    :func:`within_certificate_ranges`), capped the same way; the settling band
+    is then at most ``BAND_FRACTION`` (2 %) of that radius, so a run starting
+    in a region narrower than the normal band must still be seen to converge.
 
     Raises
     ------
@@ -348,7 +350,7 @@ def study_setup(cert: Mapping[str, Any] | StudySetup, ranges: ScenarioRanges = D
 
     roa = cert.get("region_of_attraction")
     tilt = _cert_float(cert.get("tilt_limit_deg"))
-    return study_setup_from(
+    setup = study_setup_from(
         C.certificate_vehicle(cert), C.certificate_gains(cert), inner=C.certificate_inner_loop(cert),
         tilt_limit_deg=TILT_LIMIT_DEG if tilt is None else tilt, xi0_m=cert.get("xi0_m", XI0_M),
         region_m=region_m if region_m is not None else
@@ -356,6 +358,11 @@ def study_setup(cert: Mapping[str, Any] | StudySetup, ranges: ScenarioRanges = D
         ranges=ranges, horizon_s=DEFAULT_HORIZON_S if horizon_s is None else horizon_s,
         label=_certificate_label(cert),
     )
+    if region_m is not None:
+        # a region narrower than the normal band (2 % of the nominal start): a run must converge to 2 % of the
+        # region's radius, or a start inside the band would count as settled at 0 s and prove nothing
+        setup = replace(setup, band_m=min(setup.band_m, BAND_FRACTION * setup.region_m))
+    return setup
 
 
 # =============================================================================== scenarios
