@@ -11,6 +11,7 @@ after, so no case may leave anything behind.
 from __future__ import annotations
 
 import json
+import re
 import os
 from pathlib import Path
 
@@ -190,7 +191,7 @@ CERT_CASES = [
     ("deep", b"[" * DEEP + b"]" * DEEP, "nested", 2),
     ("deep-objects", b'{"a":' * DEEP + b"0" + b"}" * DEEP, "nested", 2),
     ("deep-inside-signed", _signed(lambda c: c.__setitem__("x", json.loads("[" * 80 + "]" * 80))), "nested", 2),
-    ("5000-digits", _CERT_TEXT.replace(b'"schema_version": 1', b'"schema_version": ' + b"1" * 5000), "digits", 2),
+    ("5000-digits", re.sub(rb'"schema_version": \d+', b'"schema_version": ' + b"1" * 5000, _CERT_TEXT), "digits", 2),
     ("401-digits-signed", _signed(lambda c: c["gains"].__setitem__("kp", 10**400)), "float", 2),
     ("duplicate-top", _CERT_TEXT.replace(b"{", b'{"schema": "nniquad-certificate",', 1), "duplicate", 2),
     ("duplicate-gains", _signed().replace(b'"gains": {', b'"gains": {"kp": 1e6, ', 1), "duplicate", 2),

@@ -182,7 +182,8 @@ def test_cli_within_certificate_takes_nothing_else(run_cli, tmp_path, extra, mes
 
 
 def test_cli_within_certificate_without_cascade_section(run_cli):
-    code, out, err = run_cli("montecarlo", "--certificate", str(CERT), "--within-certificate", "--samples", "2")
+    schema1 = Path(__file__).resolve().parent / "data" / "schema1_certificate.json"
+    code, out, err = run_cli("montecarlo", "--certificate", str(schema1), "--within-certificate", "--samples", "2")
     assert code == 2, (out, err)
     assert "certifies no parameter box" in err and len(err.strip().splitlines()) == 1
 

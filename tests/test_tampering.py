@@ -48,12 +48,7 @@ from tests.test_certificate import GAINS, INNER, SMALL_BOX
 #: Inputs of the certified statement that no stated number depends on (path -> why).  An edit of one
 #: leaves every claim true, for the edited input; the loop checks that and that Monte Carlo uses it.
 INSENSITIVE: dict[str, str] = {
-    "vehicle.Jx": "roll inertia: the attitude loop is set by natural frequency and damping, its torque scales with J",
-    "vehicle.Jy": "pitch inertia: as Jx",
-    "vehicle.l": "arm length: the allocation divides the torque by l (rotor limits are not reached)",
     "vehicle.omega_max": "rotor-speed limit: not reached in either reference run, not in the linearisations",
-    "vehicle.Jz": "yaw inertia: no yaw motion in the reference runs; not in the horizontal or attitude loops",
-    "vehicle.Jr": "rotor inertia: gyroscopic torque of a yaw-free run vanishes",
 }
 
 #: Stated numbers that ``verify`` compares within a tolerance wider than the 1e-3 edit (path pattern ->

@@ -1111,11 +1111,36 @@ def _solve_roa(vehicle, gains, inner, box, dims, L, rho_roa, tilt_limit_deg, rat
     raise err
 
 
+#: Sections already computed in this process, by their exact inputs (a section is a pure function of them).
+_SECTIONS: dict[tuple, dict[str, Any]] = {}
+
+
 def cascade_section(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, tilt_limit_deg: float,
                     rate_hz: float = CONTROL_RATE_HZ, box: ParameterBox | None = None,
                     widest: bool = False, roa_method: str = "linear_zone",
                     grid_points_per_axis: int = CASCADE_GRID_POINTS_PER_AXIS) -> dict[str, Any]:
-    """The schema-2 ``cascade`` section of a certificate (HELPERS.md keys; module docstring for the maths).
+    """The schema-2 ``cascade`` section of a certificate (module docstring for the maths).
+
+    A section is a pure function of its inputs, so one computed earlier in the
+    same process for the same inputs is returned again (a deep copy): the
+    solves take about 15-40 s, and a test session builds the same design several times.
+    """
+    import copy
+
+    key = (vehicle, gains, inner, float(tilt_limit_deg), float(rate_hz), box, bool(widest), roa_method,
+           int(grid_points_per_axis))
+    if key not in _SECTIONS:
+        _SECTIONS[key] = _cascade_section(vehicle, gains, inner, tilt_limit_deg=tilt_limit_deg, rate_hz=rate_hz,
+                                          box=box, widest=widest, roa_method=roa_method,
+                                          grid_points_per_axis=grid_points_per_axis)
+    return copy.deepcopy(_SECTIONS[key])
+
+
+def _cascade_section(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, tilt_limit_deg: float,
+                     rate_hz: float = CONTROL_RATE_HZ, box: ParameterBox | None = None,
+                     widest: bool = False, roa_method: str = "linear_zone",
+                     grid_points_per_axis: int = CASCADE_GRID_POINTS_PER_AXIS) -> dict[str, Any]:
+    """:func:`cascade_section` without the cache.
 
     Parameters
     ----------
@@ -1159,7 +1184,7 @@ def cascade_section(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, ti
             fam, pts, lyap, grid_fam, gc = _certify_box(vehicle, gains, inner, mc, tilt_limit_deg=tilt_limit_deg,
                                                         rate_hz=rate_hz, dims=dims, grid_n=grid_n)
             box = mc
-        except SolverError:
+        except (SolverError, CascadeError):  # infeasible LMI or a failed grid check: search a narrower box
             widest = True
     if widest:
         t1 = time.perf_counter()
