@@ -1308,6 +1308,23 @@ def _num(v: Any) -> float:
     return float(v) if not isinstance(v, str) else float(v)
 
 
+#: Families rebuilt by :func:`check_cascade_section` in this process, by their exact inputs: the rebuild is
+#: a pure function of the design, the rate and the points, and a tampering loop re-checks one design hundreds
+#: of times (every stated number is still compared afresh against it).
+_FAMILIES: dict[tuple, "CascadeFamily"] = {}
+
+
+def _family_cached(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, points: np.ndarray, tilt_limit_deg: float,
+                   rate_hz: float) -> "CascadeFamily":
+    pts = np.ascontiguousarray(points, dtype=float)
+    key = (vehicle, gains, inner, float(tilt_limit_deg), float(rate_hz), pts.shape, pts.tobytes())
+    if key not in _FAMILIES:
+        if len(_FAMILIES) >= 16:
+            _FAMILIES.clear()
+        _FAMILIES[key] = sampled_family(vehicle, gains, inner, pts, tilt_limit_deg=tilt_limit_deg, rate_hz=rate_hz)
+    return _FAMILIES[key]
+
+
 def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *,
                           tilt_limit_deg: float) -> list[tuple[str, bool, str]]:
     """Re-check a ``cascade`` section from the design alone (cheap checks first).
@@ -1388,7 +1405,7 @@ def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: G
     pts = {name: _subgrid(box, dims[name], LMI_POINTS_PER_AXIS) for name in SUBSYSTEMS}
     allp = np.vstack([np.ones((1, 6))] + list(pts.values()) + [box.grid(grid_n), probes])
     try:
-        big = sampled_family(vehicle, gains, inner, allp, tilt_limit_deg=tilt_limit_deg, rate_hz=rate)
+        big = _family_cached(vehicle, gains, inner, allp, tilt_limit_deg, rate)
     except CascadeError as exc:
         add("rebuild", False, str(exc))
         return out
@@ -1494,7 +1511,7 @@ def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: G
             for key in ("gm_db", "gm_lower_db", "pm_deg"):
                 wpts.append((bp, key, w[key], [float(w[key + "_point"][n]) for n in POINT_NAMES]))
         uniq = sorted({tuple(p[3]) for p in wpts})
-        mf = sampled_family(vehicle, gains, inner, np.array(uniq), tilt_limit_deg=tilt_limit_deg, rate_hz=rate)
+        mf = _family_cached(vehicle, gains, inner, np.array(uniq, float), tilt_limit_deg, rate)
         got = {u: fast_cascade_margins(mf.cascade_at(i), rate) for i, u in enumerate(uniq)}
         mdims = set(dims["x"]) | set(dims["y"])
         lo, hi = box.bounds()
