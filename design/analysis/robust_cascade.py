@@ -1179,6 +1179,7 @@ def _cascade_section(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, t
         raise CascadeError(f"the grid check needs at least 2 points per coordinate, got {grid_points_per_axis!r}")
     timings = {"widest_s": 0.0}
     fam = None
+    auto_box = box is None
     if box is None and not widest:
         try:
             fam, pts, lyap, grid_fam, gc = _certify_box(vehicle, gains, inner, mc, tilt_limit_deg=tilt_limit_deg,
@@ -1206,11 +1207,19 @@ def _cascade_section(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, t
                 raise SolverError(f"the cascade is not certified even on the Monte Carlo box scaled by "
                                   f"{min(CASCADE_FALLBACK_SCALES):g} (log space) about the nominal point")
             box = mc if s_ok >= 1.0 else mc.scaled(s_ok)
-    if fam is None:
+    searched = auto_box and widest and math.isfinite(s_ok) and s_ok > 0.0
+    while fam is None:
         if box != ref:  # the check probes the certified box: the relevant coordinates are those of this box
             dims = relevant_coordinates(vehicle, gains, inner, box, tilt_limit_deg=tilt_limit_deg, rate_hz=rate_hz)
-        fam, pts, lyap, grid_fam, gc = _certify_box(vehicle, gains, inner, box, tilt_limit_deg=tilt_limit_deg,
-                                                    rate_hz=rate_hz, dims=dims, grid_n=grid_n)
+        try:
+            fam, pts, lyap, grid_fam, gc = _certify_box(vehicle, gains, inner, box, tilt_limit_deg=tilt_limit_deg,
+                                                        rate_hz=rate_hz, dims=dims, grid_n=grid_n)
+        except (SolverError, CascadeError):
+            # the search certifies on a coarser grid: when the certificate's grid fails, halve the scale
+            if not searched or min(s_ok, 1.0) / 2 < min(CASCADE_FALLBACK_SCALES):
+                raise
+            s_bad, s_ok = min(s_ok, 1.0), min(s_ok, 1.0) / 2
+            box = mc.scaled(s_ok)
     T = fam.T
     decay = min(l.decay_rate_1_s for l in lyap.values())
     # region of attraction: LMIs at the vertices of each axis's coordinates, re-checked on the LMI points and the grid
