@@ -95,3 +95,50 @@ def test_reduced_sampled_loop_tends_to_the_continuous_loop():
 def test_unstable_loop_has_no_certificate():
     with pytest.raises(SolverError, match="unstable"):
         discrete_lyapunov_decay(np.array([[1.01]]), 0.01)
+
+
+def _counting(answer):
+    """A fake LMI: ``answer(target)`` is the contraction the 'solver' achieves (or None); solves are counted."""
+    calls = []
+
+    def solve(target):
+        calls.append(target)
+        got = answer(target)
+        return None if got is None else (got, len(calls))
+
+    return solve, calls
+
+
+def test_best_decay_bisects_to_a_feasibility_edge_known_in_closed_form():
+    from nniquad.analysis.sampled import best_decay
+
+    T, rho_spec, rtol = 0.01, 0.99, 1e-3
+    lam_spec = -math.log(rho_spec) / T
+    edge = math.exp(-0.37 * lam_spec * T)  # the LMI is feasible exactly for targets >= edge (37 % of the bound)
+    solve, calls = _counting(lambda target: target if target >= edge else None)
+    rho, _ = best_decay(solve, rho_spec, T, rtol=rtol, max_iter=60)
+    lam = -math.log(rho) / T
+    assert 0.37 * lam_spec * (1 - 2 * rtol) <= lam <= 0.37 * lam_spec * (1 + 1e-12)
+    assert len(calls) < 20
+
+
+def test_best_decay_keeps_an_answer_that_misses_its_target_but_beats_any_later_one():
+    """Near the spectral radius the solver stops just short of the target: that answer is a certificate."""
+    from nniquad.analysis.sampled import best_decay
+
+    T, rho_spec, rtol = 0.01, 0.99, 0.02
+    short = lambda target: min(1.0 - 1e-12, target * (1 + 5e-6))  # noqa: E731  always 5e-6 short
+    solve, calls = _counting(short)
+    rho, n = best_decay(solve, rho_spec, T, rtol=rtol, max_iter=8)
+    first = math.exp(-(1 - rtol) * -math.log(rho_spec))
+    assert rho == pytest.approx(first * (1 + 5e-6), rel=1e-15) and n == 1
+    assert len(calls) == 1  # the bracket [achieved, first target] is already within rtol: no bisection
+
+
+def test_best_decay_gives_up_after_two_solves_when_even_the_slowest_decay_fails():
+    from nniquad.analysis.sampled import best_decay
+
+    for answer in (lambda target: None, lambda target: 1.0):  # no answer, or an answer that does not contract
+        solve, calls = _counting(answer)
+        assert best_decay(solve, 0.99, 0.01, rtol=0.02, max_iter=8) is None
+        assert len(calls) == 2

@@ -32,7 +32,7 @@ sampled-data loop at every sample instant (no approximation).
 Certificate
 -----------
 :func:`discrete_lyapunov_decay` finds ``P > 0`` with ``A_dᵀ P A_d ⪯ ρ² P`` for
-the smallest ``ρ`` it can (bisection, cvxpy + Clarabel), so that
+the smallest ``ρ`` it can (:func:`best_decay`, cvxpy + Clarabel), so that
 ``‖x_k‖_P <= ρ^k ‖x_0‖_P``: a decay rate ``-ln ρ / T`` [1/s].  The result is
 re-checked with numpy: the eigenvalues of ``P`` and ``ρ_P = ‖P^{1/2} A_d P^{-1/2}‖₂``
 (the exact contraction factor of ``P``), which must not exceed the stated ``ρ``.
@@ -43,7 +43,7 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Callable, TypeVar
 
 import numpy as np
 import scipy.linalg as sla
@@ -63,6 +63,7 @@ __all__ = [
     "sampled_gain_interval",
     "DiscreteDecay",
     "discrete_lyapunov_decay",
+    "best_decay",
 ]
 
 
@@ -368,13 +369,72 @@ def _conditioning_transform(A: np.ndarray, max_cond: float = 1e8) -> np.ndarray:
     return np.diag(scale)
 
 
+_Answer = TypeVar("_Answer")
+
+
+def best_decay(solve: Callable[[float], tuple[float, _Answer] | None], rho_spec: float, T: float, *,
+               rtol: float, max_iter: int) -> tuple[float, _Answer] | None:
+    """The best certified contraction of a Lyapunov LMI family ``A_dᵀ P A_d ⪯ ρ² P`` (one search for every LMI here).
+
+    ``solve(rho)`` solves the LMI for the target ``rho`` and returns
+    ``(rho_numpy, answer)``: the contraction the answer achieves, re-checked
+    with numpy, or ``None`` when the solver fails.  Any ``rho_numpy < 1`` is a
+    certificate, whether it meets the target or not, and the smallest one seen
+    is returned: near the spectral radius the solver often stops just short of
+    the target yet beats every target a bisection would reach later.
+
+    The decay ``(1 - rtol)`` of the spectral bound ``-ln(rho_spec)/T`` is tried
+    first.  If its target is missed and no answer came back, the decay ``rtol``
+    times the bound is tried (the slowest worth stating: a miss there ends the
+    search).  The target decay is then bisected between the best decay
+    achieved so far and the first target (at most ``max_iter`` solves), until
+    that bracket is within ``rtol``.
+
+    Returns
+    -------
+    (rho, answer) or None
+        ``None``: no solve gave a contraction below 1.
+    """
+    best: tuple[float, _Answer] | None = None
+
+    def met(lam: float) -> bool:
+        nonlocal best
+        target = math.exp(-lam * T)
+        got = solve(target)
+        if got is None or not got[0] < 1.0:
+            return False
+        if best is None or got[0] < best[0]:
+            best = got
+        return got[0] <= target * (1 + 1e-9)
+
+    def achieved() -> float:
+        return -math.log(best[0]) / T if best is not None else 0.0
+
+    lam_spec = -math.log(rho_spec) / T
+    hi = lam_spec * (1 - rtol)
+    if met(hi):
+        return best
+    if best is None:
+        # the slowest decay worth stating: if even it is missed the LMI is (nearly) infeasible and a
+        # bisection would only repeat failing solves
+        if not met(lam_spec * rtol):
+            return best
+    lo = achieved()  # a certificate exists at the decay achieved so far: search above it only
+    for _ in range(max_iter):
+        if hi - lo <= rtol * hi:
+            break
+        mid = 0.5 * (lo + hi)
+        lo, hi = (max(mid, achieved()), hi) if met(mid) else (lo, mid)
+    return best
+
+
 def discrete_lyapunov_decay(A_d: np.ndarray, T: float, *, rtol: float = 1e-3, max_iter: int = 40) -> DiscreteDecay:
     """Largest certified decay of ``x_{k+1} = A_d x_k``: the LMI ``A_dᵀ P A_d ⪯ ρ² P``, ``I ⪯ P``.
 
     For a fixed ``ρ`` the LMI is solved (cvxpy + Clarabel, minimising the
-    condition bound ``t`` with ``P ⪯ t I``); ``ρ`` is bisected between the
-    spectral radius (the infimum) and 1 until the decay rate is known to
-    ``rtol`` (the best decay is tried first).  The LMI is posed in well-scaled
+    condition bound ``t`` with ``P ⪯ t I``); the target ``ρ`` is searched by
+    :func:`best_decay` between the spectral radius (the infimum) and 1, and the
+    stated ``ρ`` is the numpy contraction of the best answer.  The LMI is posed in well-scaled
     coordinates (:func:`_conditioning_transform`) because the cascade mixes
     metres, radians and rotor speeds of ~10³ rad/s.
 
@@ -416,7 +476,7 @@ def discrete_lyapunov_decay(A_d: np.ndarray, T: float, *, rtol: float = 1e-3, ma
     prob = cp.Problem(cp.Minimize(t), cons)
     Sinv = np.linalg.inv(S)
 
-    def solve(rho: float) -> np.ndarray | None:
+    def solve(rho: float) -> tuple[float, np.ndarray] | None:
         rho2.value = rho * rho
         try:
             with warnings.catch_warnings():
@@ -430,31 +490,12 @@ def discrete_lyapunov_decay(A_d: np.ndarray, T: float, *, rtol: float = 1e-3, ma
         Po = Sinv.T @ Pb @ Sinv  # xᵀ P x = (S^{-1} x)ᵀ Pb (S^{-1} x)
         Po = 0.5 * (Po + Po.T)
         try:
-            if contraction(A_d, Po) <= rho * (1 + 1e-9):
-                return Po
-        except np.linalg.LinAlgError:
+            return contraction(A_d, Po), Po
+        except np.linalg.LinAlgError:  # not positive definite
             return None
-        return None
 
-    # the LMI is feasible for every rho above the spectral radius: try the best decay first
-    # (within rtol), then bisect on the decay rate lam = -ln(rho)/T in (0, lam_spec)
     lam_spec = -math.log(rho_spec) / T
-    best: tuple[float, np.ndarray] | None = None
-    lam_try = lam_spec * (1 - rtol)
-    Pm_ = solve(math.exp(-lam_try * T))
-    if Pm_ is not None:
-        best = (math.exp(-lam_try * T), Pm_)
-    else:
-        lo, hi = 0.0, lam_try
-        for _ in range(max_iter):
-            mid = 0.5 * (lo + hi)
-            Pm_ = solve(math.exp(-mid * T))
-            if Pm_ is not None:
-                lo, best = mid, (math.exp(-mid * T), Pm_)
-            else:
-                hi = mid
-            if best is not None and (hi - lo) <= rtol * hi:
-                break
+    best = best_decay(solve, rho_spec, T, rtol=rtol, max_iter=max_iter)
     if best is None:
         raise SolverError(f"discrete Lyapunov LMI: no feasible P for any decay in (0, {lam_spec:.4g}) 1/s")
     rho, Pbest = best

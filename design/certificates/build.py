@@ -12,7 +12,8 @@ import numpy as np
 from nniquad.analysis.linear import ReducedLoop
 from nniquad.certificates.certificate import (NI_FORM, PERFORMANCE_HORIZON_S, ROA_MODEL, TOLERANCES, Certificate,
                                               reference_run_options)
-from nniquad.config import CONTROL_RATE_HZ, DT_S, GAMMA_MAX, MASS_RANGE_FRACTION, TILT_LIMIT_DEG, XI0_M
+from nniquad.config import (CASCADE_GRID_POINTS_PER_AXIS, CONTROL_RATE_HZ, DT_S, GAMMA_MAX, MASS_RANGE_FRACTION,
+                            TILT_LIMIT_DEG, XI0_M)
 from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, InnerLoopGains
 from nniquad.errors import CertificateError
 from nniquad.model.vehicle import Vehicle
@@ -131,7 +132,8 @@ def build_certificate(vehicle: Vehicle, gains: Gains, *, inner: InnerLoopGains =
                       model: str = "reduced", tuning: Mapping[str, Any] | None = None,
                       progress: Callable[[str], None] | None = None, rate_hz: float = CONTROL_RATE_HZ,
                       cascade: bool = True, box: "ParameterBox | None" = None,
-                      widest_box: bool = False, refuse_unsettled: bool = False) -> Certificate:
+                      widest_box: bool = False, refuse_unsettled: bool = False,
+                      grid_points_per_axis: int = CASCADE_GRID_POINTS_PER_AXIS) -> Certificate:
     """Solve every LMI for ``gains``, simulate, and assemble a signed certificate.
 
     Parameters
@@ -168,11 +170,14 @@ def build_certificate(vehicle: Vehicle, gains: Gains, *, inner: InnerLoopGains =
     box
         The parameter box of the cascade section
         (:class:`nniquad.analysis.robust_cascade.ParameterBox`); ``None``: the
-        Monte Carlo default box if it certifies, else the widest scaled box found.
+        Monte Carlo default box if it certifies, else its scale halved until it does.
     widest_box
         Search the widest scale of the Monte Carlo default box that certifies
         (bisection, about a minute on 2 cores) and certify that box (with
-        ``box=None``); the section's ``widest`` entry states the search.
+        ``box=None``); the section's ``box_search`` record states the search.
+    grid_points_per_axis
+        Points per parameter of the cascade section's numpy grid check (default
+        :data:`nniquad.config.CASCADE_GRID_POINTS_PER_AXIS`: 4, so 4096 points).
     refuse_unsettled
         Refuse (before the cascade section) when a reference run is not shown
         to settle (:func:`nniquad.certificates.job.unsettled_reference_run`;
@@ -243,7 +248,7 @@ def build_certificate(vehicle: Vehicle, gains: Gains, *, inner: InnerLoopGains =
         say(f"certifying the sampled-data cascade at {rate_hz:g} Hz over the parameter box")
         try:
             section = cascade_section(vehicle, gains, inner, tilt_limit_deg=tilt_limit_deg, rate_hz=rate_hz, box=box,
-                                      widest=widest_box)
+                                      widest=widest_box, grid_points_per_axis=grid_points_per_axis)
         except (CascadeError, SolverError) as exc:
             raise CertificateError(f"the sampled-data cascade is not certified at {rate_hz:g} Hz: {exc}") from None
     bound = time_optimal_bound(vehicle, xi0=xi0, tilt_limit_deg=tilt_limit_deg)

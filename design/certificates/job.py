@@ -46,7 +46,7 @@ def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLo
     box
         Parameter box of the sampled-data cascade section
         (:class:`nniquad.analysis.robust_cascade.ParameterBox`); ``None``: the Monte
-        Carlo default box if it certifies, else the widest scaled box found.
+        Carlo default box if it certifies, else its scale halved until it does.
     widest_box
         Also search the widest scale of the Monte Carlo default box that certifies
         (about a minute more) and certify that box.

@@ -156,7 +156,7 @@ def ni_storage_check(name: str, P: np.ndarray, A: np.ndarray, B: np.ndarray, C: 
 #: Fields that are records, not claims: ``verify`` checks none of them, and they change
 #: no check and nothing ``montecarlo`` simulates (``tests/test_tampering.py`` shows it
 #: for every leaf).  ``tuning.model`` is the exception: it must equal ``model``.
-RECORD_FIELDS: tuple[str, ...] = ("software", "tuning", "vehicle.name")
+RECORD_FIELDS: tuple[str, ...] = ("software", "tuning", "vehicle.name", "cascade.box_search")
 
 #: The keys of every schema-1 section (a signed key no check reads would be a claim nobody verifies).
 SECTION_KEYS: dict[str, frozenset[str]] = {k: frozenset(v) for k, v in {
@@ -508,8 +508,14 @@ def _cascade_checks(cert: Certificate) -> list[Check]:
         return [Check("cascade", False, "this nniquad cannot check a cascade section "
                                         "(nniquad.analysis.robust_cascade.check_cascade_section is missing)")]
     section = _thaw_json(cert.cascade)
-    rows = check_cascade_section(section, cert.vehicle, cert.gains, cert.inner_loop,
-                                 tilt_limit_deg=cert.tilt_limit_deg)
+    if isinstance(section, dict):
+        section.pop("box_search", None)  # a record (RECORD_FIELDS): how the box was found, not what is certified
+    g = cert.gains
+    # a pure function of the section and the design: an edit elsewhere in the document does not re-run it
+    rows = _memo("cascade", [section, cert.vehicle.as_dict(), [g.kp, g.Gamma, g.delta], cert.inner_loop.as_dict(),
+                             cert.tilt_limit_deg],
+                 lambda: check_cascade_section(section, cert.vehicle, cert.gains, cert.inner_loop,
+                                               tilt_limit_deg=cert.tilt_limit_deg))
     checks = [Check(f"cascade.{name}", ok, detail) for name, ok, detail in rows]
     return checks or [Check("cascade", False, "the cascade check returned no checks")]
 

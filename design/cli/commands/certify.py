@@ -46,7 +46,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     b = parser.add_argument_group("parameter box of the sampled-data cascade section")
     b.add_argument("--box-scale", type=float, default=None, metavar="S",
                    help="certify the Monte Carlo default ranges scaled by S about nominal in log space "
-                        "([lo^S, hi^S]; default: the ranges themselves if they certify, else the widest scale found)")
+                        "([lo^S, hi^S]; default: the ranges themselves if they certify, else S halved until it certifies)")
     b.add_argument("--widest-box", action="store_true",
                    help="search the widest scale of the Monte Carlo ranges that certifies (about a minute more) "
                         "and certify it")
@@ -124,5 +124,11 @@ def run(args: argparse.Namespace) -> int:
               f"(covers the Monte Carlo ranges: {cas['covers_monte_carlo_default']}); decay "
               f"{fmt(cas['decay_rate_1_s'], '1/s')}, grid {cas['grid']['size']} points worst rho "
               f"{cas['grid']['worst_rho']:.6f}, cascade reach {fmt(cas['region_of_attraction']['max_displacement_m'], 'm')}")
+        search = cas.get("box_search")
+        if search:
+            failed = search["first_failed_scale"]
+            print(f"  box search ({search['method']}): widest scale certified {search['widest_certified_scale']:.4g} x "
+                  f"the Monte Carlo ranges (log space), first failed "
+                  f"{failed if isinstance(failed, str) else format(failed, '.4g')}")
     print(f"  digest sha256 {cert.signature}")
     return 0
