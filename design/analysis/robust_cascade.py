@@ -1039,6 +1039,25 @@ def widest_box(vehicle, gains, inner, base: ParameterBox, *, tilt_limit_deg, rat
     certified 1 is followed by ``s_max``, and ``steps`` bisection steps then
     narrow the gap between the widest certified and the narrowest failed scale.
 
+    Parameters
+    ----------
+    vehicle, gains, inner
+        The design.
+    base
+        The box scaled (the Monte Carlo default box).
+    tilt_limit_deg, rate_hz
+        Tilt limit [deg] and control rate [Hz].
+    grid_n
+        Points per coordinate of the grid check.
+    widest
+        Search above the first certified scale too.
+    steps, s_max, s_min
+        Bisection steps, largest and smallest scale tried.
+
+    Returns
+    -------
+    BoxSearch
+
     Raises
     ------
     SolverError

@@ -390,6 +390,19 @@ def best_decay(solve: Callable[[float], tuple[float, _Answer] | None], rho_spec:
     achieved so far and the first target (at most ``max_iter`` solves), until
     that bracket is within ``rtol``.
 
+    Parameters
+    ----------
+    solve
+        ``solve(rho_target) -> (rho_numpy, answer) | None``.
+    rho_spec
+        The largest spectral radius of the loops (the infimum of any certified ``rho``), ``< 1``.
+    T
+        Sample period [s].
+    rtol
+        Relative accuracy of the decay rate ``-ln(rho)/T``.
+    max_iter
+        Bisection solves at most.
+
     Returns
     -------
     (rho, answer) or None

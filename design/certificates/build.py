@@ -43,27 +43,17 @@ def performance_runs(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, t
                      motor_lag: bool = True, rate_hz: float | None = None) -> dict[str, Any]:
     """Settings and metrics of the two reference runs (``reduced`` and ``full``).
 
-    The ``reduced`` run is the paper's continuous loop.  With ``rate_hz`` the
-    ``full`` run is what flies: the position sampled at ``rate_hz`` and the NNI
-    controller in discrete time at that rate (``controller_sampling="discrete"``);
-    ``None`` keeps it continuous (a schema-1 certificate;
-    :func:`nniquad.certificates.certificate.reference_run_options`).  Each run's ``settings`` are the complete
-    :class:`nniquad.sim.SimOptions` (``to_json``), so the run can be re-simulated exactly.
+    Each run is simulated with the options of
+    :func:`nniquad.certificates.certificate.reference_run_options` (which says
+    what each run is); its ``settings`` are those complete
+    :class:`nniquad.sim.SimOptions` (``to_json``), so it can be re-simulated exactly.
 
     Parameters
     ----------
     vehicle, gains, inner
         What is simulated.
-    tilt_limit_deg
-        Tilt limit [deg].
-    xi0
-        Initial horizontal position [m].
-    horizon_s
-        Simulated time [s].
-    motor_lag
-        Motor lag on in the ``full`` run.
-    rate_hz
-        Control rate of the ``full`` run [Hz], or ``None`` (continuous).
+    tilt_limit_deg, xi0, horizon_s, motor_lag, rate_hz
+        As in :func:`~nniquad.certificates.certificate.reference_run_options`.
     """
     from nniquad.sim import simulate
 
