@@ -304,3 +304,37 @@ def test_box_search_refuses_below_its_smallest_scale(monkeypatch):
     with pytest.raises(RC.SolverError, match="scaled by 0.03"):
         RC.widest_box(V, GAINS, INNER, RC.ParameterBox.monte_carlo_default(), tilt_limit_deg=TILT, rate_hz=RATE,
                       s_min=0.03)
+
+
+def test_reach_lyapunov_gives_the_closed_form_reach_of_a_scalar_loop():
+    """x⁺ = a x with a = K x limited to |a| <= L: the widest invariant interval inside |K x| <= L is |x| <= L/|K|,
+    i.e. P = K²/L², whatever the decay asked for above |a| (and none below it)."""
+    a, k, lim = np.array([0.5, 0.6]), 2.0, 3.0
+    A_v = a.reshape(2, 1, 1)
+    theta = np.array([[-1.0], [1.0]])
+    got = RC.reach_lyapunov(A_v, 0.01, np.array([[k]]), lim, 0.7, theta=theta)
+    P = RC._affine(got.P, theta)
+    assert P[:, 0, 0] == pytest.approx([k * k / lim ** 2] * 2, rel=1e-5)
+    assert got.rho == pytest.approx(0.6, rel=1e-9) and got.ok  # the numpy contraction, not the 0.7 asked for
+    assert RC.reach_lyapunov(A_v, 0.01, np.array([[k]]), lim, 0.55, theta=theta) is None  # 0.6 > 0.55: infeasible
+
+
+def test_mirrored_y_block_is_found_and_rechecked_on_its_own_loops():
+    rng = np.random.default_rng(3)
+    A_x = 0.3 * rng.normal(size=(5, 4, 4)) / 2
+    K_x = rng.normal(size=(1, 4))
+    th = rng.uniform(-1, 1, size=(5, 2))
+    d = np.array([1.0, -1.0, -1.0, 1.0])
+    A_y, K_y = d[:, None] * A_x * d[None, :], K_x * d
+    assert np.array_equal(RC._mirror((A_x, K_x, th), (A_y, K_y, th)), d)
+    assert RC._mirror((A_x, K_x, th), (A_y + 1e-3, K_y, th)) is None  # not a mirror image
+    assert RC._mirror((A_x, K_x, th), (A_y, K_y, th + 0.1)) is None   # other points
+    P = np.stack([np.eye(4) * 2.0, 0.1 * np.eye(4), np.zeros((4, 4))])
+    lx = RC.RobustLyapunov(P=P, rho=0.0, rho_vertices=np.array([]), spectral_radius=0.0, T=0.01, decay_rate_1_s=0.0,
+                           min_eig_P=0.0, status="test", ok=True)
+    ly = RC._mirrored(lx, d, A_y, th)
+    assert ly.rho == pytest.approx(float(np.max(RC.contraction_batch(A_x, RC._affine(P, th)))), rel=1e-12)
+    assert np.allclose(ly.P[0], d[:, None] * P[0] * d[None, :]) and "mirrored" in ly.status
+    big = 10.0 * A_y  # a loop the mirrored P does not contract: refused
+    assert float(np.max(RC.contraction_batch(big, RC._affine(ly.P, th)))) >= 1.0
+    assert RC._mirrored(lx, d, big, th) is None

@@ -62,6 +62,12 @@ Certificates and what they cover
   ``g_z = (m/m̂) g`` at hover): by default the linear-zone ellipsoid of the
   grid-checked ``P(θ)`` (:func:`linear_zone_reach`; the generalised sector
   condition with ``G = 0``), the smallest reach over the LMI and grid points.
+  The horizontal blocks' ``P(θ)`` is re-solved for the widest such reach
+  (:func:`reach_lyapunov`, at :data:`nniquad.config.CASCADE_REACH_DECAY_FRACTION`
+  of the block's best decay) and kept when it reaches further and passes the
+  grid check; the ellipsoid cannot reach beyond about ``u0 / kp`` (the command
+  of a pure position offset).  A vehicle whose y block mirrors its x block
+  reuses x's answers, re-checked with numpy on y's loops (:func:`_mirror`).
   :func:`robust_region_of_attraction` solves the discrete-time generalised
   sector condition (Gomes da Silva & Tarbouriech, IEEE TAC 50(1), 2005; vector
   form and scalar multiplier as in :mod:`nniquad.analysis.lmi.roa`) for
@@ -75,7 +81,7 @@ import itertools
 import math
 import time
 import warnings
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from functools import cached_property, lru_cache
 from typing import Any, Mapping, Sequence
 
@@ -86,7 +92,8 @@ import scipy.linalg as sla
 from nniquad.analysis.cascade import (SPLIT_TOL, EQUILIBRIUM_TOL, LINEARISATION_OFFSET_M, LinearCascade, Linearisation,
                                       _hover_params, _jacobian_function, allocation_jacobian)
 from nniquad.analysis.sampled import _conditioning_transform, _period, best_decay
-from nniquad.config import (CASCADE_GRID_POINTS_PER_AXIS, CASCADE_LYAPUNOV_RTOL, CASCADE_ROA_DECAY_FRACTION,
+from nniquad.config import (CASCADE_GRID_POINTS_PER_AXIS, CASCADE_LYAPUNOV_RTOL, CASCADE_REACH_DECAY_FRACTION,
+                            CASCADE_ROA_DECAY_FRACTION,
                             CASCADE_SMALLEST_SCALE, CASCADE_WIDEST_SCALE_MAX, CASCADE_WIDEST_STEPS, CONTROL_RATE_HZ,
                             TILT_LIMIT_DEG)
 from nniquad.control.gains import Gains, InnerLoopGains
@@ -108,6 +115,7 @@ __all__ = [
     "robust_region_of_attraction",
     "roa_recheck",
     "widest_box",
+    "reach_lyapunov",
     "cascade_section",
     "check_cascade_section",
     "SUBSYSTEMS",
@@ -568,6 +576,87 @@ def robust_lyapunov(A_v: np.ndarray, T: float, *, S: np.ndarray | None = None, t
                           status=status, ok=ok)
 
 
+def reach_lyapunov(A_v: np.ndarray, T: float, K: np.ndarray, L: float, rho: float, *,
+                   theta: np.ndarray | None = None, eps: float = 1e-6) -> RobustLyapunov | None:
+    """A horizontal axis's ``P(θ)`` with the widest linear-zone reach, at a given contraction ``rho``.
+
+    The ellipsoid ``{xᵀ P(θ) x <= 1}`` lies where the tilt limit is inactive iff
+    ``K P(θ)⁻¹ Kᵀ <= L²``, i.e. ``[[P(θ), Kᵀ], [K, L²]] ⪰ 0`` (Schur), which is
+    linear in ``P``.  A start ``r e_0`` (position offset, all else at hover) is
+    inside iff ``r² P(θ)_00 <= 1``, so the reach is widest when the largest
+    ``P(θ)_00`` over the θ-cube (its corners: ``P`` is affine) is smallest.  That
+    is minimised subject to the decrease ``A_vᵀ P A_v ⪯ ρ² P`` and ``P ⪰ eps I``
+    at the LMI points (cvxpy + Clarabel, in diagonally balanced coordinates).
+    The answer is re-checked with numpy in the original coordinates, and its
+    stated ``ρ`` is its numpy contraction (:func:`robust_lyapunov`).
+
+    Parameters
+    ----------
+    A_v : array (n_v, n, n)
+        The loops at the LMI points.
+    T
+        Sample period [s].
+    K : array (1, n)
+        The axis's acceleration command ``a = K x`` before the tilt limit.
+    L
+        The tilt limit as an acceleration bound [m/s²].
+    rho
+        Target contraction per period (< 1).
+    theta : array (n_v, q)
+        The points' coordinates in the θ-cube.
+    eps
+        Smallest eigenvalue of ``P`` in the balanced coordinates.
+
+    Returns
+    -------
+    RobustLyapunov or None
+        ``None`` when the solver fails or its answer does not contract (< 1) with ``P ≻ 0``.
+    """
+    import cvxpy as cp
+
+    A_v = np.asarray(A_v, float)
+    nv, n = A_v.shape[0], A_v.shape[1]
+    th = np.zeros((nv, 0)) if theta is None else np.asarray(theta, float).reshape(nv, -1)
+    q = th.shape[1]
+    _, (scale, _) = sla.matrix_balance(A_v[0], permute=False, separate=True)
+    S, Sinv = np.diag(scale), np.diag(1.0 / scale)
+    Ab = Sinv @ A_v @ S
+    KS = np.asarray(K, float).reshape(1, n) @ S
+    e0 = Sinv[:, 0]  # x_0 = r e_0 in the balanced coordinates
+    Pk = [cp.Variable((n, n), symmetric=True) for _ in range(q + 1)]
+    top = cp.Variable()
+    cons = []
+    for c in itertools.product((-1.0, 1.0), repeat=q):
+        Pc = Pk[0] + sum(c[j] * Pk[j + 1] for j in range(q)) if q else Pk[0]
+        cons += [Pc >> eps * np.eye(n), e0 @ Pc @ e0 <= top]
+    for i in range(nv):
+        Pi = Pk[0] + sum(th[i, j] * Pk[j + 1] for j in range(q)) if q else Pk[0]
+        cons += [rho * rho * Pi - Ab[i].T @ Pi @ Ab[i] >> 0, cp.bmat([[Pi, KS.T], [KS, np.array([[L * L]])]]) >> 0]
+    prob = cp.Problem(cp.Minimize(top), cons)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)
+            prob.solve(solver=cp.CLARABEL)
+    except cp.error.SolverError:
+        return None
+    if prob.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) or Pk[0].value is None:
+        return None
+    Po = np.stack([_sym(Sinv.T @ _sym(V.value) @ Sinv) for V in Pk])
+    try:
+        rv = contraction_batch(A_v, _affine(Po, th))
+    except np.linalg.LinAlgError:  # P(θ) not positive definite at a point
+        return None
+    got = float(np.max(rv))
+    corners = np.array(list(itertools.product((-1.0, 1.0), repeat=q)), float).reshape(-1, q)
+    ev = np.linalg.eigvalsh(_affine(Po, corners))
+    if not (got < 1.0 and np.min(ev[:, 0]) > 0):
+        return None
+    rho_spec = float(np.max(np.abs(np.linalg.eigvals(A_v))))
+    return RobustLyapunov(P=Po, rho=got, rho_vertices=rv, spectral_radius=rho_spec, T=T,
+                          decay_rate_1_s=-math.log(got) / T, min_eig_P=float(np.min(ev[:, 0] / ev[:, -1])),
+                          status=str(prob.status), ok=True)
+
+
 def _affine(Pk: np.ndarray, theta: np.ndarray) -> np.ndarray:
     """``P(θ) = P_0 + Σ θ_j P_j`` for every row of ``theta`` (``Pk`` stacked ``(q + 1, n, n)``)."""
     theta = np.atleast_2d(theta)
@@ -968,24 +1057,79 @@ def _assemble_P(lyap: Mapping[str, RobustLyapunov], dims: Mapping[str, Sequence[
     return Tm.T @ Pz @ Tm
 
 
+def _mirror(x: tuple, y: tuple, rtol: float = 1e-6) -> np.ndarray | None:
+    """Signs ``d`` with ``A_y ≈ D A_x D`` and ``K_y ≈ K_x D`` (``D = diag(d)``) at every LMI point, or ``None``.
+
+    A vehicle with equal roll and pitch data has mirrored x and y blocks (roll and
+    pitch move the position with opposite signs; the linearisation leaves
+    differences of about 1e-10); then ``D P_x D`` is a candidate Lyapunov matrix
+    of y, which :func:`_mirrored` re-checks with numpy on y's own loops, so
+    ``rtol`` only decides whether the candidate is tried.
+    """
+    (Ax, Kx, thx), (Ay, Ky, thy) = x, y
+    if Ax.shape != Ay.shape or thx.shape != thy.shape or not np.allclose(thx, thy, rtol=0, atol=1e-15):
+        return None
+    tol = rtol * max(float(np.max(np.abs(Ax))), 1.0)
+    for signs in itertools.product((1.0, -1.0), repeat=Ax.shape[1] - 1):
+        d = np.array((1.0,) + signs)
+        if np.max(np.abs(Ay - d[:, None] * Ax * d[None, :])) <= tol and np.max(np.abs(Ky - Kx * d)) <= tol:
+            return d
+    return None
+
+
+def _mirrored(lx: RobustLyapunov, d: np.ndarray, A_v: np.ndarray, theta: np.ndarray) -> RobustLyapunov | None:
+    """``D P_x(θ) D`` as y's Lyapunov matrix, its contraction re-checked with numpy on y's loops (``None``: it fails)."""
+    P = d[None, :, None] * lx.P * d[None, None, :]
+    try:
+        rv = contraction_batch(A_v, _affine(P, theta))
+    except np.linalg.LinAlgError:
+        return None
+    got = float(np.max(rv))
+    if not got < 1.0:
+        return None
+    return replace(lx, P=P, rho=got, rho_vertices=rv, spectral_radius=float(np.max(np.abs(np.linalg.eigvals(A_v)))),
+                   decay_rate_1_s=-math.log(got) / lx.T, status=f"mirrored from x ({lx.status})")
+
+
 def _certify_box(vehicle, gains, inner, box, *, tilt_limit_deg, rate_hz, dims, grid_n):
-    """The subsystem LMIs at the LMI points and the full grid check; raises SolverError when not certified."""
+    """The subsystem LMIs at the LMI points and the full grid check; raises SolverError when not certified.
+
+    The horizontal axes get two candidates: the fastest decay (:func:`robust_lyapunov`) and the widest
+    linear-zone reach at a slightly slower one (:func:`reach_lyapunov`); the widest that passes the grid
+    check is kept.
+    """
     pts = {name: _subgrid(box, dims[name], LMI_POINTS_PER_AXIS) for name in SUBSYSTEMS}
     allp = np.vstack([np.ones((1, 6))] + list(pts.values()) + [box.grid(grid_n)])
     fam = sampled_family(vehicle, gains, inner, allp, tilt_limit_deg=tilt_limit_deg, rate_hz=rate_hz)
-    lyap, k = {}, 1
+    L = box.mass_factor[0] * vehicle.g * math.tan(math.radians(tilt_limit_deg))
+    lyap, wide, k = {}, {}, 1
+    blocks: dict[str, tuple] = {}
     for name in SUBSYSTEMS:
         m = pts[name].shape[0]
-        A = _subsystem(fam, name)[0][k:k + m]
-        lyap[name] = robust_lyapunov(A, fam.T, theta=_coords(box, pts[name], dims[name]))
+        A, _, _, K = _subsystem(fam, name)
+        A, th = A[k:k + m], _coords(box, pts[name], dims[name])
+        blocks[name] = (A, K, th)
+        d = _mirror(blocks["x"], blocks[name]) if name == "y" else None
+        # y is x in mirrored coordinates: the mirrored answers, re-checked on y's own loops, else solved
+        mirrored = _mirrored(lyap["x"], d, A, th) if d is not None else None
+        lyap[name] = mirrored or robust_lyapunov(A, fam.T, theta=th)
+        if K is not None:  # a horizontal axis: also the widest reach at a slightly slower decay
+            rho = math.exp(-CASCADE_REACH_DECAY_FRACTION * lyap[name].decay_rate_1_s * fam.T)
+            wide[name] = (_mirrored(wide["x"], d, A, th) if mirrored is not None and wide["x"] is not None
+                          else None) or reach_lyapunov(A, fam.T, K, L, rho, theta=th)
         k += m
-    gidx = np.arange(k, len(fam))
-    grid_fam = _take(fam, gidx)
-    P = _assemble_P(lyap, dims, box, grid_fam.points, fam.state_names)
-    gc = grid_check(grid_fam, P, grid_n)
-    if not gc.ok:
-        raise SolverError(f"cascade grid check fails: contraction {gc.worst_rho:.6g} at {gc.worst_point}")
-    return fam, pts, lyap, grid_fam, gc
+    grid_fam = _take(fam, np.arange(k, len(fam)))
+    lmi_fam = _take(fam, np.arange(1, k))
+    candidates = [lyap]
+    if all(wide.get(a) is not None for a in ("x", "y")):
+        widened = {**lyap, **wide}
+        if linear_zone_reach(widened, dims, box, lmi_fam, L) > linear_zone_reach(lyap, dims, box, lmi_fam, L):
+            candidates.insert(0, widened)
+    for cand in candidates:  # the widest reach whose grid check passes, else the fastest decay
+        gc = grid_check(grid_fam, _assemble_P(cand, dims, box, grid_fam.points, fam.state_names), grid_n)
+        if gc.ok:
+            return fam, pts, cand, grid_fam, gc
+    raise SolverError(f"cascade grid check fails: contraction {gc.worst_rho:.6g} at {gc.worst_point}")
 
 
 def _take(fam: CascadeFamily, idx: np.ndarray) -> CascadeFamily:
