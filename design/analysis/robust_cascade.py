@@ -1517,7 +1517,7 @@ def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: G
     stated rate and the stated box (no stored ``A`` is trusted); the stored
     nominal matrices are compared with the rebuilt ones; every Lyapunov
     condition is re-checked with numpy at the LMI points (contraction of
-    ``P(θ)`` at most the stated ``ρ < 1``, ``P(θ) ≻ 0`` on the cube's corners);
+    ``P(θ)`` equal to the stated ``ρ < 1``, ``P(θ) ≻ 0`` on the cube's corners);
     the grid check is re-run and every stated number compared (relative 1e-9);
     the reach is recomputed; the margins are recomputed at the stated worst
     vertices.  The box search (``box_search``) is a record, not re-run: the
@@ -1619,10 +1619,12 @@ def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: G
                 worst = math.inf
             sr = float(np.max(np.abs(np.linalg.eigvals(A))))
             rho = rhos[name]
-            good = (mineig > 0 and worst <= rho * (1 + 1e-9) and rho < 1 and m == subs[name]["lmi_points"]
+            # the stated rho is the exact numpy contraction of the stated P at the LMI points (best_decay,
+            # reach_lyapunov): recomputed, so another witness P, even a valid one, is not the one signed
+            good = (mineig > 0 and _close(worst, rho) and rho < 1 and m == subs[name]["lmi_points"]
                     and _close(subs[name]["spectral_radius"], sr)
                     and _close(subs[name]["decay_rate_1_s"], -math.log(rho) / T))
-            detail = f"{m} points, contraction {worst:.8f} <= rho {rho:.8f}, min eig P {mineig:.3g}"
+            detail = f"{m} points, contraction {worst:.10f} = rho {rho:.10f} < 1, min eig P {mineig:.3g}"
             lyap[name] = RobustLyapunov(P=Pk[name], rho=rho, rho_vertices=rv if math.isfinite(worst) else np.array([]),
                                         spectral_radius=sr, T=T, decay_rate_1_s=-math.log(rho) / T,
                                         min_eig_P=mineig, status="stored", ok=good)
