@@ -91,7 +91,7 @@ import scipy.linalg as sla
 
 from nniquad.analysis.cascade import (SPLIT_TOL, EQUILIBRIUM_TOL, LINEARISATION_OFFSET_M, LinearCascade, Linearisation,
                                       _hover_params, _jacobian_function, allocation_jacobian)
-from nniquad.analysis.sampled import _conditioning_transform, _period, best_decay
+from nniquad.analysis.sampled import _conditioning_transform, _period, best_decay, solve_with_clarabel
 from nniquad.config import (CASCADE_GRID_POINTS_PER_AXIS, CASCADE_LYAPUNOV_RTOL, CASCADE_REACH_DECAY_FRACTION,
                             CASCADE_ROA_DECAY_FRACTION,
                             CASCADE_SMALLEST_SCALE, CASCADE_WIDEST_SCALE_MAX, CASCADE_WIDEST_STEPS, CONTROL_RATE_HZ,
@@ -550,20 +550,8 @@ def robust_lyapunov(A_v: np.ndarray, T: float, *, S: np.ndarray | None = None, t
 
     def solve(rho: float) -> tuple[float, tuple[np.ndarray, np.ndarray, str]] | None:
         r2.value = rho * rho
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", UserWarning)
-                prob.solve(solver=cp.CLARABEL)
-        except cp.error.SolverError:
-            return None
-        if prob.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) or Pk[0].value is None:
-            return None
-        Po = np.stack([_sym(Sinv.T @ _sym(V.value) @ Sinv) for V in Pk])
-        try:
-            rv = contraction_batch(A_v, _affine(Po, th))
-        except np.linalg.LinAlgError:  # P(θ) not positive definite at a point
-            return None
-        return float(np.max(rv)), (Po, rv, str(prob.status))
+        got = _solved_affine(prob, Pk, Sinv, A_v, th)
+        return None if got is None else (float(np.max(got[1])), got)
 
     best = best_decay(solve, rho_spec, T, rtol=rtol, max_iter=max_iter)
     if best is None:
@@ -574,6 +562,24 @@ def robust_lyapunov(A_v: np.ndarray, T: float, *, S: np.ndarray | None = None, t
     return RobustLyapunov(P=P, rho=rho, rho_vertices=rv, spectral_radius=rho_spec, T=T,
                           decay_rate_1_s=-math.log(rho) / T, min_eig_P=float(np.min(ev[:, 0] / ev[:, -1])),
                           status=status, ok=ok)
+
+
+def _solved_affine(prob: Any, Pk: Sequence[Any], Sinv: np.ndarray, A_v: np.ndarray,
+                   theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, str] | None:
+    """Solve for an affine ``P(θ)`` posed in scaled coordinates; ``(P_k stacked, contraction per point, status)``.
+
+    The answer is mapped back to the original coordinates and its contraction at
+    every point computed with numpy; ``None`` when the solver fails or ``P(θ)`` is
+    not positive definite at a point.
+    """
+    status = solve_with_clarabel(prob, Pk[0])
+    if status is None:
+        return None
+    Po = np.stack([_sym(Sinv.T @ _sym(V.value) @ Sinv) for V in Pk])
+    try:
+        return Po, contraction_batch(A_v, _affine(Po, theta)), status
+    except np.linalg.LinAlgError:  # P(θ) not positive definite at a point
+        return None
 
 
 def reach_lyapunov(A_v: np.ndarray, T: float, K: np.ndarray, L: float, rho: float, *,
@@ -633,19 +639,10 @@ def reach_lyapunov(A_v: np.ndarray, T: float, K: np.ndarray, L: float, rho: floa
         Pi = Pk[0] + sum(th[i, j] * Pk[j + 1] for j in range(q)) if q else Pk[0]
         cons += [rho * rho * Pi - Ab[i].T @ Pi @ Ab[i] >> 0, cp.bmat([[Pi, KS.T], [KS, np.array([[L * L]])]]) >> 0]
     prob = cp.Problem(cp.Minimize(top), cons)
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", UserWarning)
-            prob.solve(solver=cp.CLARABEL)
-    except cp.error.SolverError:
+    solved = _solved_affine(prob, Pk, Sinv, A_v, th)
+    if solved is None:
         return None
-    if prob.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) or Pk[0].value is None:
-        return None
-    Po = np.stack([_sym(Sinv.T @ _sym(V.value) @ Sinv) for V in Pk])
-    try:
-        rv = contraction_batch(A_v, _affine(Po, th))
-    except np.linalg.LinAlgError:  # P(θ) not positive definite at a point
-        return None
+    Po, rv, status = solved
     got = float(np.max(rv))
     corners = np.array(list(itertools.product((-1.0, 1.0), repeat=q)), float).reshape(-1, q)
     ev = np.linalg.eigvalsh(_affine(Po, corners))
@@ -654,7 +651,7 @@ def reach_lyapunov(A_v: np.ndarray, T: float, K: np.ndarray, L: float, rho: floa
     rho_spec = float(np.max(np.abs(np.linalg.eigvals(A_v))))
     return RobustLyapunov(P=Po, rho=got, rho_vertices=rv, spectral_radius=rho_spec, T=T,
                           decay_rate_1_s=-math.log(got) / T, min_eig_P=float(np.min(ev[:, 0] / ev[:, -1])),
-                          status=str(prob.status), ok=True)
+                          status=status, ok=True)
 
 
 def _affine(Pk: np.ndarray, theta: np.ndarray) -> np.ndarray:

@@ -64,6 +64,7 @@ __all__ = [
     "DiscreteDecay",
     "discrete_lyapunov_decay",
     "best_decay",
+    "solve_with_clarabel",
 ]
 
 
@@ -369,6 +370,24 @@ def _conditioning_transform(A: np.ndarray, max_cond: float = 1e8) -> np.ndarray:
     return np.diag(scale)
 
 
+def solve_with_clarabel(prob: Any, var: Any) -> str | None:
+    """Solve a cvxpy problem with Clarabel: its status when (inaccurately) optimal and ``var`` has a value, else ``None``.
+
+    Every answer is re-checked with numpy by the caller, so an inaccurate optimum is offered, not trusted.
+    """
+    import cvxpy as cp
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)
+            prob.solve(solver=cp.CLARABEL)
+    except cp.error.SolverError:
+        return None
+    if prob.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) or var.value is None:
+        return None
+    return str(prob.status)
+
+
 _Answer = TypeVar("_Answer")
 
 
@@ -491,13 +510,7 @@ def discrete_lyapunov_decay(A_d: np.ndarray, T: float, *, rtol: float = 1e-3, ma
 
     def solve(rho: float) -> tuple[float, np.ndarray] | None:
         rho2.value = rho * rho
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", UserWarning)
-                prob.solve(solver=cp.CLARABEL)
-        except cp.error.SolverError:
-            return None
-        if prob.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) or P.value is None:
+        if solve_with_clarabel(prob, P) is None:
             return None
         Pb = 0.5 * (P.value + P.value.T)
         Po = Sinv.T @ Pb @ Sinv  # xᵀ P x = (S^{-1} x)ᵀ Pb (S^{-1} x)
