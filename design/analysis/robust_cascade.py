@@ -1088,6 +1088,11 @@ def _mirrored(lx: RobustLyapunov, d: np.ndarray, A_v: np.ndarray, theta: np.ndar
                    decay_rate_1_s=-math.log(got) / lx.T, status=f"mirrored from x ({lx.status})")
 
 
+def tilt_accel_limit(vehicle: Vehicle, box: ParameterBox, tilt_limit_deg: float) -> float:
+    """``u0 = (lowest mass factor) g tan(tilt)`` [m/s²]: the tilt limit as a bound on the horizontal command over the box."""
+    return box.mass_factor[0] * vehicle.g * math.tan(math.radians(tilt_limit_deg))
+
+
 def _certify_box(vehicle, gains, inner, box, *, tilt_limit_deg, rate_hz, dims, grid_n):
     """The subsystem LMIs at the LMI points and the full grid check; raises SolverError when not certified.
 
@@ -1098,7 +1103,7 @@ def _certify_box(vehicle, gains, inner, box, *, tilt_limit_deg, rate_hz, dims, g
     pts = {name: _subgrid(box, dims[name], LMI_POINTS_PER_AXIS) for name in SUBSYSTEMS}
     allp = np.vstack([np.ones((1, 6))] + list(pts.values()) + [box.grid(grid_n)])
     fam = sampled_family(vehicle, gains, inner, allp, tilt_limit_deg=tilt_limit_deg, rate_hz=rate_hz)
-    L = box.mass_factor[0] * vehicle.g * math.tan(math.radians(tilt_limit_deg))
+    L = tilt_accel_limit(vehicle, box, tilt_limit_deg)
     lyap, wide, k = {}, {}, 1
     blocks: dict[str, tuple] = {}
     for name in SUBSYSTEMS:
@@ -1390,7 +1395,7 @@ def _cascade_section(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, t
     T = fam.T
     decay = min(l.decay_rate_1_s for l in lyap.values())
     # region of attraction: LMIs at the vertices of each axis's coordinates, re-checked on the LMI points and the grid
-    L = box.mass_factor[0] * vehicle.g * math.tan(math.radians(tilt_limit_deg))
+    L = tilt_accel_limit(vehicle, box, tilt_limit_deg)
     rho_roa = math.exp(-CASCADE_ROA_DECAY_FRACTION * min(lyap["x"].decay_rate_1_s, lyap["y"].decay_rate_1_s) * T)
     timings["box_lyapunov_and_grid_s"] = time.perf_counter() - t0  # the box search included
     # the GSC ellipsoid (roa_method="gsc") is certified at its LMI points; it is used only if the numpy re-check
@@ -1559,7 +1564,7 @@ def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: G
     add("covers_monte_carlo_default", section["covers_monte_carlo_default"] is box.contains(mc),
         f"stated {section['covers_monte_carlo_default']}, box contains it: {box.contains(mc)}")
     roa = section["region_of_attraction"]
-    L = box.mass_factor[0] * vehicle.g * math.tan(math.radians(tilt_limit_deg))
+    L = tilt_accel_limit(vehicle, box, tilt_limit_deg)
     add("tilt limit and u0", _close(roa.get("tilt_limit_deg"), tilt_limit_deg) and _close(roa.get("u0_m_s2"), L),
         f"u0 = {L:.6g} m/s^2 at {tilt_limit_deg:g} deg")
     lyap_s = section["lyapunov"]
