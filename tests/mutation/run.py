@@ -246,6 +246,8 @@ def mutant_globs(module: Module) -> list[str]:
     """mutmut name globs of the selected functions."""
     out = []
     for pat in module.functions:
+        if any(c in pat for c in "*?["):
+            return [f"{module.import_name}.*"]  # a wildcard: run the whole file, score the matches
         if "." in pat:
             cls, _, meth = pat.partition(".")
             out.append(f"{module.import_name}.x{SEP}{cls}{SEP}{meth}__mutmut_*")
