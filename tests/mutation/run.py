@@ -32,6 +32,13 @@ Two rewrites of the staged copy keep mutmut from missing code:
   filled there would hide the mutant; the modules a module lists under
   ``clear_caches`` have their ``functools`` caches emptied before every test
   (by a ``conftest.py`` written into the staging folder).
+
+And one widening of mutmut's test selection: mutmut runs, for a mutant, only the
+tests that called its function while it recorded coverage; a module- or
+session-scoped fixture calls it once, in the first test that asks for it, so the
+later tests reading the fixture would never run against the mutant.  The same
+``conftest.py`` therefore gives each function every test of each test file that
+reached it (``widen = false`` in modules.toml turns this off for a module).
 """
 
 from __future__ import annotations
@@ -72,6 +79,7 @@ class Module:
     tests: list[str]
     clear_caches: list[str] = field(default_factory=list)
     target: float = 0.90
+    widen: bool = True
 
     @property
     def import_name(self) -> str:
@@ -104,7 +112,7 @@ def load_modules(path: Path) -> dict[str, Module]:
     for name, spec in data.get("modules", {}).items():
         out[name] = Module(name=name, file=spec["file"], functions=list(spec["functions"]),
                            tests=list(spec["tests"]), clear_caches=list(spec.get("clear_caches", [])),
-                           target=float(spec.get("target", 0.90)))
+                           target=float(spec.get("target", 0.90)), widen=bool(spec.get("widen", True)))
     return out
 
 
@@ -170,12 +178,29 @@ def _lowerable(d: ast.expr) -> bool:
 
 
 CONFTEST = '''\
-"""Written by tests/mutation/run.py: empty the caches of the mutated modules before each test."""
+"""Written by tests/mutation/run.py: empty the caches of the mutated modules before each test, and
+give each mutated function every test of the files whose tests reach it (see run.py)."""
+import os
 import sys
 
 import pytest
 
 _MODULES = {modules!r}
+_WIDEN = {widen!r}
+
+
+def pytest_sessionfinish(session, exitstatus):
+    if not _WIDEN or os.environ.get("MUTANT_UNDER_TEST") != "stats":
+        return
+    from mutmut.state import state
+
+    st = state()
+    by_file = {{}}
+    for test in st.duration_by_test:
+        by_file.setdefault(test.split("::")[0], set()).add(test)
+    for tests in st.tests_by_mangled_function_name.values():
+        for f in {{t.split("::")[0] for t in tests}}:
+            tests |= by_file.get(f, set())
 
 
 @pytest.hookimpl(tryfirst=True)
@@ -211,7 +236,8 @@ def stage(module: Module) -> Path:
     if not target.exists():
         raise SystemExit(f"mutation: error: {module.file} does not exist")
     target.write_text(lower_decorators(target.read_text(encoding="utf-8")), encoding="utf-8")
-    (d / "conftest.py").write_text(CONFTEST.format(modules=[module.import_name] + module.clear_caches))
+    (d / "conftest.py").write_text(CONFTEST.format(modules=[module.import_name] + module.clear_caches,
+                                                   widen=module.widen))
 
     real = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))
     markers = real.get("tool", {}).get("pytest", {}).get("ini_options", {}).get("markers", [])
