@@ -28,20 +28,18 @@ import pytest
 import nniquad.study as mc
 from nniquad.errors import EXIT_STUDY_FAILED
 from nniquad.progress import Progress
-from test_montecarlo import GAINS, INNER, SMALL_BOX
+from test_montecarlo import build_mc_certificate
 
 HORIZON = "2"
 
 
 @pytest.fixture(scope="module")
-def cert_path(tmp_path_factory):
-    """A real certificate of the tuned gains of test_montecarlo (about 4 s)."""
-    from nniquad.certificates.certificate import build_certificate, write_certificate
-    from nniquad.model.vehicle import PAPER_VEHICLE
+def cert_path(tmp_path_factory, shared_json):
+    """test_montecarlo's certificate of its tuned gains, built once per test session."""
+    from nniquad.certificates.certificate import write_certificate
 
-    path = tmp_path_factory.mktemp("mcfaults") / "cert.json"
-    write_certificate(build_certificate(PAPER_VEHICLE, GAINS, inner=INNER, model="full", box=SMALL_BOX), path)
-    return path
+    return write_certificate(shared_json("mc-certificate", build_mc_certificate),
+                             tmp_path_factory.mktemp("mcfaults") / "cert.json")
 
 
 def _study(cert_path, seed, samples, *extra):
