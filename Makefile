@@ -7,7 +7,7 @@ PY      = $(VENV)/bin/python
 STAMP   = $(VENV)/.installed-stamp
 JOBS   ?= 2
 
-.PHONY: install demo test bench notebooks clean
+.PHONY: install demo test bench bench-quick notebooks clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -25,6 +25,9 @@ test: $(STAMP)
 
 bench: $(STAMP)
 	MPLBACKEND=Agg $(PY) benchmarks/run.py --json benchmarks/results/latest.json
+
+bench-quick: $(STAMP)
+	MPLBACKEND=Agg $(PY) benchmarks/run.py --quick --json benchmarks/results/quick.json
 
 notebooks: $(STAMP)
 	$(VENV)/bin/jupytext --to ipynb notebooks/*.py
