@@ -100,6 +100,50 @@ def test_step_check_accepts_the_defaults_and_refuses_the_fast_loop():
                        error=SimulationError)
 
 
+def test_python_api_refuses_a_pole_faster_than_the_step(run_cli):
+    """simulate() itself refuses the loop the CLI refuses, at the bound of the closed-form pole, in the same words."""
+    from nniquad.errors import NniquadError
+    from nniquad.model.vehicle import PAPER_VEHICLE
+    from nniquad.sim import SimOptions, SimParams, simulate
+
+    dt, zeta = 1e-3, 0.8
+    wn = RK4_STEP_LIMIT / dt  # a complex pair lambda^2 + 2 zeta wn lambda + wn^2 has modulus wn (hand derivation)
+    too_fast = SimOptions(model="full", horizon_s=0.02, dt_s=dt,
+                          inner=InnerLoopGains(attitude_wn_rad_s=wn * (1 + 1e-6), attitude_zeta=zeta))
+    with pytest.raises(SimulationError, match="attitude pole") as info:
+        simulate(PAPER_VEHICLE, None, too_fast)
+    assert isinstance(info.value, NniquadError)
+    modulus = max(abs(r) for r in np.roots([1.0, 2 * zeta * wn * (1 + 1e-6), (wn * (1 + 1e-6)) ** 2]))
+    assert f"|lambda| = {modulus:.4g} 1/s" in str(info.value)
+    just_inside = too_fast.with_(inner=InnerLoopGains(attitude_wn_rad_s=wn * (1 - 1e-6), attitude_zeta=zeta))
+    assert np.all(np.isfinite(simulate(PAPER_VEHICLE, None, just_inside)[0].state))
+    # ready parameter sets (the Monte Carlo and tuner path) meet the same check: the motor pole 1/tau
+    lagged = SimOptions(model="full", horizon_s=0.02, dt_s=dt, motor_lag=True)
+    params = SimParams.from_options(PAPER_VEHICLE, (5.0, 160.0, 0.6), lagged)
+    with pytest.raises(SimulationError, match="motor lag pole"):
+        simulate(None, None, lagged, params=params.with_(plant={"tau_motor": dt / (RK4_STEP_LIMIT * (1 + 1e-6))}))
+    simulate(None, None, lagged, params=params.with_(plant={"tau_motor": dt / (RK4_STEP_LIMIT * (1 - 1e-6))}))
+    # the command line turns the same error into its one line, exit status 2, naming its own option
+    code, out, err = run_cli("simulate", "--model", "full", "--horizon", "0.02", "--attitude-wn", f"{wn * 1.01!r}")
+    api = str(pytest.raises(SimulationError, simulate, PAPER_VEHICLE, None,
+                            too_fast.with_(inner=InnerLoopGains(attitude_wn_rad_s=wn * 1.01))).value)
+    lines = err.strip().splitlines()
+    assert code == EXIT_USER_ERROR and out == "" and len(lines) == 1
+    assert lines[0].startswith("nniquad simulate: error: " + api.split("; change")[0] + "; change --attitude-wn")
+
+
+def test_montecarlo_api_refuses_ranges_too_fast_for_the_step_before_any_scenario():
+    import nniquad
+    from nniquad.errors import MonteCarloError
+    from nniquad.study import DEFAULT_RANGES
+
+    ran = []
+    with pytest.raises(MonteCarloError, match="attitude pole .*ScenarioRanges.attitude_gain_factor"):
+        nniquad.montecarlo(CERT, 4, ranges=DEFAULT_RANGES.with_(attitude_gain_factor=(1.0, 1e4)), workers=1,
+                           progress=lambda done, total: ran.append(done))
+    assert ran == []
+
+
 # ============================================================================ exit status
 
 

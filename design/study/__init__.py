@@ -90,6 +90,7 @@ Modules
 from nniquad.errors import MonteCarloError, StudyFailedError
 from nniquad.study.executors import (CONNECT_TIMEOUT_S, StopRequest, StudyRun, auto_batch_size, catch_interrupts,
                                      close_client, cluster_threads, connect_scheduler, make_batches, run_study)
+from nniquad.study.job import check_study_step
 from nniquad.study.runs import ScenarioResult, run_scenarios
 from nniquad.study.scenarios import (BOX_KEYS, DEFAULT_HORIZON_S, DEFAULT_RANGES, Scenario, ScenarioRanges,
                                      StudySetup, certificate_rate_hz, draw_scenario, draw_scenarios, study_setup,
@@ -113,6 +114,7 @@ __all__ = [
     "BOX_KEYS",
     "draw_scenario",
     "draw_scenarios",
+    "check_study_step",
     "run_scenarios",
     "make_batches",
     "auto_batch_size",

@@ -235,11 +235,11 @@ def _rerun(args: argparse.Namespace, setup, ranges) -> int:
 
 
 def run(args: argparse.Namespace) -> int:
-    from nniquad.certificates.certificate import certificate_inner_loop, load_certificate
+    from nniquad.certificates.certificate import load_certificate
     from nniquad.io import check_output_paths
     from nniquad.resources import check_estimate, montecarlo_estimate
-    from nniquad.validate import check_rk4_step, inner_loop_poles
-    from nniquad.study import MonteCarloError, close_client, cluster_threads, connect_scheduler, study_setup
+    from nniquad.study import (MonteCarloError, check_study_step, close_client, cluster_threads, connect_scheduler,
+                               study_setup)
 
     if args.rerun is None:
         _positive("--samples", args.samples)
@@ -261,13 +261,9 @@ def run(args: argparse.Namespace) -> int:
     cert = load_certificate(args.certificate)
     ranges, region = _ranges(args, cert)
     setup = study_setup(cert, ranges, horizon_s=args.horizon, region_m=region)
-    # RK4 step against the fastest inner-loop pole the ranges can draw (strongest attitude gain, fastest motor)
-    tau_lo = (ranges.tau_motor_s[0] if ranges.tau_motor_s is not None
-              else setup.base.plant.tau_motor * ranges.tau_motor_factor[0])
-    check_rk4_step(inner_loop_poles(certificate_inner_loop(cert), attitude_gain_scale=ranges.attitude_gain_factor[1],
-                                    tau_motor_s=tau_lo),
-                   setup.dt_s, error=MonteCarloError,
-                   hint={"attitude": "--attitude-gain-range", "motor lag": "--tau-motor-range or --tau-motor-factor-range"})
+    # the RK4 step against the fastest scenario the ranges can draw (strongest attitude gain, fastest motor)
+    check_study_step(setup, ranges,
+                     hint={"attitude": "--attitude-gain-range", "motor lag": "--tau-motor-range or --tau-motor-factor-range"})
     if args.rerun is not None:
         return _rerun(args, setup, ranges)
     workers = 1 if args.scheduler else (args.workers or usable_cpu_count())

@@ -182,7 +182,8 @@ def run(args: argparse.Namespace) -> int:
     from nniquad.errors import SimulationError
     from nniquad.io import check_output_paths, output_transaction
     from nniquad.resources import check_estimate, simulation_estimate
-    from nniquad.validate import check_rk4_step, inner_loop_poles
+    from nniquad.sim import SimParams
+    from nniquad.sim.step import check_step
 
     traj_path = args.trajectory
     if traj_path is None and args.json:
@@ -191,10 +192,10 @@ def run(args: argparse.Namespace) -> int:
         check_output_paths([("--json", args.json), ("--json's trajectory file", traj_path), ("--plot", args.plot)])
     if traj_path is not None and Path(traj_path).suffix.lower() not in (".npz", ".csv"):
         raise NniquadError(f"--trajectory must end in .npz or .csv, got {traj_path}")
-    if options.model == "full":
-        tau = (options.tau_motor_s or vehicle.tau_motor) if options.motor_lag else None
-        check_rk4_step(inner_loop_poles(options.inner, tau_motor_s=tau), options.dt_s, error=SimulationError,
-                       hint={"attitude": "--attitude-wn or --dt", "motor lag": "--tau-motor or --dt"})
+    # the runner's step check, before the estimate, naming this command's options
+    check_step(SimParams.from_options(vehicle, gains, options), options.model,
+               hint={"NNI controller (Gamma*delta)": "--Gamma, --delta or --dt", "attitude": "--attitude-wn or --dt",
+                     "yaw": "--dt", "altitude": "--dt", "motor lag": "--tau-motor or --dt"})
     check_estimate(simulation_estimate(options.model, options.horizon_s, options.dt_s, options.output_dt_s),
                    option=f"--horizon {options.horizon_s:g}", error=SimulationError)
 
