@@ -56,14 +56,18 @@ A scenario succeeds when it *settled* and never *diverged*:
   wind force ``F`` moves the equilibrium to ``ξ_eq = F / (m̂ k_p − 1/δ)`` per
   axis (exact for the full model with its altitude integrator), and the offset
   is reported separately (``offset_m``).
-* **diverged** -- a non-finite position or altitude, or a horizontal distance
-  beyond ``DIVERGENCE_FACTOR · max(‖ξ(0)‖, band)`` (100 ×);
+
+A vehicle is *lost* (diverged) when it blew up or lost its altitude, and the
+failure names the cause:
+
+* **diverged** -- it blew up: a non-finite position or altitude, or a
+  horizontal distance beyond ``DIVERGENCE_FACTOR · max(‖ξ(0)‖, band)`` (100 ×);
 * **altitude lost** -- an altitude deviation beyond ``altitude_limit_m``
   (default :data:`nniquad.config.ALTITUDE_LIMIT_M`, 2 m; a vehicle whose
   thrust cannot carry its mass falls and fails here).
 
 Both verdicts are the project's one definition
-(:mod:`nniquad.analysis.metrics`), the same that ``simulate`` and ``tune`` use.
+(:mod:`nniquad.analysis.verdicts`), the same that ``simulate`` and ``tune`` use.
 
 Reproducibility
 ---------------

@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from nniquad.config import ALTITUDE_LIMIT_M, CONTROL_RATE_HZ, XI0_M
+from nniquad.config import ALTITUDE_LIMIT_M, CONTROL_RATE_HZ, DIVERGENCE_FACTOR, XI0_M
 from nniquad.errors import GainError, NniquadError
 from nniquad.format import fmt
 from nniquad.progress import Progress
@@ -37,9 +37,12 @@ attitude loop, motors and altitude loop stay continuous.  Defaults are
 the paper's gains (kp = 5, Gamma = 160, delta = 0.6) and initial state.
 
 Prints settling time (2 % band, last exit), overshoot, peak tilt, whether
-the run diverged or lost altitude, and the verdict.  --json writes them with the trajectory file (.npz next to
-the JSON, or --trajectory FILE with .npz or .csv).  Runs that take more than a
-few seconds show progress on stderr."""
+the vehicle was lost ("diverged": it blew up -- a non-finite state or a distance
+beyond {DIVERGENCE_FACTOR:g} x its start -- or lost its altitude by more than {ALTITUDE_LIMIT_M:g} m), whether it lost
+its altitude, and the verdict, which names the cause ("diverged" for a blow-up,
+"altitude lost", "not settled").  --json writes them with the trajectory file
+(.npz next to the JSON, or --trajectory FILE with .npz or .csv).  Runs that take
+more than a few seconds show progress on stderr."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -217,7 +220,7 @@ def run(args: argparse.Namespace) -> int:
         ("peak rotor speed", fmt(m.peak_rotor_speed_rad_s, "rad/s"), ""),
         ("peak altitude deviation", fmt(m.altitude_dev_m, "m"), ""),
         ("tilt RMS after settling", fmt(m.tilt_jitter_rms_deg, "deg"), ""),
-        ("diverged", fmt(m.diverged), ""),
+        ("diverged", fmt(m.diverged), "(vehicle lost)" if m.diverged else ""),
         ("altitude lost", fmt(m.altitude_lost), "" if m.altitude_lost is None else f"(> {ALTITUDE_LIMIT_M:g} m)"),
         ("verdict", m.failure or "settled", ""),
         ("horizon", fmt(m.horizon_s, "s"), ""),
