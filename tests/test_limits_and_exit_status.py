@@ -5,6 +5,9 @@ from __future__ import annotations
 import json
 import math
 import os
+import signal
+import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -12,8 +15,8 @@ import pytest
 
 from nniquad.config import RK4_STEP_LIMIT
 from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, InnerLoopGains
-from nniquad.errors import (EXIT_CHECK_FAILED, EXIT_INTERNAL_ERROR, EXIT_INTERRUPTED, EXIT_USER_ERROR,
-                            ResourceError, SimulationError)
+from nniquad.errors import (EXIT_CHECK_FAILED, EXIT_INTERNAL_ERROR, EXIT_INTERRUPTED, EXIT_TERMINATED,
+                            EXIT_USER_ERROR, ResourceError, SimulationError, Terminated)
 from nniquad.resources import (MODEL_SIZES, Estimate, available_memory_bytes, check_estimate, montecarlo_estimate,
                                simulation_estimate)
 from nniquad.validate import check_rk4_step, inner_loop_poles
@@ -154,12 +157,20 @@ def test_help_documents_the_scheme(run_cli):
         text = " ".join(out.split())
         assert "exit status: 0" in text and "1 a check failed" in text and "2 user error" in text
         assert "130 interrupted" in text
+        assert "143 terminated (SIGTERM" in text
 
 
 def test_readme_documents_the_scheme():
     readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
-    for code in ("| 0 |", "| 1 |", "| 2 |", "| 3 |", "| 130 |"):
+    for code in ("| 0 |", "| 1 |", "| 2 |", "| 3 |", "| 130 |", "| 143 |"):
         assert code in readme
+    # the same statuses wherever they are documented: the module docstring of the CLI and every --help
+    import importlib
+
+    cli_main = importlib.import_module("nniquad.cli.main")
+    for status in (EXIT_INTERRUPTED, EXIT_TERMINATED):
+        assert f"\n    {status}  " in cli_main.__doc__ and f" {status} " in cli_main.EXIT_STATUS_HELP
+    assert EXIT_TERMINATED == 128 + signal.SIGTERM and EXIT_INTERRUPTED == 128 + signal.SIGINT  # the shell's rule
 
 
 def test_verify_exit_status(run_cli, tmp_path):
@@ -176,6 +187,7 @@ def test_verify_exit_status(run_cli, tmp_path):
 
 @pytest.mark.parametrize("exc, code, word", [
     (KeyboardInterrupt(), EXIT_INTERRUPTED, "interrupted"),
+    (Terminated(), EXIT_TERMINATED, "terminated"),
     (MemoryError(), EXIT_USER_ERROR, "not enough memory"),
     (RecursionError(), EXIT_USER_ERROR, "nested too deeply"),
     (OSError(28, "No space left on device", "out.json"), EXIT_USER_ERROR, "out.json: No space left"),
@@ -194,6 +206,80 @@ def test_main_maps_every_failure_to_its_status(run_cli, monkeypatch, exc, code, 
     lines = [line for line in err.splitlines() if line.startswith("nniquad")]
     assert len(lines) == 1
     assert ("Traceback" in err) == (code == EXIT_INTERNAL_ERROR)  # only a bug shows one
+
+
+# ---------------------------------------------------------------------------- SIGTERM, like Ctrl-C
+
+
+def _sigterm_self_then_wait():
+    os.kill(os.getpid(), signal.SIGTERM)
+    for _ in range(200):  # the handler runs between bytecodes: within the first few iterations
+        time.sleep(0.01)
+    raise AssertionError("SIGTERM raised nothing")
+
+
+def test_sigterm_during_a_command_ends_it_cleanly_with_143(run_cli, monkeypatch, tmp_path):
+    """A real SIGTERM mid-write: the temporary file is removed, one line, exit 143, the old handler back."""
+    import nniquad.cli.commands.vehicle as vehicle_cmd
+    from nniquad.io import atomic_write_with
+
+    def writer(tmp):
+        tmp.write_text("half a file")
+        _sigterm_self_then_wait()
+
+    monkeypatch.setattr(vehicle_cmd, "run", lambda args: atomic_write_with(tmp_path / "out.json", writer))
+    before = signal.getsignal(signal.SIGTERM)
+    rc, out, err = run_cli("vehicle")
+    assert rc == EXIT_TERMINATED and err.strip() == "nniquad vehicle: terminated"
+    assert list(tmp_path.iterdir()) == []  # neither the file nor its temporary
+    assert signal.getsignal(signal.SIGTERM) is before
+
+
+def test_a_swallowed_sigterm_still_ends_the_command_with_143(run_cli, monkeypatch):
+    """CasADi clears the exception a signal raises inside its loops (IPOPT then fails): the request is sticky."""
+    import nniquad.cli.commands.vehicle as vehicle_cmd
+    from nniquad.errors import SolverError
+    from nniquad.progress import Progress
+
+    def solver_fails(args):
+        try:
+            _sigterm_self_then_wait()
+        except Terminated:  # what CasADi does: the exception is gone, the solve fails
+            pass
+        raise SolverError("IPOPT failed on the bound problem: NonIpopt_Exception_Thrown")
+
+    after_progress = []
+
+    def carries_on(args):
+        try:
+            _sigterm_self_then_wait()
+        except Terminated:
+            pass
+        Progress("vehicle", enabled=False).message("next stage")  # the next progress report raises it again
+        after_progress.append(True)
+
+    for run, dropped in ((solver_fails, "IPOPT"), (carries_on, "Traceback")):
+        monkeypatch.setattr(vehicle_cmd, "run", run)
+        rc, out, err = run_cli("vehicle")
+        assert rc == EXIT_TERMINATED and err.strip() == "nniquad vehicle: terminated", err
+        assert dropped not in err
+    assert after_progress == []
+    # the request ends with the command: the next one runs normally
+    monkeypatch.setattr(vehicle_cmd, "run", lambda args: 0)
+    assert run_cli("vehicle")[0] == 0
+
+
+def test_sigterm_on_a_real_simulate_leaves_no_file(tmp_path):
+    """A real process: SIGTERM once the run has started (its progress line), exit 143, no output, no traceback."""
+    from test_montecarlo_faults import signal_when_ready
+
+    cmd = [sys.executable, "-m", "nniquad", "simulate", "--horizon", "3000", "--json", "s.json", "--plot", "s.png"]
+    code, out, lines = signal_when_ready(cmd, tmp_path, lambda line: "3000 s simulated" in line,
+                                         lambda proc: proc.send_signal(signal.SIGTERM))
+    err = "".join(lines)
+    assert code == EXIT_TERMINATED, err
+    assert "Traceback" not in err and err.strip().splitlines()[-1] == "nniquad simulate: terminated"
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_usage_errors_are_one_line(run_cli):

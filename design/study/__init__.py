@@ -92,8 +92,9 @@ Modules
 """
 
 from nniquad.errors import MonteCarloError, StudyFailedError
-from nniquad.study.executors import (CONNECT_TIMEOUT_S, StopRequest, StudyRun, auto_batch_size, catch_interrupts,
-                                     close_client, cluster_threads, connect_scheduler, make_batches, run_study)
+from nniquad.study.executors import (CONNECT_TIMEOUT_S, STOP_SIGNALS, StopRequest, StudyRun, auto_batch_size,
+                                     catch_interrupts, close_client, cluster_threads, connect_scheduler, make_batches,
+                                     run_study)
 from nniquad.study.job import check_study_step
 from nniquad.study.runs import ScenarioResult, run_scenarios
 from nniquad.study.scenarios import (BOX_KEYS, DEFAULT_HORIZON_S, DEFAULT_RANGES, Scenario, ScenarioRanges,
@@ -124,6 +125,7 @@ __all__ = [
     "auto_batch_size",
     "run_study",
     "StopRequest",
+    "STOP_SIGNALS",
     "catch_interrupts",
     "connect_scheduler",
     "close_client",

@@ -71,7 +71,8 @@ class MonteCarloResult:
         """``partial, stopped, completed, requested, study, run, summary, results`` (units in the key names).
 
         ``stopped`` is ``None`` for a complete study, else ``{"kind", "reason"}``: ``kind`` is
-        ``"interrupted"`` (Ctrl-C) or the fault (``"worker"``, ``"scheduler"``, ``"stalled"``, ``"error"``).
+        ``"interrupted"`` (Ctrl-C), ``"terminated"`` (SIGTERM, caught by the command line) or the fault
+        (``"worker"``, ``"scheduler"``, ``"stalled"``, ``"error"``).
         """
         r = self.run
         return {
