@@ -212,6 +212,8 @@ def test_main_maps_every_failure_to_its_status(run_cli, monkeypatch, exc, code, 
 
 
 def _sigterm_self_then_wait():
+    # never SIGTERM the test runner itself unless nniquad's handler is there to catch it
+    assert signal.getsignal(signal.SIGTERM) not in (signal.SIG_DFL, signal.SIG_IGN, None)
     os.kill(os.getpid(), signal.SIGTERM)
     for _ in range(200):  # the handler runs between bytecodes: within the first few iterations
         time.sleep(0.01)
