@@ -10,10 +10,12 @@ Dask workers should be processes with one thread each.
 Faults.  The executors never wait blindly: every :data:`POLL_S` they collect
 the finished batches, look at a :class:`StopRequest` and at a stall clock.
 
-* Ctrl-C (SIGINT) inside :func:`catch_interrupts` only *sets* the stop request
-  (no ``KeyboardInterrupt`` is raised, so a second Ctrl-C cannot cut the
+* Ctrl-C (SIGINT) -- and SIGTERM, where the caller asks for it (the command
+  line does) -- inside :func:`catch_interrupts` only *sets* the stop request
+  (no ``KeyboardInterrupt`` is raised, so a second signal cannot cut the
   cancelling or the saving short); the pending batches are cancelled and the
-  finished ones returned, marked partial (``stopped="interrupted"``).
+  finished ones returned, marked partial (``stopped="interrupted"``, or
+  ``"terminated"`` for SIGTERM).
 * A worker that dies (a broken local pool; a Dask task whose workers died
   ``allowed-failures`` times), a worker that raises, a lost Dask scheduler, and
   no batch finished for ``stall_timeout_s`` (every worker gone, or hung) raise
@@ -31,7 +33,7 @@ import threading
 import time
 from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass
-from typing import Any, Callable, Iterator, Mapping, Sequence
+from typing import Any, Callable, Iterable, Iterator, Mapping, Sequence
 
 import numpy as np
 
@@ -44,6 +46,7 @@ from nniquad.study.scenarios import Scenario
 __all__ = [
     "StudyRun",
     "StopRequest",
+    "STOP_SIGNALS",
     "catch_interrupts",
     "make_batches",
     "auto_batch_size",
@@ -104,7 +107,8 @@ class StudyRun:
     workers, batch_size
         Worker processes (or Dask threads) and scenarios per batch.
     stopped
-        Why it stopped early: ``"interrupted"`` or the ``kind`` of a
+        Why it stopped early: ``"interrupted"`` (Ctrl-C, a stop request),
+        ``"terminated"`` (SIGTERM, where caught) or the ``kind`` of a
         :class:`~nniquad.errors.StudyFailedError`; ``None`` when it ran to the end.
     reason
         The one-line account of ``stopped``.
@@ -125,6 +129,10 @@ class StudyRun:
         return len(self.results) / self.elapsed_s if self.elapsed_s > 0 else float("nan")
 
 
+#: The signals :func:`catch_interrupts` turns into a stop request, and the ``stopped`` kind of each.
+STOP_SIGNALS: dict[int, str] = {signal.SIGINT: "interrupted", signal.SIGTERM: "terminated"}
+
+
 class StopRequest:
     """A request to stop a running study, set by a signal (:func:`catch_interrupts`) or by :meth:`set`.
 
@@ -136,14 +144,19 @@ class StopRequest:
     ----------
     signals
         Signals received while it was installed (a second Ctrl-C counts, and is otherwise ignored).
+    signum
+        The signal that first asked to stop (``signal.SIGINT`` or ``signal.SIGTERM``), or ``None``.
     """
 
     def __init__(self) -> None:
         self.signals = 0
+        self.signum: int | None = None
         self._event = threading.Event()
 
-    def set(self) -> None:
-        """Ask the study to stop (thread-safe)."""
+    def set(self, signum: int | None = None) -> None:
+        """Ask the study to stop (thread-safe); ``signum``: the signal that asks, if any (the first one is kept)."""
+        if self.signum is None and not self._event.is_set():
+            self.signum = signum
         self._event.set()
 
     @property
@@ -151,25 +164,46 @@ class StopRequest:
         """``True`` once a stop was asked for."""
         return self._event.is_set()
 
+    @property
+    def kind(self) -> str:
+        """How the study was stopped: ``"terminated"`` (SIGTERM) or ``"interrupted"`` (Ctrl-C, :meth:`set`)."""
+        return STOP_SIGNALS.get(self.signum, "interrupted")
+
+    @property
+    def reason(self) -> str:
+        """The one-line account of :attr:`kind`."""
+        if self.signum == signal.SIGTERM:
+            return "terminated (SIGTERM)"
+        return "interrupted (Ctrl-C)" if self.signum == signal.SIGINT else "interrupted"
+
 
 @contextmanager
 def catch_interrupts(stop: StopRequest | None = None,
-                     repeat_message: str = "still saving the finished scenarios, please wait"
-                     ) -> Iterator[StopRequest]:
-    """Within the block, SIGINT (Ctrl-C) sets a :class:`StopRequest` instead of raising ``KeyboardInterrupt``.
+                     repeat_message: str = "still saving the finished scenarios, please wait",
+                     signals: Iterable[int] = (signal.SIGINT,)) -> Iterator[StopRequest]:
+    """Within the block, SIGINT (Ctrl-C) -- and any other of ``signals`` -- sets a :class:`StopRequest` instead
+    of raising.
 
-    A second and later SIGINT only prints ``repeat_message`` (with a raw
+    A second and later signal only prints ``repeat_message`` (with a raw
     write, safe inside a signal handler), so whatever runs in the block --
     cancelling batches, writing the partial file -- runs to its end.  Outside
     the main thread, where Python cannot install signal handlers, nothing is
-    installed and ``KeyboardInterrupt`` keeps its usual meaning.
+    installed and ``KeyboardInterrupt`` keeps its usual meaning.  The previous
+    handlers are restored at the end of the block.
+
+    SIGTERM is caught only when asked for (``signals=STOP_SIGNALS``, as
+    ``nniquad montecarlo`` does, which then saves the finished scenarios and
+    exits with status 143): a library call must not turn a request to end the
+    process into a partial result the caller's script carries on from.
 
     Parameters
     ----------
     stop
         The request to set (a new one by default).
     repeat_message
-        Shown on stderr for every SIGINT after the first.
+        Shown on stderr for every signal after the first.
+    signals
+        The signals caught (keys of :data:`STOP_SIGNALS`; default SIGINT only).
 
     Yields
     ------
@@ -180,20 +214,21 @@ def catch_interrupts(stop: StopRequest | None = None,
         yield stop
         return
 
-    def on_sigint(signum: int, frame: Any) -> None:
+    def on_signal(signum: int, frame: Any) -> None:
         stop.signals += 1
         if stop.requested and repeat_message:
             try:
                 os.write(2, f"\n[montecarlo] {repeat_message}\n".encode())
             except OSError:
                 pass
-        stop.set()
+        stop.set(signum)
 
-    previous = signal.signal(signal.SIGINT, on_sigint)
+    previous = {signum: signal.signal(signum, on_signal) for signum in dict.fromkeys(signals)}
     try:
         yield stop
     finally:
-        signal.signal(signal.SIGINT, previous if previous is not None else signal.SIG_DFL)
+        for signum, handler in previous.items():
+            signal.signal(signum, handler if handler is not None else signal.SIG_DFL)
 
 
 def _ignore_sigint(batch_threads: int | None = None) -> None:
@@ -399,8 +434,9 @@ def run_study(
     -------
     StudyRun
         ``partial`` with ``stopped="interrupted"`` when stopped (Ctrl-C,
-        ``KeyboardInterrupt``, ``stop``); the finished batches are kept and
-        the pending ones cancelled.
+        ``KeyboardInterrupt``, ``stop``), ``"terminated"`` when ``stop`` was set
+        by SIGTERM (``catch_interrupts(signals=STOP_SIGNALS)``); the finished
+        batches are kept and the pending ones cancelled.
 
     Raises
     ------
@@ -471,11 +507,14 @@ def run_study(
             if own_client:
                 close_client(client)
     collected.sort(key=lambda r: r.index)
+    if fault is None and stopped is None and len(collected) < total:  # never call a study complete that is not
+        fault = StudyFailedError(f"the study ended with {total - len(collected)} of {total} scenarios missing",
+                                 kind="error")
     reason: str | None = None
     if fault is not None:
         stopped, reason = fault.kind, fault.reason
     elif stopped is not None and len(collected) < total:
-        reason = "interrupted"
+        stopped, reason = stop_request.kind, stop_request.reason
     else:  # stopped after the last batch had finished: nothing is missing
         stopped = None
     run = StudyRun(collected, total, stopped is not None, time.perf_counter() - t0, executor, n_workers, bs,
@@ -488,7 +527,7 @@ def run_study(
 
 def _stopping_note(note: Callable[[str], None]) -> None:
     note("stopping: cancelling the pending batches, keeping the finished ones "
-         "(Ctrl-C again is ignored until they are saved)")
+         "(a second Ctrl-C or SIGTERM is ignored until they are saved)")
 
 
 def _run_here(batches: list[list[Scenario]], add: Callable[[list[ScenarioResult]], None],
@@ -544,6 +583,8 @@ def _run_pool(n_workers: int, batches: list[list[Scenario]], add: Callable[[list
             deadline = time.monotonic() + 2.0
             while time.monotonic() < deadline and not any(p.exitcode not in (None, 0) for p in seen.values()):
                 time.sleep(0.02)
+            if stop.requested:  # a SIGTERM to the whole process group: the workers went first
+                return
             dead = [f"pid {pid}, {_exit_description(p.exitcode)}" for pid, p in seen.items()
                     if p.exitcode not in (None, 0)]
             raise StudyFailedError(f"a local worker process died ({'; '.join(dead) or 'terminated abruptly'})",
@@ -571,6 +612,8 @@ def _run_pool(n_workers: int, batches: list[list[Scenario]], add: Callable[[list
                     f"no batch finished in {limit:g} s on {min(n_workers, len(batches))} local worker "
                     f"process(es): the pool has stopped making progress (a longer stall timeout, "
                     f"--stall-timeout, if one batch takes longer)", kind="stalled")
+        if stop.requested:  # the last batches were lost to the stop (workers killed with the parent's group)
+            return "interrupted"
         finished = True
         return None
     except KeyboardInterrupt:
