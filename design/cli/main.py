@@ -18,6 +18,9 @@ Exit status, the same for every command (:data:`EXIT_STATUS_HELP`, printed by
          file, an output path that cannot be written, a request too large for
          this machine; nothing is written and no work is started
     3    an internal error (a bug in nniquad); the only case with a traceback
+    4    'montecarlo' only: the study was stopped by a fault of where it ran (a
+         worker or the scheduler died, the cluster made no progress); its
+         finished scenarios are saved, marked partial
     130  interrupted (Ctrl-C); 'montecarlo' keeps its finished batches
     143  terminated (SIGTERM), handled like Ctrl-C: 'montecarlo' keeps its
          finished batches, every other command stops cleanly (no traceback,
@@ -39,8 +42,8 @@ import traceback
 from typing import Sequence
 
 from nniquad import __version__
-from nniquad.errors import (EXIT_CHECK_FAILED, EXIT_INTERNAL_ERROR, EXIT_INTERRUPTED, EXIT_OK, EXIT_TERMINATED,
-                            EXIT_USER_ERROR, NniquadError, Terminated)
+from nniquad.errors import (EXIT_CHECK_FAILED, EXIT_INTERNAL_ERROR, EXIT_INTERRUPTED, EXIT_OK, EXIT_STUDY_FAILED,
+                            EXIT_TERMINATED, EXIT_USER_ERROR, NniquadError, Terminated)
 from nniquad.termination import sigterm_as_interrupt, termination_requested
 
 __all__ = ["main", "COMMANDS", "build_parser", "EXIT_STATUS_HELP"]
@@ -50,6 +53,7 @@ EXIT_STATUS_HELP = (
     f"exit status: {EXIT_OK} done (every check passed); {EXIT_CHECK_FAILED} a check failed (verify, a certificate "
     f"digest mismatch, prove --strict); {EXIT_USER_ERROR} user error (bad option, input file or output path, "
     f"request too large; nothing written); {EXIT_INTERNAL_ERROR} internal error (a bug, with traceback); "
+    f"{EXIT_STUDY_FAILED} montecarlo stopped by a fault of its workers or cluster (finished scenarios saved); "
     f"{EXIT_INTERRUPTED} interrupted (Ctrl-C); {EXIT_TERMINATED} terminated (SIGTERM, handled like Ctrl-C)."
 )
 
