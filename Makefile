@@ -8,7 +8,7 @@ PY      = $(VENV)/bin/python
 STAMP   = $(VENV)/.installed-stamp
 JOBS   ?= 2
 
-.PHONY: install demo test bench notebooks mutation clean
+.PHONY: install demo test bench bench-quick notebooks mutation clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -29,6 +29,9 @@ bench: $(STAMP)
 
 mutation: $(STAMP)
 	MPLBACKEND=Agg $(PY) tests/mutation/run.py --jobs $(JOBS) $(if $(MODULE),--module $(MODULE))
+
+bench-quick: $(STAMP)
+	MPLBACKEND=Agg $(PY) benchmarks/run.py --quick --json benchmarks/results/quick.json
 
 notebooks: $(STAMP)
 	$(VENV)/bin/jupytext --to ipynb notebooks/*.py

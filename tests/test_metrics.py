@@ -285,12 +285,15 @@ def test_altitude_loss_and_the_one_failure_verdict():
     assert failure_reason(False, True, True) == "altitude lost"
     assert failure_reason(False, False, False) == "not settled"
     assert failure_reason(False, None, True) is None
-    # compute_metrics: a run that settles horizontally but falls 10 m is a failure, not a success
+    # compute_metrics: a run that settles horizontally but falls 10 m is a failure, not a success: the vehicle
+    # is lost (diverged, issue 22), the verdict names the cause, and a lost run has no settling time
     t = np.linspace(0.0, 10.0, 1001)
     m = compute_metrics(t, along(2.5 * np.exp(-t)), z=0.5 * t**2 / 5.0)
-    assert m.settling_s is not None and not m.diverged
+    level = compute_metrics(t, along(2.5 * np.exp(-t)))
+    assert level.settling_s is not None and not level.diverged and level.failure is None  # without the fall
+    assert m.settling_s is None and m.diverged and m.blew_up is False
     assert m.altitude_lost is True and m.failure == "altitude lost"
-    assert compute_metrics(t, along(2.5 * np.exp(-t))).altitude_lost is None
+    assert level.altitude_lost is None
     assert Metrics.from_json(m.to_json()) == m
 
 
@@ -424,3 +427,40 @@ def test_raw_int16_counts_at_their_most_negative_value():
     counts = np.array([-32768, 100], dtype=np.int16)
     assert peak_abs(counts) == 32768.0
     assert time_on_limit_fraction([0.0, 1.0], np.array([-32768, -32768], dtype=np.int16), 32768.0) == 1.0
+
+def test_diverged_means_lost_and_the_verdict_names_the_cause():
+    """Hand-built runs with known answers: blown up (nan, far), fallen, fine -- flags, verdict and settling."""
+    from nniquad.analysis.verdicts import altitude_lost_batch, blew_up_batch
+    from nniquad.config import ALTITUDE_LIMIT_M, DIVERGENCE_FACTOR
+
+    t = np.linspace(0.0, 10.0, 1001)
+    decay = along(2.5 * np.exp(-t))
+    level = np.zeros_like(t)
+    fall = level.copy()
+    fall[500:] = 1.01 * ALTITUDE_LIMIT_M  # beyond the limit for the second half only
+    nan_xy = decay.copy()
+    nan_xy[700] = np.nan
+    far = decay.copy()
+    far[300] = [1.01 * DIVERGENCE_FACTOR * 2.5, 0.0]
+    cases = {  # name: (xy, z, diverged, blew_up, altitude_lost, failure)
+        "fine": (decay, level, False, False, False, None),
+        "fallen": (decay, fall, True, False, True, "altitude lost"),
+        "nan": (nan_xy, level, True, True, False, "diverged"),
+        "far and fallen": (far, fall, True, True, True, "diverged"),
+        "nan altitude": (decay, np.where(t > 5, np.nan, 0.0), True, True, True, "diverged"),
+    }
+    xy_b = np.stack([c[0] for c in cases.values()])
+    z_b = np.stack([c[1] for c in cases.values()])
+    assert diverged_batch(xy_b, z_batch=z_b).tolist() == [c[2] for c in cases.values()]
+    assert blew_up_batch(xy_b, z_batch=z_b).tolist() == [c[3] for c in cases.values()]
+    assert altitude_lost_batch(z_b).tolist() == [c[4] for c in cases.values()]
+    for name, (xy, z, div, blew, lost, failure) in cases.items():
+        m = compute_metrics(t, xy, z=z)
+        assert (m.diverged, m.blew_up, m.altitude_lost, m.failure) == (div, blew, lost, failure), name
+        assert (m.settling_s is None) == div, name  # a lost vehicle never counts as settled
+        assert diverged(xy, z=z) is div, name
+    # without an altitude signal (linear, reduced models) only a blow-up can lose the run
+    assert diverged(decay) is False and diverged(far) is True
+    # the caller's altitude limit (a Monte Carlo --altitude-limit) is the one applied
+    assert diverged(decay, z=fall, altitude_limit_m=1.1 * ALTITUDE_LIMIT_M) is False
+

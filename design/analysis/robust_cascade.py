@@ -81,7 +81,7 @@ import itertools
 import math
 import time
 import warnings
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, field, fields, replace
 from functools import cached_property, lru_cache
 from typing import Any, Mapping, Sequence
 
@@ -91,6 +91,7 @@ import scipy.linalg as sla
 
 from nniquad.analysis.cascade import (SPLIT_TOL, EQUILIBRIUM_TOL, LINEARISATION_OFFSET_M, LinearCascade, Linearisation,
                                       _hover_params, _jacobian_function, allocation_jacobian)
+from nniquad.analysis.lmi import checks as lmi_checks
 from nniquad.analysis.sampled import _conditioning_transform, _period, best_decay, solve_with_clarabel
 from nniquad.config import (CASCADE_GRID_POINTS_PER_AXIS, CASCADE_LYAPUNOV_RTOL, CASCADE_REACH_DECAY_FRACTION,
                             CASCADE_ROA_DECAY_FRACTION,
@@ -557,11 +558,13 @@ def robust_lyapunov(A_v: np.ndarray, T: float, *, S: np.ndarray | None = None, t
     if best is None:
         raise SolverError(f"robust cascade LMI: no common P for any decay in (0, {-math.log(rho_spec) / T:.4g}) 1/s")
     rho, (P, rv, status) = best
-    ev = np.linalg.eigvalsh(_affine(P, th))
-    ok = bool(np.min(ev[:, 0]) > 0 and np.max(rv) <= rho * (1 + 1e-9) and rho < 1)
-    return RobustLyapunov(P=P, rho=rho, rho_vertices=rv, spectral_radius=rho_spec, T=T,
-                          decay_rate_1_s=-math.log(rho) / T, min_eig_P=float(np.min(ev[:, 0] / ev[:, -1])),
-                          status=status, ok=ok)
+    wm = witness_margins(P, A_v, th)
+    if not wm.ok:  # a witness whose margins do not clear rounding is refused, not stated
+        raise SolverError(f"robust cascade LMI: the answer's margins do not clear rounding (1 - rho = "
+                          f"{1 - wm.rho:.3g} vs bound {wm.rho_bound:.3g}; min eig {wm.definite:.3g} vs "
+                          f"{wm.definite_bound:.3g})")
+    return RobustLyapunov(P=P, rho=wm.rho, rho_vertices=rv, spectral_radius=rho_spec, T=T,
+                          decay_rate_1_s=-math.log(wm.rho) / T, min_eig_P=wm.min_eig_ratio, status=status, ok=True)
 
 
 def _solved_affine(prob: Any, Pk: Sequence[Any], Sinv: np.ndarray, A_v: np.ndarray,
@@ -643,15 +646,12 @@ def reach_lyapunov(A_v: np.ndarray, T: float, K: np.ndarray, L: float, rho: floa
     if solved is None:
         return None
     Po, rv, status = solved
-    got = float(np.max(rv))
-    corners = np.array(list(itertools.product((-1.0, 1.0), repeat=q)), float).reshape(-1, q)
-    ev = np.linalg.eigvalsh(_affine(Po, corners))
-    if not (got < 1.0 and np.min(ev[:, 0]) > 0):
+    wm = witness_margins(Po, A_v, th)
+    if not wm.ok:  # no contraction, or margins below rounding: not a witness
         return None
     rho_spec = float(np.max(np.abs(np.linalg.eigvals(A_v))))
-    return RobustLyapunov(P=Po, rho=got, rho_vertices=rv, spectral_radius=rho_spec, T=T,
-                          decay_rate_1_s=-math.log(got) / T, min_eig_P=float(np.min(ev[:, 0] / ev[:, -1])),
-                          status=status, ok=True)
+    return RobustLyapunov(P=Po, rho=wm.rho, rho_vertices=rv, spectral_radius=rho_spec, T=T,
+                          decay_rate_1_s=-math.log(wm.rho) / T, min_eig_P=wm.min_eig_ratio, status=status, ok=True)
 
 
 def _affine(Pk: np.ndarray, theta: np.ndarray) -> np.ndarray:
@@ -659,6 +659,62 @@ def _affine(Pk: np.ndarray, theta: np.ndarray) -> np.ndarray:
     theta = np.atleast_2d(theta)
     return Pk[0][None] + np.einsum("ij,jkl->ikl", theta, Pk[1:]) if Pk.shape[0] > 1 else \
         np.broadcast_to(Pk[0], (theta.shape[0],) + Pk.shape[1:])
+
+
+@dataclass(frozen=True)
+class WitnessMargins:
+    """What an affine ``P(θ)`` certifies at the LMI points, with the rounding bound of each strict inequality.
+
+    Attributes
+    ----------
+    rho
+        Largest numpy contraction ``‖P(θ)^{1/2} A(θ) P(θ)^{-1/2}‖₂`` over the points (``inf``: ``P`` not
+        positive definite at a point).
+    rho_bound
+        Largest rounding bound of that contraction over the points
+        (:func:`nniquad.analysis.lmi.checks.contraction_rounding_bound`).
+    definite
+        Smallest eigenvalue of the diagonally scaled ``P(θ)`` over the corners of the θ-cube (``P`` is affine,
+        so ``P ≻ 0`` there holds on the whole cube).
+    definite_bound
+        Its rounding bound (:func:`nniquad.analysis.lmi.checks.definite_margin`).
+    min_eig_ratio
+        Smallest ``λ_min / λ_max`` of ``P(θ)`` over the corners (unscaled; a record of the conditioning).
+    rho_all : ndarray
+        The contraction at every point.
+    """
+
+    rho: float
+    rho_bound: float
+    definite: float
+    definite_bound: float
+    min_eig_ratio: float
+    rho_all: np.ndarray
+
+    @property
+    def ok(self) -> bool:
+        """``ρ < 1`` and ``P ≻ 0``, each with a margin above its rounding bound."""
+        return bool(self.rho < 1.0 and 1.0 - self.rho > self.rho_bound and self.definite > self.definite_bound)
+
+
+def witness_margins(Pk: np.ndarray, A_v: np.ndarray, theta: np.ndarray) -> WitnessMargins:
+    """:class:`WitnessMargins` of ``P(θ) = P_0 + Σ θ_j P_j`` for the loops ``A_v`` at the points ``theta`` (numpy)."""
+    Pk = np.asarray(Pk, float)
+    th = np.atleast_2d(np.asarray(theta, float)).reshape(A_v.shape[0], -1)
+    q = th.shape[1]
+    corners = np.array(list(itertools.product((-1.0, 1.0), repeat=q)), float).reshape(-1, q)
+    Pc = _affine(Pk, corners)
+    lam, lam_bound = lmi_checks.definite_margin(Pc)
+    ev = np.linalg.eigvalsh(_sym(Pc))
+    ratio = float(np.min(ev[:, 0] / ev[:, -1]))
+    P = _affine(Pk, th)
+    try:
+        rv = contraction_batch(A_v, P)
+    except np.linalg.LinAlgError:  # P(θ) not positive definite at a point
+        return WitnessMargins(math.inf, math.inf, float(np.min(lam)), float(np.max(lam_bound)), ratio, np.array([]))
+    bound = lmi_checks.contraction_rounding_bound(A_v, P, rv)
+    return WitnessMargins(rho=float(np.max(rv)), rho_bound=float(np.max(bound)), definite=float(np.min(lam)),
+                          definite_bound=float(np.max(lam_bound)), min_eig_ratio=ratio, rho_all=rv)
 
 
 @dataclass(frozen=True)
@@ -676,11 +732,19 @@ class GridCheck:
     worst_margin
         ``1 - worst_rho`` (positive: ``P`` decreases at every grid point).
     worst_point
-        The point of ``worst_rho`` (:data:`POINT_NAMES` factors).
+        A point where ``worst_rho`` is attained (many points may tie to rounding: a check compares the value
+        at a stated point, never which of the tied points an argmax picks).
     worst_spectral_radius
-        Largest spectral radius of ``A_d`` over the grid.
+        Largest spectral radius of ``A_d`` over the grid (at most the contraction: implied by ``rho < 1``).
     worst_spectral_point
-        Where it is attained.
+        A point where it is attained.
+    rounding_bound
+        Largest rounding bound of the contraction over the grid
+        (:func:`nniquad.analysis.lmi.checks.contraction_rounding_bound`).
+    margin_over_bound
+        Smallest ``(1 - rho) / bound`` over the grid: ``rho < 1`` is certified at every point iff it exceeds 1.
+    rho_all, spectral_all : ndarray
+        The contraction and the spectral radius at every grid point (not serialised).
     """
 
     size: int
@@ -690,16 +754,22 @@ class GridCheck:
     worst_point: tuple[float, ...]
     worst_spectral_radius: float
     worst_spectral_point: tuple[float, ...]
+    rounding_bound: float = math.nan
+    margin_over_bound: float = math.nan
+    rho_all: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False, compare=False)
+    spectral_all: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False, compare=False)
 
     @property
     def ok(self) -> bool:
-        return bool(self.worst_rho < 1.0 and self.worst_spectral_radius < 1.0)
+        """Every grid point contracts with a margin above rounding (and so has spectral radius < 1)."""
+        return bool(self.worst_rho < 1.0 and self.worst_spectral_radius < 1.0 and self.margin_over_bound > 1.0)
 
     def to_json(self) -> dict[str, Any]:
         return {"size": self.size, "points_per_axis": self.points_per_axis, "worst_rho": self.worst_rho,
                 "worst_margin": self.worst_margin, "worst_point": dict(zip(POINT_NAMES, self.worst_point)),
                 "worst_spectral_radius": self.worst_spectral_radius,
-                "worst_spectral_point": dict(zip(POINT_NAMES, self.worst_spectral_point)), "ok": self.ok}
+                "worst_spectral_point": dict(zip(POINT_NAMES, self.worst_spectral_point)),
+                "rounding_bound": self.rounding_bound, "margin_over_bound": self.margin_over_bound, "ok": self.ok}
 
 
 def grid_check(family: CascadeFamily, P: np.ndarray, points_per_axis: int) -> GridCheck:
@@ -707,14 +777,27 @@ def grid_check(family: CascadeFamily, P: np.ndarray, points_per_axis: int) -> Gr
 
     The vertex LMIs of :func:`robust_lyapunov` do not extend to the interior of
     the box (``A_d`` is not affine in the parameters); this check covers the
-    grid points, and only them.
+    grid points, and only them.  Each point's ``1 - rho`` is compared with its
+    rounding bound (:func:`nniquad.analysis.lmi.checks.contraction_rounding_bound`).
     """
     rho = contraction_batch(family.A_d, P)
     sr = family.spectral_radius
+    bound = np.asarray(lmi_checks.contraction_rounding_bound(family.A_d, P, rho), float).reshape(rho.shape)
     i, j = int(np.argmax(rho)), int(np.argmax(sr))
     return GridCheck(size=len(family), points_per_axis=int(points_per_axis), worst_rho=float(rho[i]),
                      worst_margin=float(1.0 - rho[i]), worst_point=tuple(float(v) for v in family.points[i]),
-                     worst_spectral_radius=float(sr[j]), worst_spectral_point=tuple(float(v) for v in family.points[j]))
+                     worst_spectral_radius=float(sr[j]), worst_spectral_point=tuple(float(v) for v in family.points[j]),
+                     rounding_bound=float(np.max(bound)), margin_over_bound=float(np.min((1.0 - rho) / bound)),
+                     rho_all=rho, spectral_all=np.asarray(sr, float))
+
+
+def point_index(points: np.ndarray, point: Sequence[float], rtol: float = 1e-9) -> int | None:
+    """Index of ``point`` among the rows of ``points`` (within ``rtol``, relative), or ``None``."""
+    p = np.asarray(point, float).reshape(1, -1)
+    if p.shape[1] != points.shape[1] or not np.all(np.isfinite(p)):
+        return None
+    hit = np.flatnonzero(np.all(np.abs(points - p) <= rtol * np.abs(p), axis=1))
+    return int(hit[0]) if hit.size else None
 
 
 # =============================================================================== decoupled subsystems
@@ -819,19 +902,46 @@ def _relevance_points(box: ParameterBox) -> np.ndarray:
     return np.array(pts)
 
 
-def _relevance_from(fam: CascadeFamily, box: ParameterBox, tol: float = 1e-9) -> dict[str, tuple[int, ...]]:
+#: A coordinate that changes a subsystem's loop by more than this (relative) is in its LMI (:func:`relevant_coordinates`).
+RELEVANCE_TOL = 1e-9
+#: ``verify`` accepts either choice for a change within this factor of :data:`RELEVANCE_TOL` (a threshold
+#: decision must not depend on rounding; the changes seen are >= 1e-2 or <= 1e-10, rounding moves them by 1e-16).
+RELEVANCE_BAND = 10.0
+
+
+def _relevance_changes(fam: CascadeFamily, box: ParameterBox) -> dict[str, np.ndarray]:
+    """How much each coordinate, moved alone to either end of the box, changes each subsystem (relative; 0 where
+    the box is degenerate)."""
     lo, hi = box.bounds()
     out = {}
     for name in SUBSYSTEMS:
         A = _subsystem(fam, name)[0]
         scale = max(float(np.max(np.abs(A[0]))), 1.0)
-        out[name] = tuple(j for j in range(6) if hi[j] > lo[j]
-                          and max(np.max(np.abs(A[1 + 2 * j] - A[0])), np.max(np.abs(A[2 + 2 * j] - A[0]))) > tol * scale)
+        out[name] = np.array([max(np.max(np.abs(A[1 + 2 * j] - A[0])), np.max(np.abs(A[2 + 2 * j] - A[0]))) / scale
+                              if hi[j] > lo[j] else 0.0 for j in range(6)])
     return out
 
 
+def _relevance_from(fam: CascadeFamily, box: ParameterBox, tol: float = RELEVANCE_TOL) -> dict[str, tuple[int, ...]]:
+    return {name: tuple(int(j) for j in np.flatnonzero(ch > tol)) for name, ch in _relevance_changes(fam, box).items()}
+
+
+def relevance_consistent(fam: CascadeFamily, box: ParameterBox, dims: Mapping[str, Sequence[int]]) -> bool:
+    """Whether stated ``dims`` hold every clearly relevant coordinate and no clearly irrelevant one.
+
+    A change above ``RELEVANCE_TOL * RELEVANCE_BAND`` must be in, one below ``RELEVANCE_TOL / RELEVANCE_BAND``
+    must be out, and one in between may be either (its side of the threshold could depend on rounding).
+    """
+    for name, ch in _relevance_changes(fam, box).items():
+        stated = set(dims.get(name, ()))
+        if any((ch[j] > RELEVANCE_TOL * RELEVANCE_BAND and j not in stated)
+               or (ch[j] < RELEVANCE_TOL / RELEVANCE_BAND and j in stated) for j in range(6)):
+            return False
+    return True
+
+
 def relevant_coordinates(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, box: ParameterBox, *,
-                         tilt_limit_deg: float, rate_hz: float, tol: float = 1e-9) -> dict[str, tuple[int, ...]]:
+                         tilt_limit_deg: float, rate_hz: float, tol: float = RELEVANCE_TOL) -> dict[str, tuple[int, ...]]:
     """Which point coordinates change each subsystem's ``A_d`` (moving one coordinate to each end of the box).
 
     A coordinate that changes a subsystem by less than ``tol`` (relative) is
@@ -1077,20 +1187,30 @@ def _mirror(x: tuple, y: tuple, rtol: float = 1e-6) -> np.ndarray | None:
 def _mirrored(lx: RobustLyapunov, d: np.ndarray, A_v: np.ndarray, theta: np.ndarray) -> RobustLyapunov | None:
     """``D P_x(θ) D`` as y's Lyapunov matrix, its contraction re-checked with numpy on y's loops (``None``: it fails)."""
     P = d[None, :, None] * lx.P * d[None, None, :]
-    try:
-        rv = contraction_batch(A_v, _affine(P, theta))
-    except np.linalg.LinAlgError:
+    wm = witness_margins(P, A_v, theta)
+    if not wm.ok:
         return None
-    got = float(np.max(rv))
-    if not got < 1.0:
-        return None
-    return replace(lx, P=P, rho=got, rho_vertices=rv, spectral_radius=float(np.max(np.abs(np.linalg.eigvals(A_v)))),
-                   decay_rate_1_s=-math.log(got) / lx.T, status=f"mirrored from x ({lx.status})")
+    return replace(lx, P=P, rho=wm.rho, rho_vertices=wm.rho_all,
+                   spectral_radius=float(np.max(np.abs(np.linalg.eigvals(A_v)))),
+                   decay_rate_1_s=-math.log(wm.rho) / lx.T, min_eig_P=wm.min_eig_ratio,
+                   status=f"mirrored from x ({lx.status})")
 
 
 def tilt_accel_limit(vehicle: Vehicle, box: ParameterBox, tilt_limit_deg: float) -> float:
     """``u0 = (lowest mass factor) g tan(tilt)`` [m/s²]: the tilt limit as a bound on the horizontal command over the box."""
     return box.mass_factor[0] * vehicle.g * math.tan(math.radians(tilt_limit_deg))
+
+
+def _block_loops(fam: CascadeFamily, box: ParameterBox, pts: Mapping[str, np.ndarray],
+                 dims: Mapping[str, Sequence[int]]) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Each subsystem's loops ``A`` at its LMI points and their θ coordinates, from a family stacked as
+    ``[nominal, LMI points of each subsystem in SUBSYSTEMS order, ...]``."""
+    out, k = {}, 1
+    for name in SUBSYSTEMS:
+        m = pts[name].shape[0]
+        out[name] = (_subsystem(fam, name)[0][k:k + m], _coords(box, pts[name], dims[name]))
+        k += m
+    return out
 
 
 def _certify_box(vehicle, gains, inner, box, *, tilt_limit_deg, rate_hz, dims, grid_n):
@@ -1441,6 +1561,7 @@ def _cascade_section(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, t
     margins = _vertex_margins(sampled_family(vehicle, gains, inner, _subgrid(box, mdims, 2),
                                              tilt_limit_deg=tilt_limit_deg, rate_hz=rate_hz), rate_hz)
     nom = _take(fam, np.arange(1))
+    loops = _block_loops(fam, box, pts, dims)
     timings["margins_s"] = time.perf_counter() - t0 - sum(timings.values())
     section = {
         "rate_hz": float(rate_hz), "controller": "discrete", "attitude_loop": "continuous", "model": _MODEL,
@@ -1460,6 +1581,7 @@ def _cascade_section(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, t
             "subsystems": {name: {"states": list(SUBSYSTEMS[name]), "dims": [POINT_NAMES[j] for j in dims[name]],
                                   "lmi_points": int(pts[name].shape[0]), "rho": l.rho,
                                   "decay_rate_1_s": l.decay_rate_1_s, "spectral_radius": l.spectral_radius,
+                                  **_margin_fields(witness_margins(l.P, *loops[name])),
                                   "P": l.P.tolist()} for name, l in lyap.items()},
         },
         "grid": gc.to_json(),
@@ -1478,6 +1600,13 @@ def _cascade_section(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, t
 # =============================================================================== the check
 
 
+def _margin_fields(wm: WitnessMargins) -> dict[str, float]:
+    """A subsystem's stated rounding margins: ``1 - rho`` must exceed ``rho_rounding_bound``, and the smallest
+    eigenvalue of the scaled ``P(θ)`` at the cube's corners must exceed ``min_eig_bound``."""
+    return {"rho_rounding_bound": wm.rho_bound, "min_eig_scaled": wm.definite, "min_eig_bound": wm.definite_bound}
+
+
+
 def _close(a: Any, b: Any, rtol: float = 1e-9) -> bool:
     try:
         A, B = np.asarray(a, float), np.asarray(b, float)
@@ -1492,6 +1621,25 @@ def _close(a: Any, b: Any, rtol: float = 1e-9) -> bool:
 
 def _num(v: Any) -> float:
     return float(v) if not isinstance(v, str) else float(v)
+
+
+def _same_worst(stated: Mapping[str, Any], gc: GridCheck, points: np.ndarray) -> bool:
+    """The stated worst values equal the recomputed ones, and each stated worst point is a grid point whose own
+    value equals the recomputed worst, all within the rounding bound (never *which* of tied points is stated:
+    many grid points tie to rounding, and another machine's argmax may pick another of them)."""
+    tol = max(1e-9, gc.rounding_bound)
+    for value_key, point_key, values in (("worst_rho", "worst_point", gc.rho_all),
+                                         ("worst_spectral_radius", "worst_spectral_point", gc.spectral_all)):
+        worst = float(np.max(values))
+        i = point_index(points, [stated[point_key][n] for n in POINT_NAMES])
+        if not (_is_number(stated.get(value_key)) and abs(float(stated[value_key]) - worst) <= tol
+                and i is not None and abs(float(values[i]) - worst) <= tol):
+            return False
+    return _is_number(stated.get("worst_margin")) and abs(float(stated["worst_margin"]) - (1.0 - gc.worst_rho)) <= tol
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
 
 #: Families rebuilt by :func:`check_cascade_section` in this process, by their exact inputs: the rebuild is
@@ -1589,7 +1737,7 @@ def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: G
     n_cert = 1 + sum(p.shape[0] for p in pts.values()) + box.grid(grid_n).shape[0]
     big.spectral_radius  # noqa: B018  once per rebuilt family (it is cached): every check below shares it
     fam = _take(big, np.arange(n_cert))
-    add("relevant coordinates", _relevance_from(_take(big, np.arange(n_cert, len(big))), box) == dims,
+    add("relevant coordinates", relevance_consistent(_take(big, np.arange(n_cert, len(big))), box, dims),
         str({k: subs[k]["dims"] for k in SUBSYSTEMS}))
     mats = section["matrices"]
     nom = _take(fam, np.arange(1))
@@ -1602,34 +1750,32 @@ def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: G
     add("subsystems decoupled", cpl <= COUPLING_TOL and _close(lyap_s.get("coupling"), cpl, 1e-6),
         f"coupling {cpl:.3g} (stated {lyap_s.get('coupling')})")
     lyap: dict[str, RobustLyapunov] = {}
-    k = 1
+    loops = _block_loops(fam, box, pts, dims)
+    k = 1 + sum(p.shape[0] for p in pts.values())
     for name in SUBSYSTEMS:
-        m = pts[name].shape[0]
-        A = _subsystem(fam, name)[0][k:k + m]
-        k += m
-        th = _coords(box, pts[name], dims[name])
-        q = th.shape[1]
+        A, th = loops[name]
+        m, q = A.shape[0], th.shape[1]
         good = Pk[name].shape == (q + 1, len(SUBSYSTEMS[name]), len(SUBSYSTEMS[name]))
         detail = "bad P shape"
         if good:
-            corners = np.array(list(itertools.product((-1.0, 1.0), repeat=q)), float).reshape(-1, q)
-            mineig = float(np.min(np.linalg.eigvalsh(_affine(Pk[name], corners))[:, 0]))
-            try:
-                rv = contraction_batch(A, _affine(Pk[name], th))
-                worst = float(np.max(rv))
-            except np.linalg.LinAlgError:
-                worst = math.inf
+            wm = witness_margins(Pk[name], A, th)
             sr = float(np.max(np.abs(np.linalg.eigvals(A))))
             rho = rhos[name]
-            # the stated rho is the exact numpy contraction of the stated P at the LMI points (best_decay,
-            # reach_lyapunov): recomputed, so another witness P, even a valid one, is not the one signed
-            good = (mineig > 0 and _close(worst, rho) and rho < 1 and m == subs[name]["lmi_points"]
+            # the stated rho is the numpy contraction of the stated P at the LMI points (best_decay,
+            # reach_lyapunov), equal within its rounding bound: another witness P, even a valid one, is not the
+            # one signed; rho < 1 and P > 0 each hold with a margin above rounding (WitnessMargins.ok)
+            tol = max(1e-9, wm.rho_bound) if math.isfinite(wm.rho_bound) else 1e-9
+            stated_margins = {key: subs[name].get(key) for key in _margin_fields(wm)}
+            good = (wm.ok and abs(wm.rho - rho) <= tol and m == subs[name]["lmi_points"]
                     and _close(subs[name]["spectral_radius"], sr)
-                    and _close(subs[name]["decay_rate_1_s"], -math.log(rho) / T))
-            detail = f"{m} points, contraction {worst:.10f} = rho {rho:.10f} < 1, min eig P {mineig:.3g}"
-            lyap[name] = RobustLyapunov(P=Pk[name], rho=rho, rho_vertices=rv if math.isfinite(worst) else np.array([]),
-                                        spectral_radius=sr, T=T, decay_rate_1_s=-math.log(rho) / T,
-                                        min_eig_P=mineig, status="stored", ok=good)
+                    and _close(subs[name]["decay_rate_1_s"], -math.log(rho) / T)
+                    and all(_close(stated_margins[key], v, 1e-6) for key, v in _margin_fields(wm).items()))
+            detail = (f"{m} points, contraction {wm.rho:.10f} = rho {rho:.10f} < 1 by {1 - wm.rho:.3g} "
+                      f"(rounding bound {wm.rho_bound:.2g}); min eig scaled P {wm.definite:.3g} "
+                      f"(bound {wm.definite_bound:.2g})")
+            lyap[name] = RobustLyapunov(P=Pk[name], rho=rho, rho_vertices=wm.rho_all, spectral_radius=sr, T=T,
+                                        decay_rate_1_s=-math.log(rho) / T, min_eig_P=wm.min_eig_ratio,
+                                        status="stored", ok=good)
         add(f"Lyapunov LMI [{name}]", good, detail)
     if len(lyap) != len(SUBSYSTEMS):
         return out
@@ -1641,11 +1787,11 @@ def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: G
         gc = grid_check(grid_fam, _assemble_P(lyap, dims, box, grid_fam.points, fam.state_names), grid_n)
         g = section["grid"]
         ok = (gc.ok and g.get("size") == gc.size and g.get("ok") is True
-              and all(_close(g.get(key), getattr(gc, key)) for key in ("worst_rho", "worst_margin",
-                                                                         "worst_spectral_radius"))
-              and _close([g["worst_point"][n] for n in POINT_NAMES], gc.worst_point)
-              and _close([g["worst_spectral_point"][n] for n in POINT_NAMES], gc.worst_spectral_point))
-        add("grid check", ok, f"{gc.size} points, worst rho {gc.worst_rho:.8f}, worst spectral radius "
+              and _same_worst(g, gc, grid_fam.points)
+              and _close(g.get("rounding_bound"), gc.rounding_bound, 1e-6)
+              and _close(g.get("margin_over_bound"), gc.margin_over_bound, 1e-6))
+        add("grid check", ok, f"{gc.size} points, worst rho {gc.worst_rho:.8f} (1 - rho >= {gc.margin_over_bound:.3g} "
+                              f"x its rounding bound, <= {gc.rounding_bound:.2g}), worst spectral radius "
                               f"{gc.worst_spectral_radius:.8f}")
     except (KeyError, TypeError, ValueError, np.linalg.LinAlgError) as exc:
         add("grid check", False, f"unreadable or not positive definite ({exc})")

@@ -131,7 +131,7 @@ def unsettled_reference_run(cert: Certificate | Mapping[str, Any]) -> str | None
         horizon = float(run["settings"]["horizon_s"])
         s = run["settling_s"]
         if run.get("diverged"):
-            return f"the {model} reference run diverged"
+            return f"the {model} reference run diverged (the vehicle was lost: it blew up or lost its altitude)"
         if s is None:
             return f"the {model} reference run did not settle within its {horizon:g} s horizon"
         if not settling_shown(s, horizon):

@@ -34,6 +34,7 @@ from nniquad.certificates.certificate import TOLERANCES, Certificate, read_certi
 from nniquad.errors import CertificateCheckError, CertificateError, NniquadError
 
 __all__ = ["Check", "Verification", "verify_certificate", "ni_storage_check", "coverage_notes", "clear_cache",
+           "same_multiset",
            "RECORD_FIELDS", "SECTION_KEYS"]
 
 
@@ -147,10 +148,11 @@ def ni_storage_check(name: str, P: np.ndarray, A: np.ndarray, B: np.ndarray, C: 
         Tolerance on :func:`nniquad.analysis.lmi.checks.dissipation_residual`.
     """
     min_eig = K.eigmin(P)
+    definite, bound = K.definite_margin(P)
     worst = K.dissipation_residual(K.sym(P), A, B, C)
-    ok = min_eig > 0 and worst <= tol
-    return Check(name, ok, f"min eig P = {min_eig:.3e}, max eig of the dissipation matrix "
-                           f"{worst:.2e} (relative, <= {tol:g})")
+    ok = definite > bound and worst <= tol
+    return Check(name, ok, f"min eig P = {min_eig:.3e} (scaled {definite:.3g} > rounding bound {bound:.2g}), max eig "
+                           f"of the dissipation matrix {worst:.2e} (relative, <= {tol:g})")
 
 
 #: Fields that are records, not claims: ``verify`` checks none of them, and they change
@@ -291,7 +293,7 @@ def _verify(cert: Certificate, simulate: bool, say: Callable[[str], None], fail_
         lambda: _ni_checks(cert, tol, "plant_ni"),
         lambda: _ni_checks(cert, tol, "controller_ni"),
         lambda: _closed_loop_check(cert, tol),
-        lambda: _roa_check(cert, tol["lmi_relative"]),
+        lambda: _roa_check(cert),
         lambda: _robust_mass_check(cert, tol),
         lambda: _bound_check(cert),
     ]
@@ -426,16 +428,40 @@ def _poles_check(cert: Certificate) -> Check:
     ok = pd.stable and abs(pd.decay_rate - stated_rate) <= 1e-6 * abs(pd.decay_rate) and loop.stable
     # every other stated number of the section too: a wrong damping or pole list must not pass
     # (the poles to 1e-8 of the largest: a stated imaginary part of 1e-6 on a real pole is refused)
-    poles = np.array([[p.real, p.imag] for p in pd.poles])
     stated_poles = np.array(margin.get("poles_1_s", ()), dtype=float)
     ok = (ok and _close(margin.get("routh_margin"), m * kp * d - 1.0, 1e-12)
           and _close(margin.get("max_real_part_1_s"), pd.max_real_part, 1e-6)
           and _close(margin.get("min_damping"), pd.min_damping, 1e-6)
-          and stated_poles.shape == poles.shape
-          and bool(np.all(np.abs(stated_poles - poles) <= 1e-8 * np.max(np.abs(pd.poles)))))
+          and same_multiset(stated_poles, pd.poles, 1e-8 * float(np.max(np.abs(pd.poles)))))
     return Check("poles", ok, f"max Re = {pd.max_real_part:.6g} 1/s, decay {pd.decay_rate:.6g} 1/s "
                               f"(stated {stated_rate:.6g}), min damping {pd.min_damping:.4g}, "
                               f"m kp delta - 1 = {m * kp * d - 1:.4g}")
+
+
+def same_multiset(stated: np.ndarray, computed: np.ndarray, tol: float) -> bool:
+    """Whether stated ``[re, im]`` rows and computed complex numbers are the same multiset within ``tol``.
+
+    The rows are matched by an optimal assignment, never by position: the eigenvalues of the two identical axes
+    (and the two members of a conjugate pair) tie in any sort key, and another machine's LAPACK returns tied
+    values in another order.
+
+    Parameters
+    ----------
+    stated : array (n, 2)
+        Real and imaginary parts, as stated.
+    computed : array (n,), complex
+        The recomputed values.
+    tol
+        Largest distance of a matched pair.
+    """
+    from scipy.optimize import linear_sum_assignment
+
+    got = np.asarray(computed, complex).ravel()
+    if stated.ndim != 2 or stated.shape != (got.size, 2) or not np.all(np.isfinite(stated)):
+        return False
+    dist = np.abs((stated[:, 0] + 1j * stated[:, 1])[:, None] - got[None, :])
+    rows, cols = linear_sum_assignment(dist)
+    return bool(np.all(dist[rows, cols] <= tol))
 
 
 def _ni_checks(cert: Certificate, tol: Mapping[str, float], which: str) -> Check:
@@ -452,11 +478,13 @@ def _closed_loop_check(cert: Certificate, tol: Mapping[str, float]) -> Check:
     P = _array(part, "P", (3, 3), "lmi.closed_loop")
     if not np.array_equal(P, P.T):
         return Check("lmi.closed_loop", False, "stored P is not symmetric")
-    rate = K.certified_rate(cert.loop.closed_loop_A_axis(), P)
+    A = cert.loop.closed_loop_A_axis()
+    rate = K.certified_rate(A, P)
+    bound = K.rate_rounding_bound(A, P, rate)
     stated = float(part.get("decay_rate_1_s", math.nan))
-    ok = rate >= stated * (1 - tol["rate_relative"]) and stated > 0
+    ok = rate >= stated * (1 - tol["rate_relative"]) and stated > 0 and rate > bound
     return Check("lmi.closed_loop", ok, f"P > 0 and A'P + PA <= -eps P with eps = {rate:.6g} 1/s "
-                                        f"(stated {stated:.6g})")
+                                        f"(stated {stated:.6g}; rounding bound {bound:.2g} 1/s)")
 
 
 def _robust_mass_check(cert: Certificate, tol: Mapping[str, float]) -> Check:
@@ -470,13 +498,15 @@ def _robust_mass_check(cert: Certificate, tol: Mapping[str, float]) -> Check:
     if not (0 < lo <= hi and math.isfinite(mn) and mn > 0):
         raise CertificateError("certificate lmi.robust_mass needs 0 < m_lo_kg <= m_hi_kg and m_nominal_kg > 0")
     nominal = cert.loop.with_mass(mn)
-    worst = math.inf
+    worst, above = math.inf, math.inf  # the smallest rate, and the smallest rate less its rounding bound
     for mt in 1.0 / np.linspace(1.0 / hi, 1.0 / lo, 201):
         A_m = nominal.with_mass(mt, thrust_model=True).closed_loop_A_axis()
-        worst = min(worst, K.certified_rate(A_m, P0 + P1 / mt))
-    ok = worst >= stated * (1 - tol["rate_relative"]) and stated > 0
-    return Check("lmi.robust_mass", ok, f"P0 + P1/m > 0 and decay >= {worst:.6g} 1/s (stated {stated:.6g}) "
-                                        f"on 201 masses in [{lo:g}, {hi:g}] kg")
+        rate = K.certified_rate(A_m, P0 + P1 / mt)
+        worst = min(worst, rate)
+        above = min(above, rate - K.rate_rounding_bound(A_m, P0 + P1 / mt, rate))
+    ok = worst >= stated * (1 - tol["rate_relative"]) and stated > 0 and above > 0
+    return Check("lmi.robust_mass", ok, f"P0 + P1/m > 0 and decay >= {worst:.6g} 1/s (stated {stated:.6g}; above "
+                                        f"its rounding bound: {above > 0}) on 201 masses in [{lo:g}, {hi:g}] kg")
 
 
 def _bound_check(cert: Certificate) -> Check:
@@ -525,7 +555,7 @@ def _thaw_json(value: Any) -> Any:
     return json.loads(json.dumps(value, default=lambda o: dict(o) if isinstance(o, Mapping) else list(o)))
 
 
-def _roa_check(cert: Certificate, tol: float) -> Check:
+def _roa_check(cert: Certificate) -> Check:
     part = _part(cert.lmi, "region_of_attraction", "lmi")
     P = _array(part, "P", (3, 3), "lmi.region_of_attraction")
     if not np.array_equal(P, P.T):
@@ -536,9 +566,9 @@ def _roa_check(cert: Certificate, tol: float) -> Check:
     u0 = axis_acceleration_limit(cert.vehicle.g, cert.tilt_limit_deg, "norm")
     A0, B, Kc = cert.loop.saturation_split()
     Acl = A0 + B @ Kc
-    dec = K.roa_decrease_matrix(Acl, B, P, Gm, T)
-    dec_rel = K.eigmax(dec) / max(K.norm(dec), 1e-300)
-    positive = K.eigmin(P) > 0
+    dec_rel, dec_bound = K.roa_decrease_margin(Acl, B, P, Gm, T)
+    definite, definite_bound = K.definite_margin(P)
+    positive = definite > definite_bound
     W = np.linalg.inv(P) if positive else np.full((3, 3), np.nan)
     incl = K.roa_inclusion_margin(Kc, Gm, W, u0)
     level = K.ellipsoid_level(P, [r, 0.0, 0.0])
@@ -547,10 +577,11 @@ def _roa_check(cert: Certificate, tol: float) -> Check:
     consistent = (top.get("max_displacement_m") == r and start == bool(math.hypot(*cert.xi0_m) <= r)
                   and _close(part.get("u0_m_s2"), u0, 1e-12) and _close(top.get("u0_m_s2"), u0, 1e-12)
                   and top.get("tilt_limit_deg") == cert.tilt_limit_deg)
-    ok = (positive and T[0, 0] > 0 and dec_rel < tol and incl >= -1e-6 and level <= 1 + 1e-6 and r >= 0
+    ok = (positive and T[0, 0] > 0 and dec_rel < -dec_bound and incl >= -1e-6 and level <= 1 + 1e-6 and r >= 0
           and consistent)
     return Check("lmi.region_of_attraction", ok,
-                 f"decrease max eig {dec_rel:.2e} (relative, <= {tol:g}), inclusion margin {incl:.3g}, reach {r:.4g} m "
+                 f"decrease max eig {dec_rel:.2e} (relative, < -{dec_bound:.2g}, its rounding bound), inclusion margin "
+                 f"{incl:.3g}, reach {r:.4g} m "
                  f"at level {level:.6f} <= 1, start_certified = {start} consistent: {consistent}")
 
 
@@ -564,6 +595,32 @@ def _same_margin(stated: Any, computed: Any, tol: float, relative: bool = False)
         return False
     err = abs(float(stated) - float(computed))
     return err <= (tol * max(abs(float(computed)), 1e-12) if relative else tol)
+
+
+def _meets_within(stated: Any, comp: Mapping[str, Any], required: Mapping[str, float],
+                  tol: Mapping[str, float]) -> bool:
+    """A stated ``meets_requirement`` against the recomputed margins, judged within the margins' tolerances.
+
+    A verdict is a threshold on numbers that ``verify`` compares only within ``margin_db_abs`` and
+    ``margin_deg_abs``: a margin within that of its requirement may be computed on either side of it on another
+    machine, so either verdict is accepted there, and only there.  ``True`` needs every margin to reach its
+    requirement less the tolerance (on a stable loop); ``False`` needs one margin short of it by more than the
+    tolerance, or an unstable loop.
+    """
+    if not isinstance(stated, bool):
+        return False
+    if comp.get("stable") is not True:
+        return stated is False
+    gm_req, pm_req = float(required["gm_db"]), float(required["pm_deg"])
+    shortfalls = (  # how far each requirement is missed (negative: met with room)
+        (gm_req - float(comp["gm_db"]), tol["margin_db_abs"]),
+        (float(comp["gm_lower_db"]) + gm_req, tol["margin_db_abs"]),
+        (pm_req - float(comp["pm_deg"]), tol["margin_deg_abs"]),
+    )
+    shortfalls = tuple((math.inf if math.isnan(short) else short, t) for short, t in shortfalls)  # nan: not met
+    if stated:
+        return all(short <= t for short, t in shortfalls)
+    return any(short > -t for short, t in shortfalls)
 
 
 def _margins_check(cert: Certificate, tol: Mapping[str, float]) -> Check:
@@ -592,7 +649,9 @@ def _margins_check(cert: Certificate, tol: Mapping[str, float]) -> Check:
     for name, comp in fresh["break_points"].items():
         st = points[name]
         for key in MARGIN_FIELDS:
-            if key.endswith("_db"):
+            if key == "meets_requirement":
+                same = _meets_within(st.get(key), comp, fresh["required"], tol)
+            elif key.endswith("_db"):
                 same = _same_margin(st.get(key), comp[key], tol["margin_db_abs"])
             elif key.endswith("_deg"):
                 same = _same_margin(st.get(key), comp[key], tol["margin_deg_abs"])
@@ -603,7 +662,8 @@ def _margins_check(cert: Certificate, tol: Mapping[str, float]) -> Check:
             if not same:
                 ok = False
                 bad.append(f"{name}.{key} {st.get(key)!r} (recomputed {comp[key]!r})")
-    ok = ok and stated.get("meets_requirement") is fresh["meets_requirement"]
+    # the overall verdict is the conjunction of the stated per-break-point verdicts (each checked above)
+    ok = ok and stated.get("meets_requirement") is all(points[n].get("meets_requirement") is True for n in points)
     ok = ok and isinstance(stated.get("required"), Mapping) and dict(stated["required"]) == fresh["required"]
     ok = ok and _close(stated.get("horizontal_pm_ceiling_deg"), sector_pm_ceiling_deg(gamma_max), 1e-12)
     h, a = fresh["break_points"]["horizontal"], fresh["break_points"]["attitude"]

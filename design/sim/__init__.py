@@ -13,6 +13,8 @@ Modules
     C code generation and the compiled-function disk cache.
 :mod:`~nniquad.sim.runner`
     :func:`simulate` and the batched runner.
+:mod:`~nniquad.sim.step`
+    The RK4 step check every run meets (:func:`~nniquad.sim.step.check_step`).
 :mod:`~nniquad.sim.results`
     :class:`SimulationResult` (many runs, named signals, metrics, plot) and
     :class:`Trajectory` (one run).

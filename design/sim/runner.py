@@ -23,9 +23,9 @@ time at that rate, its command held over the period: what
 Accuracy at the default step of 1 ms (``tests/test_simulate.py``): the linear
 model agrees with the matrix exponential to ~2e-10 m over 30 s; the full model
 with DOP853 (``solve_ivp``, rtol 1e-11) to ~3e-6 m over 4 s (~2e-5 m with motor
-lag: saturation kinks cap RK4 near first order).  The RK4 step must satisfy
-``Γ δ dt ≤ 2.5`` (NNI controller pole) or ``dt/τ_f ≤ 2.5`` (PD filter), and
-with motor lag ``dt/τ_m ≤ 2.5`` (motor pole), checked before every run.
+lag: saturation kinks cap RK4 near first order).  Before any work every run's
+step is checked against every pole it has (:func:`nniquad.sim.step.check_step`:
+the controller, the motor lag, the inner loops on ``full``; ``|λ| dt ≤ 2.5``).
 """
 
 from __future__ import annotations
@@ -46,6 +46,7 @@ from nniquad.sim.options import MODELS, SimOptions, check_model
 from nniquad.sim.params import (EXO_FIELDS, OUTPUT_NAMES, STATE_NAMES, SimParams, check_controller, n_params,
                                 to_gains)
 from nniquad.sim.results import SimulationResult, Trajectory
+from nniquad.sim.step import check_step
 
 __all__ = ["simulate", "run_batch", "exogenous_inputs", "initial_state", "paper_figure_runs",
            "PAPER_FIGURE_HORIZON_S"]
@@ -180,25 +181,16 @@ def initial_state(model: str, params: SimParams, xi0: Sequence[float] = XI0_M,
     return x0
 
 
-def _check_step(params: Sequence[SimParams]) -> None:
-    """RK4 is stable on the real axis up to |λ dt| = 2.785: the controller pole -Γδ (pd_filtered: -1/τ_f)
-    and, with motor lag, the motor pole -1/τ_m must be resolved (margin: 2.5)."""
+def _check_step(params: Sequence[SimParams], model: str) -> None:
+    """Refuse what the runner cannot integrate: a step too large for a pole (:func:`check_step`), or a
+    discrete controller that is not the NNI law or not fed the sampled measurement."""
     for p in params:
-        g, dt = p.gains, p.run.dt
-        if p.run.discrete > 0.5 and not isinstance(g, Gains):
+        if p.run.discrete > 0.5 and not isinstance(p.gains, Gains):
             raise SimulationError(f"the discrete controller variant is implemented for the NNI law only, not "
-                                  f"{g.controller} (use controller_sampling='held')")
+                                  f"{p.gains.controller} (use controller_sampling='held')")
         if p.run.discrete > 0.5 and p.run.sample_hold < 0.5:
             raise SimulationError("the discrete controller needs the sampled measurement (run.sample_hold = 1)")
-        if isinstance(g, PDFilteredGains) and dt / g.tau_f > 2.5:
-            raise SimulationError(f"time step {dt:g} s too large for the derivative filter tau_f = {g.tau_f:g} s "
-                                  "(RK4 needs dt/tau_f <= 2.5)")
-        if isinstance(g, Gains) and g.Gamma * g.delta * dt > 2.5:
-            raise SimulationError(f"time step {dt:g} s too large for Gamma*delta = {g.Gamma * g.delta:g} 1/s "
-                                  "(RK4 needs Gamma*delta*dt <= 2.5)")
-        if p.run.motor_lag > 0.5 and dt / p.plant.tau_motor > 2.5:
-            raise SimulationError(f"time step {dt:g} s too large for the motor time constant "
-                                  f"{p.plant.tau_motor:g} s (RK4 needs dt/tau_motor <= 2.5)")
+    check_step(params, model)
 
 
 # =============================================================================== running
@@ -435,7 +427,7 @@ def simulate(
             raise SimulationError("all option sets of one simulate call must share model, horizon, dt and output dt")
     if plist is None:
         plist = [SimParams.from_options(vehicle, g, o) for g, o in zip(glist, olist)]
-    _check_step(plist)
+    _check_step(plist, first.model)
     for p, o in zip(plist, olist):
         # the discrete controller's period is a parameter; it must be the period the sample flags follow
         if p.run.discrete > 0.5 and abs(p.run.sample_period * o.noise_rate_hz - 1.0) > 1e-9:

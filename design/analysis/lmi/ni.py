@@ -246,7 +246,10 @@ def sni_lemma(A, B, C, D=None, name: str = "sni_lemma") -> LMIResult:
         "lyapunov_max_eig": lyap / (K.norm(Yv) * K.norm(A)),
         "equality": float(np.linalg.norm(B + A @ Yv @ C.T)) / K.norm(B),
     }
-    ok = res["min_eig_Y"] > 0 and lyap < 0 and res["equality"] <= K.RTOL
+    # strict inequalities with a margin above rounding (nniquad.analysis.lmi.checks)
+    definite, definite_bound = K.definite_margin(Yv)
+    ok = (definite > definite_bound and lyap < -K.expression_rounding_bound(n, 2 * K.norm(A) * K.norm(Yv))
+          and res["equality"] <= K.RTOL)
     if not ok:
         note += "; solver reported a solution but the numpy re-check failed"
     return LMIResult(name, ok, status, {"Y": Yv, **data}, res, -lyap, K.RTOL, note)
@@ -278,7 +281,9 @@ def ni_dissipation_strict(A, B, C, name: str = "ni_dissipation_strict") -> LMIRe
     Pv = K.sym(P.value)
     top = K.eigmax(K.ni_dissipation_matrix(Pv, A, B, C))
     res = {"min_eig_P": K.eigmin(Pv) / K.norm(Pv), "dissipation_max_eig": top / escale}
-    ok = res["min_eig_P"] > 0 and top < 0
+    definite, definite_bound = K.definite_margin(Pv)
+    ok = definite > definite_bound and top < -K.expression_rounding_bound(
+        n + k, 2 * K.norm(Pv) * K.norm(A), 2 * K.norm(Pv) * K.norm(B), 2 * K.norm(A) * K.norm(C), 2 * K.norm(C) * K.norm(B))
     if not ok:
         note += "; solver reported a solution but the numpy re-check failed"
     return LMIResult(name, ok, status, {"P": Pv, **data}, res, -top, K.RTOL, note)

@@ -280,15 +280,20 @@ def _roa_recheck(name: str, status: str, answer, data: dict[str, np.ndarray], u0
     Gv = Zv @ Pv
     # numpy re-check in the original (P, G, T) variables
     T = np.linalg.inv(Sv)
-    dec_P = K.roa_decrease_matrix(A_cl, B, Pv, Gv, T)
+    dec_rel, dec_bound = K.roa_decrease_margin(A_cl, B, Pv, Gv, T)
+    definite, definite_bound = K.definite_margin(Pv)
     res = {
         "min_eig_W": K.eigmin(Wv) / K.norm(Wv),
         "decrease_max_eig_W": K.eigmax(np.block([[A_cl @ Wv + Wv @ A_cl.T, -B @ Sv + Zv.T], [Zv - Sv @ B.T, -2 * Sv]])),
-        "decrease_max_eig_P": K.eigmax(dec_P) / K.norm(dec_P),
+        "decrease_max_eig_P": dec_rel,
+        "decrease_rounding_bound": dec_bound,
+        "min_eig_P_scaled": definite,
+        "definite_rounding_bound": definite_bound,
         "inclusion_margin": K.roa_inclusion_margin(Kc, Gv, Wv, u0),
         "x0_level": K.ellipsoid_level(Pv, rv * e1),
     }
-    ok = (res["min_eig_W"] > 0 and res["decrease_max_eig_W"] < 0 and res["decrease_max_eig_P"] < 0
+    # strict inequalities with a margin above rounding (nniquad.analysis.lmi.checks)
+    ok = (res["min_eig_W"] > 0 and res["decrease_max_eig_W"] < 0 and dec_rel < -dec_bound and definite > definite_bound
           and res["inclusion_margin"] >= -K.RTOL and res["x0_level"] <= 1 + 1e-5 and T[0, 0] > 0)
     if rv >= 0.999 * r_cap:
         note += "; displacement hit its cap"

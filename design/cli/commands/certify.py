@@ -89,13 +89,16 @@ def run(args: argparse.Namespace) -> int:
         changes = {k: v for k, v in (("attitude_wn_rad_s", args.attitude_wn), ("attitude_zeta", args.attitude_zeta),
                                      ("attitude_accel_limit_rad_s2", args.attitude_accel)) if v is not None}
         inner = replace(DEFAULT_INNER_LOOP_GAINS, **changes)
-        from nniquad.config import DT_S
-        from nniquad.errors import SimulationError
-        from nniquad.validate import check_rk4_step, inner_loop_poles
+        from nniquad.certificates.certificate import reference_run_options
+        from nniquad.config import XI0_M
+        from nniquad.sim import SimParams
+        from nniquad.sim.step import check_step
 
-        # the certificate's full-model runs use motor lag with the vehicle's time constant and the RK4 step DT_S
-        check_rk4_step(inner_loop_poles(inner, tau_motor_s=vehicle.tau_motor), DT_S, error=SimulationError,
-                       hint={"attitude": "--attitude-wn", "motor lag": "the vehicle's tau_motor"})
+        # the runner's step check on the certificate's full-model reference run, before any LMI is solved
+        run = reference_run_options("full", inner, tilt_limit_deg=options.tilt_limit_deg, xi0=XI0_M)
+        check_step(SimParams.from_options(vehicle, gains, run), "full",
+                   hint={"NNI controller (Gamma*delta)": "--Gamma or --delta", "attitude": "--attitude-wn",
+                         "motor lag": "the vehicle's tau_motor"})
         cert = certify(vehicle, gains, inner=inner, options=options, progress=progress.message, rate_hz=rate,
                        box=box, widest_box=args.widest_box)
     else:
