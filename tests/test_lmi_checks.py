@@ -88,3 +88,131 @@ def test_ellipsoid_level():
     P = np.diag([0.25, 1.0])
     assert checks.ellipsoid_level(P, [2.0, 0.0]) == pytest.approx(1.0, rel=1e-15)  # on the boundary
     assert checks.ellipsoid_level(P, np.array([[1.0], [0.5]])) == pytest.approx(0.5, rel=1e-15)
+
+
+# ----------------------------------------------------------------------------- rounding bounds (issue 22 item 2)
+# Each value below is worked out by hand from the definitions in the docstrings, on matrices whose diagonal
+# scaling is exact: P = [[4, 2], [2, 9]] has D^-1/2 = diag(1/2, 1/3), so P_s = [[1, 1/3], [1/3, 1]] with
+# eigenvalues 2/3 and 4/3 (condition number 2).
+
+EPS = np.finfo(np.float64).eps
+P2 = np.array([[4.0, 2.0], [2.0, 9.0]])
+A2 = np.array([[1.0, 2.0], [3.0, 4.0]])
+A2_S = np.array([[1.0, 4.0 / 3.0], [9.0 / 2.0, 4.0]])  # D^1/2 A D^-1/2 = a_ij d_i / d_j with d = (2, 3)
+
+
+def spectral_norm_2x2(M: np.ndarray) -> float:
+    """sqrt of the largest eigenvalue of M'M, by the 2 x 2 closed form."""
+    S = M.T @ M
+    return math.sqrt(eigmax_2x2(S[0, 0], S[0, 1], S[1, 1]))
+
+
+def test_rounding_safety_constants():
+    assert checks.EPS == 2.0**-52 and checks.ROUNDING_SAFETY == 10.0
+
+
+def test_scaled_form_by_hand_and_the_invariant_it_keeps():
+    Ps, As = checks.scaled_form(np.array([[4.0, 1.0], [3.0, 9.0]]), A2)  # the symmetric part of P is P2
+    assert np.allclose(Ps, [[1.0, 1.0 / 3.0], [1.0 / 3.0, 1.0]], rtol=0, atol=1e-15)
+    assert np.allclose(As, A2_S, rtol=0, atol=1e-15)
+    assert checks.scaled_form(P2)[1] is None
+    # independent: the P-norm of A (largest generalised eigenvalue of (A'PA, P)) is the same for (P_s, A_s)
+    import scipy.linalg
+
+    def p_norm(P, A):
+        return math.sqrt(scipy.linalg.eigh(A.T @ P @ A, P, eigvals_only=True)[-1])
+
+    assert p_norm(Ps, As) == pytest.approx(p_norm(P2, A2), rel=1e-12)
+    # a stack is scaled matrix by matrix
+    Ps_stack, _ = checks.scaled_form(np.stack([P2, np.diag([1.0, 16.0])]))
+    assert np.allclose(Ps_stack[1], np.eye(2), rtol=0, atol=0)
+    # a non-positive diagonal entry leaves NaN in its row and column, silently
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        Ps_bad, As_bad = checks.scaled_form(np.diag([-1.0, 4.0]), A2)
+    assert np.isnan(Ps_bad[0]).all() and np.isnan(Ps_bad[:, 0]).all() and Ps_bad[1, 1] == 1.0
+    assert np.isnan(As_bad[0]).all() and As_bad[1, 1] == 4.0
+
+
+def test_definite_margin_by_hand():
+    # P_s = I: lambda_min 1, bound 10 n eps ||P_s|| = 10 * 3 * eps
+    lam, bound = checks.definite_margin(np.diag([1.0, 4.0, 9.0]))
+    assert lam == pytest.approx(1.0, rel=1e-15) and bound == pytest.approx(30.0 * EPS, rel=1e-12)
+    assert isinstance(lam, float) and isinstance(bound, float)
+    lam, bound = checks.definite_margin(P2)
+    assert lam == pytest.approx(2.0 / 3.0, rel=1e-14) and bound == pytest.approx(20.0 * EPS * 4.0 / 3.0, rel=1e-12)
+    # indefinite with a positive diagonal: lambda(P_s) = -1, 3, and the bound takes the largest |lambda|
+    lam, bound = checks.definite_margin(np.array([[1.0, 2.0], [2.0, 1.0]]))
+    assert lam == pytest.approx(-1.0, rel=1e-14) and bound == pytest.approx(20.0 * EPS * 3.0, rel=1e-12)
+    # a non-positive diagonal is not positive definite at all: -inf, with the bound of a unit matrix
+    assert checks.definite_margin(np.diag([0.0, 1.0])) == (-math.inf, pytest.approx(20.0 * EPS, rel=1e-12))
+    # a stack gives one pair per matrix
+    lam, bound = checks.definite_margin(np.stack([np.diag([1.0, 4.0]), P2, np.diag([-1.0, 1.0])]))
+    assert np.allclose(lam[:2], [1.0, 2.0 / 3.0], rtol=1e-14) and lam[2] == -math.inf
+    assert np.allclose(bound, [20.0 * EPS, 20.0 * EPS * 4.0 / 3.0, 20.0 * EPS], rtol=1e-12)
+
+
+def test_contraction_rounding_bound_by_hand():
+    norm_as = spectral_norm_2x2(A2_S)
+    # P = diag(4, 9): P_s = I, kappa 1: 10 n eps (|rho| + ||A_s||), with A_s as for P2 (same diagonal)
+    got = checks.contraction_rounding_bound(A2, np.diag([4.0, 9.0]), -0.5)
+    assert got == pytest.approx(20.0 * EPS * (0.5 + norm_as), rel=1e-12)
+    # P2: kappa = (4/3) / (2/3) = 2
+    got = checks.contraction_rounding_bound(A2, P2, 0.9)
+    assert got == pytest.approx(20.0 * EPS * (2.0 * 0.9 + math.sqrt(2.0) * norm_as), rel=1e-12)
+    assert isinstance(got, float)
+    # not positive definite (indefinite, or a zero diagonal): nothing is certified, the bound is infinite
+    assert checks.contraction_rounding_bound(A2, np.array([[1.0, 2.0], [2.0, 1.0]]), 0.5) == math.inf
+    assert checks.contraction_rounding_bound(A2, np.diag([0.0, 1.0]), 0.5) == math.inf
+    # stacks: one bound per (A, P, rho)
+    out = checks.contraction_rounding_bound(np.stack([A2, A2]), np.stack([np.diag([4.0, 9.0]), P2]),
+                                            np.array([0.5, 0.9]))
+    assert np.allclose(out, [20.0 * EPS * (0.5 + norm_as), 20.0 * EPS * (1.8 + math.sqrt(2.0) * norm_as)],
+                       rtol=1e-12)
+
+
+def test_rate_rounding_bound_by_hand():
+    norm_as = spectral_norm_2x2(A2_S)
+    # P = diag(4, 9): kappa 1: 10 n eps (|rate| + 2 ||A_s||)
+    got = checks.rate_rounding_bound(A2, np.diag([4.0, 9.0]), -3.0)
+    assert got == pytest.approx(20.0 * EPS * (3.0 + 2.0 * norm_as), rel=1e-12)
+    assert checks.rate_rounding_bound(A2, P2, 3.0) == pytest.approx(20.0 * EPS * 2.0 * (3.0 + 2.0 * norm_as),
+                                                                    rel=1e-12)
+    # singular (lambda_min exactly 0), indefinite, or a non-positive diagonal: infinite
+    assert checks.rate_rounding_bound(A2, np.array([[1.0, 1.0], [1.0, 1.0]]), 1.0) == math.inf
+    assert checks.rate_rounding_bound(A2, np.array([[1.0, 2.0], [2.0, 1.0]]), 1.0) == math.inf
+    assert checks.rate_rounding_bound(A2, np.diag([0.0, 1.0]), 1.0) == math.inf
+
+
+def test_expression_rounding_bound_by_hand():
+    assert checks.expression_rounding_bound(3, 2.0, -1.5) == pytest.approx(10.0 * 3 * EPS * 3.5, rel=1e-15)
+    assert checks.expression_rounding_bound(4) == 0.0
+
+
+def test_scaled_eig_margin_by_hand():
+    # M = [[-4, 2], [2, -9]], D = diag(1/2, 1/3): D M D = [[-1, 1/3], [1/3, -1]], lambda_max = -2/3;
+    # with M_abs = |M|: ||D M_abs D|| = 4/3 and ||D M D|| = 4/3, so bound = 10 eps (2 * 4/3 + 2 * 4/3)
+    M = np.array([[-4.0, 2.0], [2.0, -9.0]])
+    lam, bound = checks.scaled_eig_margin(M, np.abs(M), 2)
+    assert lam == pytest.approx(-2.0 / 3.0, rel=1e-14)
+    assert bound == pytest.approx(10.0 * EPS * (2 * 4.0 / 3.0 + 2 * 4.0 / 3.0), rel=1e-12)
+    # n_inner scales the product term only: 5 * 4/3 + 2 * 4/3
+    assert checks.scaled_eig_margin(M, np.abs(M), 5)[1] == pytest.approx(10.0 * EPS * 7 * 4.0 / 3.0, rel=1e-12)
+    # the symmetric part is used, and a zero diagonal entry is left unscaled
+    lam, _ = checks.scaled_eig_margin(np.array([[0.0, 2.0], [0.0, -1.0]]), np.ones((2, 2)), 1)
+    assert lam == pytest.approx((-1.0 + math.sqrt(5.0)) / 2.0, rel=1e-14)
+    # M_abs is taken in absolute value: a negative M_abs gives the same bound
+    assert checks.scaled_eig_margin(M, -np.abs(M), 2)[1] == pytest.approx(bound, rel=1e-15)
+
+
+def test_roa_decrease_margin_of_a_scalar_loop_by_hand():
+    a, b, p, g, t = -1.5, 2.0, 3.0, 0.25, 0.7
+    # M = [[2ap, -pb + gt], [., -2t]] = [[-9, -5.825], [., -1.4]]; M_abs off-diagonal |p||b| + |g||t| = 6.175
+    s = 1.0 / (3.0 * math.sqrt(1.4))  # d1 d2 with d = (1/3, 1/sqrt(1.4))
+    lam, bound = checks.roa_decrease_margin(m(a), m(b), m(p), m(g), m(t))
+    assert lam == pytest.approx(-1.0 + 5.825 * s, rel=1e-13)
+    norm_ms = 1.0 + 5.825 * s  # eigenvalues -1 +- 5.825 s
+    norm_es = 1.0 + 6.175 * s  # eigenvalues 1 +- 6.175 s
+    assert bound == pytest.approx(10.0 * EPS * (2 * norm_es + 2 * norm_ms), rel=1e-12)

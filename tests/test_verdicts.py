@@ -80,6 +80,14 @@ def test_float32_positions_and_scale_at_float64_precision():
 # --------------------------------------------------------------------- altitude loss
 
 
+def test_a_lost_altitude_is_measured_from_its_reference():
+    xy = line([2.5, 1.0, 0.0])
+    assert not diverged(xy, z=np.full(3, 5.5), z_ref=5.0)  # 0.5 m from the reference
+    assert diverged(xy, z=np.full(3, 5.5))  # 5.5 m from the default reference 0
+    assert diverged(xy, z=np.full(3, 5.5), z_ref=5.0, altitude_limit_m=0.4)
+    assert diverged_batch(xy[None], z_batch=np.full((1, 3), 5.5), z_ref=5.0).tolist() == [False]
+
+
 def test_altitude_loss_reference_and_limit():
     # the limit itself below the default reference 0 is allowed
     assert altitude_lost_batch(np.array([[0.0, -ALTITUDE_LIMIT_M, 0.0]])).tolist() == [False]
@@ -96,8 +104,10 @@ def test_compute_metrics_reference_altitude_limit_and_horizon():
     m = compute_metrics(t, xy, z=np.full_like(t, 5.5), z_ref=5.0)
     assert m.horizon_s == pytest.approx(10.0, abs=1e-12)
     assert m.altitude_dev_m == pytest.approx(0.5, abs=1e-12) and m.altitude_lost is False
+    assert m.diverged is False and m.failure is None  # 0.5 m from its 5 m reference: not lost
     assert compute_metrics(t, xy, z=np.full_like(t, 0.25)).altitude_dev_m == pytest.approx(0.25, abs=1e-12)
-    assert compute_metrics(t, xy, z=np.full_like(t, 5.5), z_ref=5.0, altitude_limit_m=0.4).altitude_lost is True
+    low = compute_metrics(t, xy, z=np.full_like(t, 5.5), z_ref=5.0, altitude_limit_m=0.4)
+    assert low.altitude_lost is True and low.diverged is True and low.failure == "altitude lost"
     # float32 altitude: |5 - 0.1| = 4.9 m, not the float32 4.900000095
     m32 = compute_metrics(t, xy, z=np.full(t.size, 5.0, dtype=np.float32), z_ref=0.1)
     assert m32.altitude_dev_m == pytest.approx(4.9, abs=1e-12)
@@ -166,6 +176,12 @@ def test_to_json_turns_numpy_scalars_into_json_values_and_non_finite_into_null()
     assert data["settling_s"] == 1.5 and type(data["settling_s"]) is float
     assert data["overshoot_pct"] is None
     json.dumps(data, allow_nan=False)  # numpy scalars would not serialise
+
+
+def test_a_record_without_its_cause_reads_diverged_as_blown_up():
+    """Metrics written before `blew_up` existed have it None: then `diverged` stands for the cause."""
+    assert _metrics(diverged=True, settling_s=None).failure == "diverged"
+    assert _metrics(diverged=True, blew_up=False, altitude_lost=True, settling_s=None).failure == "altitude lost"
 
 
 def test_from_json_names_the_first_unknown_field():
