@@ -122,7 +122,7 @@ def test_scaled_form_by_hand_and_the_invariant_it_keeps():
     def p_norm(P, A):
         return math.sqrt(scipy.linalg.eigh(A.T @ P @ A, P, eigvals_only=True)[-1])
 
-    assert p_norm(Ps, As) == pytest.approx(p_norm(P2, A2), rel=1e-12)
+    assert p_norm(Ps, As) == pytest.approx(p_norm(P2, A2), rel=1e-12, abs=0)
     # a stack is scaled matrix by matrix
     Ps_stack, _ = checks.scaled_form(np.stack([P2, np.diag([1.0, 16.0])]))
     assert np.allclose(Ps_stack[1], np.eye(2), rtol=0, atol=0)
@@ -134,34 +134,44 @@ def test_scaled_form_by_hand_and_the_invariant_it_keeps():
         Ps_bad, As_bad = checks.scaled_form(np.diag([-1.0, 4.0]), A2)
     assert np.isnan(Ps_bad[0]).all() and np.isnan(Ps_bad[:, 0]).all() and Ps_bad[1, 1] == 1.0
     assert np.isnan(As_bad[0]).all() and As_bad[1, 1] == 4.0
+    # a zero diagonal entry, too, even with a non-zero off-diagonal (not an infinite entry)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        Ps_zero, _ = checks.scaled_form(np.array([[0.0, 1.0], [1.0, 4.0]]))
+        Ps_inf, _ = checks.scaled_form(np.diag([np.inf, 1.0]))  # inf / inf: NaN, silently
+    assert np.isnan(Ps_zero[0]).all() and np.isnan(Ps_zero[:, 0]).all()
+    assert np.isnan(Ps_inf[0, 0])
+    # the symmetric part is taken matrix by matrix in a stack too
+    Ps_ns, _ = checks.scaled_form(np.stack([np.array([[4.0, 1.0], [3.0, 9.0]]), np.eye(2)]))
+    assert np.allclose(Ps_ns[0], [[1.0, 1.0 / 3.0], [1.0 / 3.0, 1.0]], rtol=0, atol=1e-15)
 
 
 def test_definite_margin_by_hand():
     # P_s = I: lambda_min 1, bound 10 n eps ||P_s|| = 10 * 3 * eps
     lam, bound = checks.definite_margin(np.diag([1.0, 4.0, 9.0]))
-    assert lam == pytest.approx(1.0, rel=1e-15) and bound == pytest.approx(30.0 * EPS, rel=1e-12)
+    assert lam == pytest.approx(1.0, rel=1e-15, abs=0) and bound == pytest.approx(30.0 * EPS, rel=1e-12, abs=0)
     assert isinstance(lam, float) and isinstance(bound, float)
     lam, bound = checks.definite_margin(P2)
-    assert lam == pytest.approx(2.0 / 3.0, rel=1e-14) and bound == pytest.approx(20.0 * EPS * 4.0 / 3.0, rel=1e-12)
+    assert lam == pytest.approx(2.0 / 3.0, rel=1e-14, abs=0) and bound == pytest.approx(20.0 * EPS * 4.0 / 3.0, rel=1e-12, abs=0)
     # indefinite with a positive diagonal: lambda(P_s) = -1, 3, and the bound takes the largest |lambda|
     lam, bound = checks.definite_margin(np.array([[1.0, 2.0], [2.0, 1.0]]))
-    assert lam == pytest.approx(-1.0, rel=1e-14) and bound == pytest.approx(20.0 * EPS * 3.0, rel=1e-12)
+    assert lam == pytest.approx(-1.0, rel=1e-14, abs=0) and bound == pytest.approx(20.0 * EPS * 3.0, rel=1e-12, abs=0)
     # a non-positive diagonal is not positive definite at all: -inf, with the bound of a unit matrix
-    assert checks.definite_margin(np.diag([0.0, 1.0])) == (-math.inf, pytest.approx(20.0 * EPS, rel=1e-12))
+    assert checks.definite_margin(np.diag([0.0, 1.0])) == (-math.inf, pytest.approx(20.0 * EPS, rel=1e-12, abs=0))
     # a stack gives one pair per matrix
     lam, bound = checks.definite_margin(np.stack([np.diag([1.0, 4.0]), P2, np.diag([-1.0, 1.0])]))
-    assert np.allclose(lam[:2], [1.0, 2.0 / 3.0], rtol=1e-14) and lam[2] == -math.inf
-    assert np.allclose(bound, [20.0 * EPS, 20.0 * EPS * 4.0 / 3.0, 20.0 * EPS], rtol=1e-12)
+    assert np.allclose(lam[:2], [1.0, 2.0 / 3.0], rtol=1e-14, atol=0) and lam[2] == -math.inf
+    assert np.allclose(bound, [20.0 * EPS, 20.0 * EPS * 4.0 / 3.0, 20.0 * EPS], rtol=1e-12, atol=0)
 
 
 def test_contraction_rounding_bound_by_hand():
     norm_as = spectral_norm_2x2(A2_S)
     # P = diag(4, 9): P_s = I, kappa 1: 10 n eps (|rho| + ||A_s||), with A_s as for P2 (same diagonal)
     got = checks.contraction_rounding_bound(A2, np.diag([4.0, 9.0]), -0.5)
-    assert got == pytest.approx(20.0 * EPS * (0.5 + norm_as), rel=1e-12)
+    assert got == pytest.approx(20.0 * EPS * (0.5 + norm_as), rel=1e-12, abs=0)
     # P2: kappa = (4/3) / (2/3) = 2
     got = checks.contraction_rounding_bound(A2, P2, 0.9)
-    assert got == pytest.approx(20.0 * EPS * (2.0 * 0.9 + math.sqrt(2.0) * norm_as), rel=1e-12)
+    assert got == pytest.approx(20.0 * EPS * (2.0 * 0.9 + math.sqrt(2.0) * norm_as), rel=1e-12, abs=0)
     assert isinstance(got, float)
     # not positive definite (indefinite, or a zero diagonal): nothing is certified, the bound is infinite
     assert checks.contraction_rounding_bound(A2, np.array([[1.0, 2.0], [2.0, 1.0]]), 0.5) == math.inf
@@ -170,16 +180,16 @@ def test_contraction_rounding_bound_by_hand():
     out = checks.contraction_rounding_bound(np.stack([A2, A2]), np.stack([np.diag([4.0, 9.0]), P2]),
                                             np.array([0.5, 0.9]))
     assert np.allclose(out, [20.0 * EPS * (0.5 + norm_as), 20.0 * EPS * (1.8 + math.sqrt(2.0) * norm_as)],
-                       rtol=1e-12)
+                       rtol=1e-12, atol=0)
 
 
 def test_rate_rounding_bound_by_hand():
     norm_as = spectral_norm_2x2(A2_S)
     # P = diag(4, 9): kappa 1: 10 n eps (|rate| + 2 ||A_s||)
     got = checks.rate_rounding_bound(A2, np.diag([4.0, 9.0]), -3.0)
-    assert got == pytest.approx(20.0 * EPS * (3.0 + 2.0 * norm_as), rel=1e-12)
+    assert got == pytest.approx(20.0 * EPS * (3.0 + 2.0 * norm_as), rel=1e-12, abs=0)
     assert checks.rate_rounding_bound(A2, P2, 3.0) == pytest.approx(20.0 * EPS * 2.0 * (3.0 + 2.0 * norm_as),
-                                                                    rel=1e-12)
+                                                                    rel=1e-12, abs=0)
     # singular (lambda_min exactly 0), indefinite, or a non-positive diagonal: infinite
     assert checks.rate_rounding_bound(A2, np.array([[1.0, 1.0], [1.0, 1.0]]), 1.0) == math.inf
     assert checks.rate_rounding_bound(A2, np.array([[1.0, 2.0], [2.0, 1.0]]), 1.0) == math.inf
@@ -187,7 +197,7 @@ def test_rate_rounding_bound_by_hand():
 
 
 def test_expression_rounding_bound_by_hand():
-    assert checks.expression_rounding_bound(3, 2.0, -1.5) == pytest.approx(10.0 * 3 * EPS * 3.5, rel=1e-15)
+    assert checks.expression_rounding_bound(3, 2.0, -1.5) == pytest.approx(10.0 * 3 * EPS * 3.5, rel=1e-15, abs=0)
     assert checks.expression_rounding_bound(4) == 0.0
 
 
@@ -196,15 +206,15 @@ def test_scaled_eig_margin_by_hand():
     # with M_abs = |M|: ||D M_abs D|| = 4/3 and ||D M D|| = 4/3, so bound = 10 eps (2 * 4/3 + 2 * 4/3)
     M = np.array([[-4.0, 2.0], [2.0, -9.0]])
     lam, bound = checks.scaled_eig_margin(M, np.abs(M), 2)
-    assert lam == pytest.approx(-2.0 / 3.0, rel=1e-14)
-    assert bound == pytest.approx(10.0 * EPS * (2 * 4.0 / 3.0 + 2 * 4.0 / 3.0), rel=1e-12)
+    assert lam == pytest.approx(-2.0 / 3.0, rel=1e-14, abs=0)
+    assert bound == pytest.approx(10.0 * EPS * (2 * 4.0 / 3.0 + 2 * 4.0 / 3.0), rel=1e-12, abs=0)
     # n_inner scales the product term only: 5 * 4/3 + 2 * 4/3
-    assert checks.scaled_eig_margin(M, np.abs(M), 5)[1] == pytest.approx(10.0 * EPS * 7 * 4.0 / 3.0, rel=1e-12)
+    assert checks.scaled_eig_margin(M, np.abs(M), 5)[1] == pytest.approx(10.0 * EPS * 7 * 4.0 / 3.0, rel=1e-12, abs=0)
     # the symmetric part is used, and a zero diagonal entry is left unscaled
     lam, _ = checks.scaled_eig_margin(np.array([[0.0, 2.0], [0.0, -1.0]]), np.ones((2, 2)), 1)
-    assert lam == pytest.approx((-1.0 + math.sqrt(5.0)) / 2.0, rel=1e-14)
+    assert lam == pytest.approx((-1.0 + math.sqrt(5.0)) / 2.0, rel=1e-14, abs=0)
     # M_abs is taken in absolute value: a negative M_abs gives the same bound
-    assert checks.scaled_eig_margin(M, -np.abs(M), 2)[1] == pytest.approx(bound, rel=1e-15)
+    assert checks.scaled_eig_margin(M, -np.abs(M), 2)[1] == pytest.approx(bound, rel=1e-15, abs=0)
 
 
 def test_roa_decrease_margin_of_a_scalar_loop_by_hand():
@@ -212,7 +222,67 @@ def test_roa_decrease_margin_of_a_scalar_loop_by_hand():
     # M = [[2ap, -pb + gt], [., -2t]] = [[-9, -5.825], [., -1.4]]; M_abs off-diagonal |p||b| + |g||t| = 6.175
     s = 1.0 / (3.0 * math.sqrt(1.4))  # d1 d2 with d = (1/3, 1/sqrt(1.4))
     lam, bound = checks.roa_decrease_margin(m(a), m(b), m(p), m(g), m(t))
-    assert lam == pytest.approx(-1.0 + 5.825 * s, rel=1e-13)
+    assert lam == pytest.approx(-1.0 + 5.825 * s, rel=1e-13, abs=0)
     norm_ms = 1.0 + 5.825 * s  # eigenvalues -1 +- 5.825 s
     norm_es = 1.0 + 6.175 * s  # eigenvalues 1 +- 6.175 s
-    assert bound == pytest.approx(10.0 * EPS * (2 * norm_es + 2 * norm_ms), rel=1e-12)
+    assert bound == pytest.approx(10.0 * EPS * (2 * norm_es + 2 * norm_ms), rel=1e-12, abs=0)
+
+
+# A 3 x 3 case with three distinct eigenvalues (the middle one is not the extreme one): P3 has a unit diagonal
+# (D = I, so P_s = P3 and A_s = A3) and eigenvalues 1/2, 1, 3/2, condition number 3.
+P3 = np.array([[1.0, 0.5, 0.0], [0.5, 1.0, 0.0], [0.0, 0.0, 1.0]])
+A3 = np.diag([1.0, -2.0, 3.0])  # ||A_s|| = 3
+
+
+def test_three_by_three_bounds_by_hand():
+    lam, bound = checks.definite_margin(P3)
+    assert lam == pytest.approx(0.5, rel=1e-14, abs=0) and bound == pytest.approx(30.0 * EPS * 1.5, rel=1e-12, abs=0)
+    got = checks.contraction_rounding_bound(A3, P3, 0.25)
+    assert got == pytest.approx(30.0 * EPS * (3.0 * 0.25 + math.sqrt(3.0) * 3.0), rel=1e-12, abs=0)
+    assert type(got) is float
+    assert checks.rate_rounding_bound(A3, P3, 1.0) == pytest.approx(30.0 * EPS * 3.0 * (1.0 + 6.0), rel=1e-12, abs=0)
+    # M = -P3: its largest eigenvalue is -1/2 (not the middle -1)
+    lam, _ = checks.scaled_eig_margin(-P3, P3, 3)
+    assert lam == pytest.approx(-0.5, rel=1e-14, abs=0)
+    # a stack of stacks (2 x 1 matrices of 3 x 3): n is the matrices' size, not a stack dimension
+    lam, bound = checks.definite_margin(P3[None, None].repeat(2, axis=0))
+    assert bound.shape == (2, 1) and np.allclose(bound, 30.0 * EPS * 1.5, rtol=1e-12, atol=0)
+    out = checks.contraction_rounding_bound(A3[None, None].repeat(2, axis=0), P3[None, None].repeat(2, axis=0),
+                                            np.full((2, 1), 0.25))
+    assert np.allclose(out, 30.0 * EPS * (0.75 + 3.0 * math.sqrt(3.0)), rtol=1e-12, atol=0)
+
+
+def test_scaled_eig_margin_is_free_of_the_units():
+    # the same M in other units (all entries / 100, diagonal below 1): the same scaled eigenvalue and bound
+    M = np.array([[-4.0, 2.0], [2.0, -9.0]])
+    assert checks.scaled_eig_margin(M / 100.0, np.abs(M) / 100.0, 2) == pytest.approx(
+        checks.scaled_eig_margin(M, np.abs(M), 2), rel=1e-14, abs=0)
+    assert checks.scaled_eig_margin(M / 100.0, np.abs(M) / 100.0, 2)[0] == pytest.approx(-2.0 / 3.0, rel=1e-14, abs=0)
+
+
+def test_float32_matrices_are_checked_in_float64():
+    """The hand values of P2, A2 (exact in float32) must come out at float64 precision from float32 input."""
+    f32 = np.float32
+    lam, bound = checks.definite_margin(P2.astype(f32))
+    assert lam == pytest.approx(2.0 / 3.0, rel=1e-14, abs=0)
+    norm_as = spectral_norm_2x2(A2_S)
+    assert checks.contraction_rounding_bound(A2.astype(f32), P2.astype(f32), 0.9) == pytest.approx(
+        20.0 * EPS * (1.8 + math.sqrt(2.0) * norm_as), rel=1e-12, abs=0)
+    assert checks.rate_rounding_bound(A2.astype(f32), P2.astype(f32), 3.0) == pytest.approx(
+        20.0 * EPS * 2.0 * (3.0 + 2.0 * norm_as), rel=1e-12, abs=0)
+    M = np.array([[-4.0, 2.0], [2.0, -9.0]])
+    lam, bound = checks.scaled_eig_margin(M.astype(f32), np.abs(M).astype(f32), 2)
+    assert lam == pytest.approx(-2.0 / 3.0, rel=1e-14, abs=0)
+    assert bound == pytest.approx(10.0 * EPS * 4 * 4.0 / 3.0, rel=1e-12, abs=0)
+
+
+def test_bounds_of_a_matrix_that_is_not_positive_definite_are_infinite_and_silent():
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        # lambda_min(P_s) exactly 0 (singular), a zero diagonal: nothing certified, no RuntimeWarning
+        assert checks.rate_rounding_bound(A2, np.array([[1.0, 1.0], [1.0, 1.0]]), 1.0) == math.inf
+        assert checks.contraction_rounding_bound(A2, np.array([[1.0, 1.0], [1.0, 1.0]]), 0.5) == math.inf
+        assert checks.contraction_rounding_bound(A2, np.diag([0.0, 1.0]), 0.5) == math.inf
+        assert checks.definite_margin(np.diag([np.inf, 1.0]))[0] == -math.inf
