@@ -15,6 +15,8 @@ from nniquad.certificates.certificate import (NI_FORM, PERFORMANCE_HORIZON_S, RO
 from nniquad.config import (CASCADE_GRID_POINTS_PER_AXIS, CONTROL_RATE_HZ, DT_S, GAMMA_MAX, MASS_RANGE_FRACTION,
                             TILT_LIMIT_DEG, XI0_M)
 from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, InnerLoopGains
+from nniquad.control.law_classes import DEFAULT_LAW_CLASS
+from nniquad.control.law_classes import law_class as law_class_of
 from nniquad.errors import CertificateError
 from nniquad.model.vehicle import Vehicle
 
@@ -123,7 +125,8 @@ def build_certificate(vehicle: Vehicle, gains: Gains, *, inner: InnerLoopGains =
                       progress: Callable[[str], None] | None = None, rate_hz: float = CONTROL_RATE_HZ,
                       cascade: bool = True, box: "ParameterBox | None" = None,
                       widest_box: bool = False, refuse_unsettled: bool = False,
-                      grid_points_per_axis: int = CASCADE_GRID_POINTS_PER_AXIS) -> Certificate:
+                      grid_points_per_axis: int = CASCADE_GRID_POINTS_PER_AXIS,
+                      law_class: str = DEFAULT_LAW_CLASS) -> Certificate:
     """Solve every LMI for ``gains``, simulate, and assemble a signed certificate.
 
     Parameters
@@ -172,12 +175,19 @@ def build_certificate(vehicle: Vehicle, gains: Gains, *, inner: InnerLoopGains =
         Refuse (before the cascade section) when a reference run is not shown
         to settle (:func:`nniquad.certificates.job.unsettled_reference_run`;
         what ``certify`` does).
+    law_class
+        The class of the design (:mod:`nniquad.control.law_classes`): ``"paper"``
+        (default) refuses gains outside the sector bound for ``gamma_max``;
+        ``"cascade"`` drops the sector bound (the reduced loop must still be stable,
+        ``m kp δ > 1``) and needs the cascade section, which is then the proof.
+        The certificate states the class and the theorem (``law_class``).
 
     Raises
     ------
     CertificateError
-        The gains violate the sector bound for ``gamma_max``, an LMI is
-        infeasible (nothing is certified, so nothing is returned), or the rate
+        The gains violate the sector bound for ``gamma_max`` (class ``paper``), an LMI is
+        infeasible (nothing is certified, so nothing is returned), the class is
+        unknown or needs a cascade section that is not asked for, or the rate
         is not one the simulator can run (finite, positive, a period of whole RK4 steps).
     """
     from nniquad.analysis.bound import time_optimal_bound
@@ -190,14 +200,25 @@ def build_certificate(vehicle: Vehicle, gains: Gains, *, inner: InnerLoopGains =
         raise CertificateError("certificates cover equal axis gains only (kpy must equal kp)")
     if not 0.0 < gamma_max < 1.0:
         raise CertificateError(f"gamma_max must lie in (0, 1), got {gamma_max!r}")
+    try:
+        cls = law_class_of(law_class)
+    except ValueError as exc:
+        raise CertificateError(str(exc)) from None
+    if cls.needs_cascade and not cascade:
+        raise CertificateError(f"the {cls.name} class is certified by the sampled-data cascade section: it cannot "
+                               "be written without one (schema 1)")
     loop = ReducedLoop.from_vehicle(vehicle, gains)
     m, kp = vehicle.m, gains.kp
     gamma = loop.smallest_gamma
-    if gamma > gamma_max * (1 + 1e-12):
+    if cls.sector_bound and gamma > gamma_max * (1 + 1e-12):
         raise CertificateError(
-            f"gains violate the sector bound: delta = {gains.delta:.6g} < 1/(gamma_max m kp) = "
-            f"{loop.sector_delta_min(gamma_max):.6g} (smallest gamma {gamma:.6g} > gamma_max {gamma_max:g})"
+            f"gains violate the sector bound of the paper class: delta = {gains.delta:.6g} < 1/(gamma_max m kp) = "
+            f"{loop.sector_delta_min(gamma_max):.6g} (smallest gamma {gamma:.6g} > gamma_max {gamma_max:g}); "
+            "--law-class cascade drops the bound and certifies with the sampled-data cascade alone"
         )
+    if not gamma < 1.0:
+        raise CertificateError(f"m kp delta = {m * kp * gains.delta:.6g} <= 1: the reduced loop is not stable "
+                               "(no law class certifies it)")
     lo, hi = mass_range if mass_range is not None else (MASS_RANGE_FRACTION[0] * m, MASS_RANGE_FRACTION[1] * m)
     say("solving the LMIs")
     A, B, C, D = loop.plant_matrices()
@@ -281,5 +302,6 @@ def build_certificate(vehicle: Vehicle, gains: Gains, *, inner: InnerLoopGains =
         software=_software(),
         margins=margins,
         cascade=section,
+        law_class={"name": cls.name, "theorem": cls.theorem},
     )
     return cert.signed()

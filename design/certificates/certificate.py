@@ -25,6 +25,11 @@ A certificate is one JSON document (:data:`SCHEMA`, :data:`SCHEMA_VERSION`):
     simulation settings, so that :func:`verify_certificate` can re-simulate.
 ``bound``, ``ratio_to_bound``
     The time-optimal bound and each model's settling time divided by it.
+``law_class``
+    ``{"name", "theorem"}``: the class of the design (:mod:`nniquad.control.law_classes`:
+    ``paper``, the sector bound holds, or ``cascade``, the sector bound dropped) and the
+    theorem that certifies it.  A certificate written before classes existed has no
+    such field and is of the ``paper`` class (its digest is unchanged).
 ``cascade`` (schema 2 only)
     The sampled-data cascade certificate (rate, parameter box, matrices, decay
     rate, reach, margins; :mod:`nniquad.analysis.robust_cascade`).  A document
@@ -397,6 +402,10 @@ class Certificate:
         (:func:`nniquad.certificates.build.margins_section`); ``None`` in a
         certificate written before they were stated (it then has no such field,
         so its digest is unchanged).
+    law_class
+        ``{"name", "theorem"}`` (:mod:`nniquad.control.law_classes`); ``None`` in a
+        certificate written before classes existed (of the ``paper`` class, no such
+        field, digest unchanged): :attr:`law_class_name` resolves it.
     signature
         The SHA-256 digest (hex) the certificate was signed with.
     """
@@ -424,10 +433,11 @@ class Certificate:
     signature: str = ""
     margins: Mapping[str, Any] | None = None
     cascade: Mapping[str, Any] | None = None
+    law_class: Mapping[str, Any] | None = None
 
     def __post_init__(self) -> None:
         for f in fields(self):
-            if f.name in _SECTIONS or f.name in ("tuning", "margins", "cascade"):
+            if f.name in _SECTIONS or f.name in ("tuning", "margins", "cascade", "law_class"):
                 object.__setattr__(self, f.name, _freeze(getattr(self, f.name)))
         object.__setattr__(self, "xi0_m", tuple(float(v) for v in self.xi0_m))
 
@@ -460,7 +470,16 @@ class Certificate:
             body["margins"] = _thaw(self.margins)
         if self.cascade is not None:  # schema 2 only: a schema-1 certificate keeps its digest
             body["cascade"] = _thaw(self.cascade)
+        if self.law_class is not None:  # optional: older certificates (class paper) have none and keep their digest
+            body["law_class"] = _thaw(self.law_class)
         return body
+
+    @property
+    def law_class_name(self) -> Any:
+        """The stated class name (``law_class.name``); ``"paper"`` when the certificate states none."""
+        from nniquad.control.law_classes import DEFAULT_LAW_CLASS
+
+        return DEFAULT_LAW_CLASS if self.law_class is None else self.law_class.get("name")
 
     @property
     def schema_version(self) -> int:
@@ -509,14 +528,15 @@ class Certificate:
         check_form(data, where)
         missing = [k for k in _ALL_FIELDS if k not in data]
         extra = [k for k in data
-                 if k not in _ALL_FIELDS and k not in ("schema", "schema_version", "digest", "margins", "cascade")]
+                 if k not in _ALL_FIELDS and k not in _OPTIONAL_FIELDS]
         if missing or extra:
             what = f"lacks '{missing[0]}'" if missing else f"has an unknown field '{extra[0]}'"
             raise CertificateError(f"{where}: {what}")
         for key in _SECTIONS:
             _get(data, key)
-        if "margins" in data and not isinstance(data["margins"], Mapping):
-            raise CertificateError(f"{where}: 'margins' must be an object")
+        for key in ("margins", "law_class"):
+            if key in data and not isinstance(data[key], Mapping):
+                raise CertificateError(f"{where}: '{key}' must be an object")
         if data["tuning"] is not None and not isinstance(data["tuning"], Mapping):
             raise CertificateError(f"{where}: 'tuning' must be an object or null")
         if not isinstance(data["model"], str) or not isinstance(data["start_certified"], bool):
@@ -533,6 +553,7 @@ class Certificate:
             inner_loop=certificate_inner_loop(data), tilt_limit_deg=float(data["tilt_limit_deg"]),
             xi0_m=tuple(xi0), start_certified=data["start_certified"], tuning=data["tuning"],
             signature=data["digest"]["value"], margins=data.get("margins"), cascade=data.get("cascade"),
+            law_class=data.get("law_class"),
             **{k: data[k] for k in _SECTIONS},
         )
         # the typed fields must serialise back to exactly what was signed
@@ -587,6 +608,8 @@ _SECTIONS = ("sector", "stability_margin", "lmi", "region_of_attraction", "perfo
              "tolerances", "software")
 _ALL_FIELDS = ("model", "vehicle", "gains", "inner_loop", "tilt_limit_deg", "xi0_m", *_SECTIONS, "start_certified",
                "tuning")
+#: Top-level fields besides :data:`_ALL_FIELDS`: the form's own, and the sections a certificate may lack.
+_OPTIONAL_FIELDS = ("schema", "schema_version", "digest", "margins", "cascade", "law_class")
 
 
 def _is_number(v: Any) -> bool:

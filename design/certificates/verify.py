@@ -178,7 +178,11 @@ SECTION_KEYS: dict[str, frozenset[str]] = {k: frozenset(v) for k, v in {
     "ratio_to_bound": ("reduced", "full"),
     "margins": ("rate_hz", "controller", "pade_order", "method", "required", "break_points", "meets_requirement",
                 "horizontal_pm_ceiling_deg"),
+    "law_class": ("name", "theorem"),
 }.items()}
+
+#: Sections a certificate may lack (written before they existed): the layout check skips them when absent.
+OPTIONAL_SECTIONS = ("margins", "law_class")
 
 # ----------------------------------------------------------------------------- cache of the expensive recomputations
 
@@ -274,6 +278,10 @@ def coverage_notes(cert: Certificate) -> list[str]:
             f"continuously) with the nominal vehicle parameters and a mass interval [{_f(rm.get('m_lo_kg'))}, "
             f"{_f(rm.get('m_hi_kg'))}] kg; it covers no sampled-data cascade (control rate, attitude loop, motor lag) "
             "and no parameter box (inertia, attitude gain, motor time constant)")
+    if cert.law_class_name == "cascade":
+        notes.append("class cascade: the paper's sector bound is not claimed; the reduced-loop LMIs are stated (they "
+                     "hold whenever m kp delta > 1) but the design is certified by the sampled-data cascade section "
+                     "alone, over its parameter box and within its region of attraction")
     notes.append("records, not verified (no check and no Monte Carlo run reads them): "
                  + ", ".join(RECORD_FIELDS) + " (except tuning.model, which must equal model)")
     return notes
@@ -287,6 +295,7 @@ def _verify(cert: Certificate, simulate: bool, say: Callable[[str], None], fail_
         lambda: _model_check(cert),
         lambda: _tolerances_check(cert),
         lambda: _layout_check(cert),
+        lambda: _law_class_check(cert),
         lambda: _settings_check(cert),
         lambda: _sector_check(cert, tol),
         lambda: _poles_check(cert),
@@ -344,7 +353,7 @@ def _layout_check(cert: Certificate) -> Check:
     doc = cert.body()
     bad: list[str] = []
     for path, keys in SECTION_KEYS.items():
-        if path == "margins" and cert.margins is None:
+        if path in OPTIONAL_SECTIONS and getattr(cert, path) is None:
             continue
         node: Any = doc
         for part in path.split("."):
@@ -403,19 +412,46 @@ def _settings_check(cert: Certificate) -> Check:
                  if not bad else "inconsistent: " + "; ".join(bad))
 
 
+def _law_class_check(cert: Certificate) -> Check:
+    """The stated class is a known one, its theorem the library's, and what the class's proof needs is there."""
+    from nniquad.control.law_classes import LAW_CLASSES
+
+    name = cert.law_class_name
+    cls = LAW_CLASSES.get(name) if isinstance(name, str) else None
+    if cls is None:
+        return Check("law_class", False, f"unknown law class {name!r} (known: {', '.join(LAW_CLASSES)})")
+    stated = cert.law_class.get("theorem") if cert.law_class is not None else cls.theorem
+    if stated != cls.theorem:
+        return Check("law_class", False, f"the stated theorem is not the {name} class's: {stated!r}")
+    if cls.needs_cascade and cert.cascade is None:
+        return Check("law_class", False, f"the {name} class is certified by the cascade section, and there is none")
+    return Check("law_class", True, f"class {name}{' (not stated: a certificate from before classes)' if cert.law_class is None else ''}; "
+                                    f"certified by {cls.theorem}")
+
+
 def _sector_check(cert: Certificate, tol: Mapping[str, float]) -> Check:
+    """The stated sector numbers, recomputed; the paper class (only) needs gamma <= gamma_max."""
+    from nniquad.control.law_classes import LAW_CLASSES
+
     loop = cert.loop
     sec = cert.sector
     try:
         gamma_stated, gamma_max = float(sec["gamma"]), float(sec["gamma_max"])
     except (KeyError, TypeError, ValueError):
         raise CertificateError("certificate 'sector' needs numbers 'gamma' and 'gamma_max'") from None
+    cls = LAW_CLASSES.get(cert.law_class_name) if isinstance(cert.law_class_name, str) else None
+    bound = cls is None or cls.sector_bound  # an unknown class is refused by law_class; here judged strictly
     gamma = loop.smallest_gamma
-    ok = abs(gamma - gamma_stated) <= tol["sector_relative"] * gamma and gamma <= gamma_max * (1 + 1e-12) < 1 + 1e-12
+    ok = abs(gamma - gamma_stated) <= tol["sector_relative"] * gamma and 0 < gamma_max < 1 and gamma < 1
+    if bound:
+        ok = ok and gamma <= gamma_max * (1 + 1e-12)
     delta_min = loop.sector_delta_min(gamma_max) if 0 < gamma_max < 1 else math.nan
     ok = ok and _close(sec.get("delta_min"), delta_min, tol["sector_relative"])
+    claim = (f"<= gamma_max = {gamma_max:g} < 1 (the paper class's sector bound)" if bound else
+             f"< 1 (class {cert.law_class_name}: the sector bound with gamma_max = {gamma_max:g} is not claimed"
+             f"{'' if gamma <= gamma_max else '; it does not hold'})")
     return Check("sector", ok, f"delta m kp gamma >= 1 holds with gamma = {gamma:.6g} (stated "
-                               f"{gamma_stated:.6g}) <= gamma_max = {gamma_max:g} < 1; delta_min "
+                               f"{gamma_stated:.6g}) {claim}; delta_min "
                                f"{delta_min:.6g} (stated {_f(sec.get('delta_min'))})")
 
 

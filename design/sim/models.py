@@ -51,11 +51,14 @@ Controller sampling
 -------------------
 ``run.sample_hold = 1`` feeds every law the measurement sampled at the sensor
 rate and held (``ξ_m`` above = the held value).  With ``run.discrete = 1`` the
-NNI law also runs in discrete time at that rate (period ``run.sample_period``):
-``z`` is constant over a period and :func:`step_function` advances it at each
-later sample by the exact ZOH equivalent ``z ← e^{-ΓδT} z + (1 - e^{-ΓδT})/δ ξ_m``
-of the period that ends, before it latches the new measurement, so ``a_h``
-is held over the period (:class:`nniquad.control.discrete.DiscreteNNI`).
+law also runs in discrete time at that rate (period ``run.sample_period``):
+its state is constant over a period and :func:`step_function` advances it at
+each later sample by the exact ZOH equivalent of the period that ends, before
+it latches the new measurement, so ``a_h`` is held over the period.  NNI:
+``z ← e^{-ΓδT} z + (1 - e^{-ΓδT})/δ ξ_m``
+(:class:`nniquad.control.discrete.DiscreteNNI`); ``pd_filtered``:
+``d ← e^{-T/τ_f} d + (1 - e^{-T/τ_f}) ξ_m``; ``pd_velocity``: the velocity is
+sampled with the position and held (stored in ``zc``).
 
 Every law has its own parameter layout (:func:`nniquad.sim.params.param_layout`,
 the gain entries named after the block's fields) and its own compiled
@@ -140,12 +143,15 @@ def _closed_loop(model: str, X: ca.SX, e: ca.SX, p: ca.SX, controller: str = "nn
         zc_dot = ca.if_else(P["run.discrete"] > 0.5, ca.SX.zeros(2),
                             -P["gains.Gamma"] * P["gains.delta"] * zc + P["gains.Gamma"] * meas)
     elif controller == "pd_velocity":
-        a_h = -P["gains.kp"] * meas - P["gains.kd"] * vel
+        # discrete variant: the velocity sampled with the position (latched into zc by step_function)
+        v_meas = ca.if_else(P["run.discrete"] > 0.5, zc, vel)
+        a_h = -P["gains.kp"] * meas - P["gains.kd"] * v_meas
         zc_dot = ca.SX.zeros(2)
     else:  # pd_filtered; zc = filter state d
         v_hat = (meas - zc) / P["gains.tau_f"]
         a_h = -P["gains.kp"] * meas - P["gains.kd"] * v_hat
-        zc_dot = v_hat
+        # discrete variant: d is constant over the period and advanced by step_function at the samples
+        zc_dot = ca.if_else(P["run.discrete"] > 0.5, ca.SX.zeros(2), v_hat)
     if model in ("linear", "reduced"):
         g = P["nominal.g"]
         if model == "reduced":
@@ -232,25 +238,34 @@ def step_function(model: str, controller: str = "nni") -> ca.Function:
 
     At the start of the step a sample flag ``e[2] >= 1`` latches the measurement
     ``ξ + n`` into the held states; the step then integrates with it constant.
-    With the discrete NNI controller (``run.discrete = 1``) a later sample
+    With the discrete controller (``run.discrete = 1``) a later sample
     (``e[2] = 2``) first advances the controller state by one period on the
-    value held over the period that ends, ``z_{k+1} = e^{-ΓδT} z_k +
-    (1 - e^{-ΓδT})/δ ξ_k`` (:class:`nniquad.control.discrete.DiscreteNNI`), and
-    then latches ``ξ_{k+1}``; the first sample (``e[2] = 1``, ``t = 0``) only latches.
+    value held over the period that ends, and then latches ``ξ_{k+1}``; the
+    first sample (``e[2] = 1``, ``t = 0``) only latches.  The advance is the exact
+    ZOH equivalent of the law's continuous state equation: NNI
+    ``z_{k+1} = e^{-ΓδT} z_k + (1 - e^{-ΓδT})/δ ξ_k``
+    (:class:`nniquad.control.discrete.DiscreteNNI`); ``pd_filtered``
+    ``d_{k+1} = e^{-T/τ_f} d_k + (1 - e^{-T/τ_f}) ξ_k``.  ``pd_velocity`` has no
+    controller state: every sample latches the true velocity into ``zc`` with the
+    position (a sampled velocity sensor).
     """
     X, e, p = _symbols(model, controller)
-    hs = _held_slice(model)
+    hs, zs = _held_slice(model), _zc_slice(model)
     pos = X[[0, 2]]
-    if check_controller(controller) == "nni":
-        P = {f.name: p[i] for i, f in enumerate(param_layout(controller))}
-        zs = _zc_slice(model)
+    P = {f.name: p[i] for i, f in enumerate(param_layout(check_controller(controller)))}
+    discrete = P["run.discrete"] > 0.5
+    advance = ca.logic_and(e[2] > 1.5, discrete)  # a later sample: the period that ends is integrated first
+    if controller == "nni":
         gd_T = P["gains.Gamma"] * P["gains.delta"] * P["run.sample_period"]
         a, b = ca.exp(-gd_T), -ca.expm1(-gd_T) / P["gains.delta"]
-        advance = ca.logic_and(e[2] > 1.5, P["run.discrete"] > 0.5)
         zc = ca.if_else(advance, a * X[zs] + b * X[hs], X[zs])
-        Xa = ca.vertcat(X[: zs.start], zc, X[zs.stop :])
-    else:
-        Xa = X
+    elif controller == "pd_filtered":
+        # exact ZOH of d' = (xi - d)/tau_f over the period, on the value held over it
+        a = ca.exp(-P["run.sample_period"] / P["gains.tau_f"])
+        zc = ca.if_else(advance, a * X[zs] + (1 - a) * X[hs], X[zs])
+    else:  # pd_velocity: every sample (the first too) latches the true velocity with the position
+        zc = ca.if_else(ca.logic_and(e[2] > 0.5, discrete), X[[1, 3]], X[zs])
+    Xa = ca.vertcat(X[: zs.start], zc, X[zs.stop :])
     Xs = ca.vertcat(Xa[: hs.start], ca.if_else(e[2] > 0.5, pos + e[0:2], Xa[hs]), Xa[hs.stop :])
     f = rhs_function(model, controller)
     h = p[[entry.name for entry in param_layout(controller)].index("run.dt")]

@@ -129,8 +129,8 @@ class RunSettings:
     dt
         Integration step [s].
     discrete
-        1 when the NNI controller runs in discrete time (exact ZOH, period
-        ``sample_period``; needs ``sample_hold``), else 0.
+        1 when the horizontal law runs in discrete time (exact ZOH of its state
+        equation, period ``sample_period``; needs ``sample_hold``), else 0.
     sample_period
         Sample period ``T`` of the measurement and of the discrete controller [s].
     """
@@ -141,7 +141,7 @@ class RunSettings:
     wind_y: float = _u("N", "constant wind force, east")
     sample_hold: float = _u("0/1", "position measurement sampled and held (else continuous)")
     dt: float = _u("s", "integration step")
-    discrete: float = field(default=0.0, metadata={"unit": "0/1", "meaning": "NNI controller in discrete time "
+    discrete: float = field(default=0.0, metadata={"unit": "0/1", "meaning": "horizontal law in discrete time "
                                                                             "(exact ZOH at the sample period)"})
     sample_period: float = field(default=0.01, metadata={"unit": "s", "meaning": "sample period of the "
                                                                                  "measurement and the controller"})

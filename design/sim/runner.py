@@ -16,9 +16,10 @@ exogenous input (noise, sample flag, gust) is held constant over a step.
 
 Controller sampling (:attr:`SimOptions.controller_sampling`): ``"continuous"``,
 ``"held"`` (the measurement sampled and held at ``noise_rate_hz``, the controller
-state integrated continuously on it) or ``"discrete"`` (the NNI law in discrete
-time at that rate, its command held over the period: what
-:class:`nniquad.control.discrete.DiscreteNNI` runs and ``nniquad export`` writes).
+state integrated continuously on it) or ``"discrete"`` (the law in discrete
+time at that rate, its command held over the period: for NNI what
+:class:`nniquad.control.discrete.DiscreteNNI` runs and ``nniquad export`` writes;
+the PD laws likewise, :mod:`nniquad.sim.models`).
 
 Accuracy at the default step of 1 ms (``tests/test_simulate.py``): the linear
 model agrees with the matrix exponential to ~2e-10 m over 30 s; the full model
@@ -185,9 +186,6 @@ def _check_step(params: Sequence[SimParams], model: str) -> None:
     """Refuse what the runner cannot integrate: a step too large for a pole (:func:`check_step`), or a
     discrete controller that is not the NNI law or not fed the sampled measurement."""
     for p in params:
-        if p.run.discrete > 0.5 and not isinstance(p.gains, Gains):
-            raise SimulationError(f"the discrete controller variant is implemented for the NNI law only, not "
-                                  f"{p.gains.controller} (use controller_sampling='held')")
         if p.run.discrete > 0.5 and p.run.sample_hold < 0.5:
             raise SimulationError("the discrete controller needs the sampled measurement (run.sample_hold = 1)")
     check_step(params, model)

@@ -26,8 +26,11 @@ parameter-dependent P0 + P1/m over the mass interval, the region-of-attraction
 ellipsoid under tilt saturation with its multipliers), whether the start state
 lies in the certified region, the performance on the reduced and full models
 with their simulation settings, the classical margins at --rate, the time-optimal bound, software versions and
-a SHA-256 digest.  Gains outside the sector bound, or with an infeasible LMI,
-are refused: no file is written.  Check a certificate with 'nniquad verify'."""
+a SHA-256 digest.  It states its law class (--law-class) and the theorem that
+certifies it: 'paper' (default) refuses gains outside the sector bound (exit
+2, one line: the cascade class drops it); 'cascade' is certified by the
+sampled-data cascade section alone.  Gains with an infeasible LMI are refused
+as well: no file is written.  Check a certificate with 'nniquad verify'."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -40,9 +43,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--attitude-zeta", type=float, default=None, metavar="Z", help="attitude damping ratio")
     g.add_argument("--attitude-accel", type=float, default=None, metavar="RAD_S2",
                    help="deceleration of the attitude error shaping in rad/s^2")
-    parser.add_argument("--rate", type=float, default=None, metavar="HZ",
-                        help=f"control rate in Hz (default {CONTROL_RATE_HZ:g}), a period of whole 1 ms steps: the "
-                             "classical margins (NNI controller in discrete time) are computed at it")
     b = parser.add_argument_group("parameter box of the sampled-data cascade section")
     b.add_argument("--box-scale", type=float, default=None, metavar="S",
                    help="certify the Monte Carlo default ranges scaled by S about nominal in log space "
@@ -71,6 +71,8 @@ def run(args: argparse.Namespace) -> int:
 
     # before any tuning: a bad rate fails at once
     rate = check_rate_hz(CONTROL_RATE_HZ if args.rate is None else args.rate, DT_S, error=CertificateError)
+    if args.warm_start and args.kp is not None:
+        raise NniquadError("--warm-start seeds the tuning: it cannot be given with --kp/--Gamma/--delta")
     box = None
     if args.box_scale is not None:
         from nniquad.analysis.robust_cascade import ParameterBox
@@ -102,7 +104,9 @@ def run(args: argparse.Namespace) -> int:
         cert = certify(vehicle, gains, inner=inner, options=options, progress=progress.message, rate_hz=rate,
                        box=box, widest_box=args.widest_box)
     else:
-        tuned = tune(vehicle, options, progress=progress.message)
+        from .tune import warm_starts_from_args
+
+        tuned = tune(vehicle, options, progress=progress.message, warm_starts=warm_starts_from_args(args))
         print_tune_result(tuned)
         cert = certify(vehicle, tuned, options=options, progress=progress.message, rate_hz=rate,
                        box=box, widest_box=args.widest_box)
@@ -110,8 +114,11 @@ def run(args: argparse.Namespace) -> int:
     path = cert.write(out)
     gains, perf = cert.gains, cert.performance
     print(f"certificate: {path}")
+    gamma, gamma_max = cert.sector["gamma"], cert.sector["gamma_max"]
     print(f"  gains kp = {fmt(gains.kp, '1/s^2', 6)}, Gamma = {fmt(gains.Gamma, digits=6)}, "
-          f"delta = {fmt(gains.delta, digits=6)}; gamma = {fmt(cert.sector['gamma'])} <= {cert.sector['gamma_max']:g}")
+          f"delta = {fmt(gains.delta, digits=6)}; gamma = {fmt(gamma)} {'<=' if gamma <= gamma_max else '>'} "
+          f"{gamma_max:g}")
+    print(f"  law class {cert.law_class['name']}: certified by {cert.law_class['theorem']}")
     for model in ("reduced", "full"):
         print(f"  {model:<7} settling {fmt(perf[model]['settling_s'], 's')} "
               f"({fmt(cert.ratio_to_bound[model], digits=3)} x bound {fmt(cert.bound['enter_band_s'], 's')}), "
