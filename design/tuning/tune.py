@@ -244,7 +244,12 @@ class TuneResult:
 
     @property
     def gamma(self) -> float:
-        """Smallest γ the gains satisfy the sector bound with (``nan`` for a PD law: no sector bound)."""
+        """Smallest γ the gains satisfy the sector bound with: the DC loop gain (``nan`` for a PD law: no sector
+        bound)."""
+        from nniquad.control.gains import SNI2Gains
+
+        if isinstance(self.gains, SNI2Gains):
+            return self.gains.dc_loop_gain(self.vehicle.m)
         if not isinstance(self.gains, Gains):
             return math.nan
         return ReducedLoop.from_vehicle(self.vehicle, self.gains).smallest_gamma
@@ -286,7 +291,7 @@ class TuneResult:
             "law_class": self.options.law_class,
             "nni_image": self.nni_image(),
             "sector": ({"gamma": self.gamma, "gamma_max": self.options.gamma_max}
-                       if isinstance(self.gains, Gains) else None),
+                       if math.isfinite(self.gamma) else None),
             "roa_radius_m": self.roa_radius_m,
             "certified_reach_m": self.certified_reach_m if math.isfinite(self.certified_reach_m) else None,
             "start_certified": bool(self.certified_reach_m >= DEFAULT_ROA_RADIUS_M),

@@ -12,16 +12,17 @@ from typing import Any, Mapping
 import numpy as np
 
 from nniquad.analysis.robust.box import POINT_NAMES, ParameterBox, _subgrid, tilt_accel_limit
-from nniquad.analysis.robust.family import (COUPLING_TOL, SUBSYSTEMS, _relevance_points, _take, coupling,
+from nniquad.analysis.robust.family import (COUPLING_TOL, SUBSYSTEMS, _relevance_points, _take, coupling, subsystems,
                                             family_cached, relevance_consistent)
 from nniquad.analysis.robust.lyapunov import (GridCheck, RobustLyapunov, _assemble_P, _block_loops, grid_check,
                                               point_index, witness_margins)
 from nniquad.analysis.robust.roa import linear_zone_reach
 from nniquad.analysis.robust.section import (LMI_POINTS_PER_AXIS, _COVERAGE, _FORM, _MARGIN_MODEL, _MARGIN_POINTS,
-                                             _MODEL, _ROA_NOTE, _margin_fields)
+                                             _margin_fields, model_text, roa_note)
 from nniquad.analysis.sampled import _period
 from nniquad.config import CASCADE_GRID_POINTS_PER_AXIS
-from nniquad.control.gains import Gains, InnerLoopGains
+from nniquad.control.gains import Gains, InnerLoopGains, SNI2Gains
+from nniquad.sim import CONTROLLER_STATES, state_names
 from nniquad.errors import CascadeError
 from nniquad.model.vehicle import Vehicle
 
@@ -63,7 +64,12 @@ def _is_number(v: Any) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
 
-def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *,
+#: States of the linearised cascade besides the controller's: rigid body (12), altitude integrator, four rotors.
+_N_RIGID_AND_INNER = 17
+
+
+def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: Gains | SNI2Gains,
+                          inner: InnerLoopGains, *,
                           tilt_limit_deg: float) -> list[tuple[str, bool, str]]:
     """Re-check a ``cascade`` section from the design alone (cheap checks first).
 
@@ -82,6 +88,7 @@ def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: G
     list of (name, ok, detail)
     """
     out: list[tuple[str, bool, str]] = []
+    expected = subsystems(state_names("full", gains.controller))
 
     def add(name: str, ok: bool, detail: str = "") -> bool:
         out.append((name, bool(ok), detail))
@@ -102,13 +109,14 @@ def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: G
         add("rate and box", False, str(exc))
         return out
     add("controller variant", section["controller"] == "discrete" and section["attitude_loop"] == "continuous"
-        and section["model"] == _MODEL, f"{section['controller']}, attitude {section['attitude_loop']}")
+        and section["model"] == model_text(_N_RIGID_AND_INNER + len(CONTROLLER_STATES[gains.controller])),
+        f"{section['controller']}, attitude {section['attitude_loop']}")
     add("Monte Carlo default box", mc == ParameterBox.monte_carlo_default(), str(mc.to_json()))
     try:
         texts = (section["lyapunov"]["form"] == _FORM and section["lyapunov"]["coverage"] == _COVERAGE
-                 and section["region_of_attraction"]["note"] == _ROA_NOTE
+                 and section["region_of_attraction"]["note"] == roa_note(gains.controller)
                  and section["margins"]["points"] == _MARGIN_POINTS and section["margins"]["model"] == _MARGIN_MODEL
-                 and all(list(section["lyapunov"]["subsystems"][n]["states"]) == list(SUBSYSTEMS[n])
+                 and all(list(section["lyapunov"]["subsystems"][n]["states"]) == list(expected[n])
                          for n in SUBSYSTEMS))
     except (KeyError, TypeError):
         texts = False
@@ -159,7 +167,7 @@ def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: G
     for name in SUBSYSTEMS:
         A, th = loops[name]
         m, q = A.shape[0], th.shape[1]
-        good = Pk[name].shape == (q + 1, len(SUBSYSTEMS[name]), len(SUBSYSTEMS[name]))
+        good = Pk[name].shape == (q + 1, len(expected[name]), len(expected[name]))
         detail = "bad P shape"
         if good:
             wm = witness_margins(Pk[name], A, th)

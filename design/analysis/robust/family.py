@@ -23,13 +23,13 @@ from nniquad.analysis.cascade import (SPLIT_TOL, EQUILIBRIUM_TOL, LINEARISATION_
 from nniquad.analysis.robust.box import POINT_NAMES, ParameterBox
 from nniquad.analysis.sampled import _period
 from nniquad.config import CONTROL_RATE_HZ, TILT_LIMIT_DEG
-from nniquad.control.gains import Gains, InnerLoopGains
+from nniquad.control.gains import Gains, InnerLoopGains, SNI2Gains
 from nniquad.errors import CascadeError
 from nniquad.model.vehicle import Vehicle
-from nniquad.sim import STATE_NAMES, initial_state, param_layout
+from nniquad.sim import CONTROLLER_STATES, initial_state, param_layout, state_names
 
-__all__ = ["CascadeFamily", "sampled_family", "SUBSYSTEMS", "COUPLING_TOL", "RELEVANCE_TOL", "RELEVANCE_BAND",
-           "mode_transform", "coupling", "relevant_coordinates", "relevance_consistent"]
+__all__ = ["CascadeFamily", "sampled_family", "SUBSYSTEMS", "subsystems", "COUPLING_TOL", "RELEVANCE_TOL",
+           "RELEVANCE_BAND", "mode_transform", "coupling", "relevant_coordinates", "relevance_consistent"]
 
 # =============================================================================== the family of sampled loops
 
@@ -43,7 +43,7 @@ class CascadeFamily:
     points : ndarray (N, 6)
         The parameter points (:data:`POINT_NAMES`).
     state_names
-        Plant states then the controller states ``zc_x, zc_y``.
+        Plant states then the controller states (``zc_x, zc_y``; ``sni2``: ``zc_x, zc_y, zcd_x, zcd_y``).
     T
         Sample period [s].
     A_p, B_p : ndarray (N, n_p, n_p), (N, n_p, 2)
@@ -51,7 +51,7 @@ class CascadeFamily:
     C_p : ndarray (2, n_p)
         Position output.
     A_k, B_k, C_k, D_k
-        The NNI controller (continuous; the same at every point: it is the flight code's).
+        The controller (continuous; the same at every point: it is the flight code's).
     A_kd, B_kd
         Its exact ZOH equivalent.
     Phi, Gam : ndarray (N, n_p, n_p), (N, n_p, 2)
@@ -107,24 +107,25 @@ class CascadeFamily:
     def cascade_at(self, i: int) -> LinearCascade:
         """The :class:`LinearCascade` of point ``i`` (for the continuous-time margins)."""
         ctx = self.context
+        n_k = self.A_k.shape[0]
         return LinearCascade(
             vehicle=ctx["vehicle"], gains=ctx["gains"], inner=ctx["inner"], motor_lag=True, lin=ctx["lin"],
-            plant_states=self.state_names[:-2], rigid_states=ctx["rigid"], controller_states=self.state_names[-2:],
+            plant_states=self.state_names[:-n_k], rigid_states=ctx["rigid"], controller_states=self.state_names[-n_k:],
             A_p=self.A_p[i], B_p=self.B_p[i], C_p=self.C_p, A_k=self.A_k, B_k=self.B_k, C_k=self.C_k, D_k=self.D_k,
             W_r=self.W_r[i], W_a=self.W_a[i], A_rw=self.A_rw[i], tau_motor=float(self.tau_motor[i]),
             M_alloc=ctx["M_alloc"])
 
 
 @lru_cache(maxsize=16)
-def _mapped_jacobian(n: int) -> ca.Function:
-    return _jacobian_function("full").map(n, "serial")
+def _mapped_jacobian(n: int, controller: str = "nni") -> ca.Function:
+    return _jacobian_function("full", controller).map(n, "serial")
 
 
 def _batched_expm(M: np.ndarray) -> np.ndarray:
     return sla.expm(M)  # scipy >= 1.9 exponentiates a stack (..., n, n)
 
 
-def sampled_family(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, points: np.ndarray, *,
+def sampled_family(vehicle: Vehicle, gains: Gains | SNI2Gains, inner: InnerLoopGains, points: np.ndarray, *,
                    tilt_limit_deg: float = TILT_LIMIT_DEG, rate_hz: float = CONTROL_RATE_HZ) -> CascadeFamily:
     """Linearise and sample the cascade at many parameter points at once.
 
@@ -156,7 +157,8 @@ def sampled_family(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, points
         raise CascadeError(f"parameter points must be positive factors of shape (N, {len(POINT_NAMES)})")
     N = pts.shape[0]
     base = _hover_params(vehicle, gains, inner, tilt_limit_deg, None).with_(run={"sample_hold": 1.0})
-    names = [f.name for f in param_layout("nni")]
+    law = base.controller
+    names = [f.name for f in param_layout(law)]
     col = {n: i for i, n in enumerate(names)}
     pv = np.tile(base.vector(), (N, 1))
     nom = base.plant
@@ -168,7 +170,7 @@ def sampled_family(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, points
     tau = nom.tau_motor * pts[:, 5]
     pv[:, col["plant.tau_motor"]] = tau
     # the hover equilibrium of a heavier/lighter vehicle: the altitude integrator holds a_z = g (1 - m/m̂)
-    snames = STATE_NAMES["full"]
+    snames = state_names("full", law)
     si = {n: i for i, n in enumerate(snames)}
     x_eq = np.tile(initial_state("full", base, (0.0, 0.0)), (N, 1))
     m_true = pv[:, col["plant.m"]]
@@ -178,7 +180,7 @@ def sampled_family(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, points
     w_hover = np.sqrt(m_true * nom.g / (4.0 * nom.b))
     for k in range(1, 5):
         x_eq[:, si[f"w{k}"]] = w_hover
-    fn = _mapped_jacobian(2 * N)
+    fn = _mapped_jacobian(2 * N, law)
     d = np.zeros(len(snames))
     d[si["held_x"]] = LINEARISATION_OFFSET_M
     X = np.vstack([x_eq + d, x_eq - d]).T
@@ -186,7 +188,7 @@ def sampled_family(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, points
     f0, Jm, Ym = fn(X, Pm)
     nx = len(snames)
     # residual at the equilibrium itself (the ±ε points differ from it only in the held measurement)
-    f_eq = np.asarray(_mapped_jacobian(N)(x_eq.T, pv.T)[0], float).T
+    f_eq = np.asarray(_mapped_jacobian(N, law)(x_eq.T, pv.T)[0], float).T
     residual = np.max(np.abs(f_eq), axis=1)
     if not np.all(residual <= EQUILIBRIUM_TOL * max(1.0, float(np.max(w_hover)) / 100.0)):
         i = int(np.argmax(residual))
@@ -197,7 +199,7 @@ def sampled_family(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, points
     Y = 0.5 * (Ym[:N] + Ym[N:])
     if not (np.all(np.isfinite(J)) and np.all(np.isfinite(Y))):
         raise CascadeError("a Jacobian of the cascade is not finite")
-    ctrl, held, motors = ("zc_x", "zc_y"), ("held_x", "held_y"), ("w1", "w2", "w3", "w4")
+    ctrl, held, motors = CONTROLLER_STATES[law], ("held_x", "held_y"), ("w1", "w2", "w3", "w4")
     rigid = tuple(n for n in snames if n not in ctrl + held + motors)
     ik, ih = [si[n] for n in ctrl], [si[n] for n in held]
     iw, ir = [si[n] for n in motors], [si[n] for n in rigid]
@@ -221,7 +223,7 @@ def sampled_family(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, points
     B_p = B_full
     if np.max(np.abs(B_p[:, :nr])) > SPLIT_TOL * max(1.0, float(np.max(np.abs(B_p)))):
         raise CascadeError("a_h reaches the rigid body other than through the rotors")
-    n_p, n_k = len(ip), 2
+    n_p, n_k = len(ip), len(ctrl)
     C_p = np.zeros((2, n_p))
     C_p[0, rigid.index("x")] = C_p[1, rigid.index("y")] = 1.0
     # exact ZOH of the plant (stacked) and of the controller
@@ -229,8 +231,8 @@ def sampled_family(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, points
     Mz[:, :n_p, :n_p], Mz[:, :n_p, n_p:] = A_p * T, B_p * T
     E = _batched_expm(Mz)
     Phi, Gam = E[:, :n_p, :n_p], E[:, :n_p, n_p:]
-    Ek = sla.expm(np.block([[A_k, B_k], [np.zeros((2, 4))]]) * T)
-    A_kd, B_kd = Ek[:2, :2], Ek[:2, 2:]
+    Ek = sla.expm(np.block([[A_k, B_k], [np.zeros((2, n_k + 2))]]) * T)
+    A_kd, B_kd = Ek[:n_k, :n_k], Ek[:n_k, n_k:]
     n = n_p + n_k
     K = np.hstack([D_k @ C_p, C_k])
     A0 = np.zeros((N, n, n))
@@ -277,7 +279,7 @@ _ROTOR_MODES = np.array([[0.5, 0.5, 0.5, 0.5],
                          [-0.5, 0.5, -0.5, 0.5]])
 _ROTOR_MODE_NAMES = ("m_collective", "m_roll", "m_pitch", "m_yaw")
 #: The subsystems of the cascade at hover after :func:`mode_transform` (position first, controller state
-#: last in each horizontal axis, the same order on both axes).
+#: last in each horizontal axis, the same order on both axes), with a one-state controller law (NNI).
 SUBSYSTEMS: dict[str, tuple[str, ...]] = {
     "x": ("x", "x_dot", "theta", "theta_dot", "m_pitch", "zc_x"),
     "y": ("y", "y_dot", "phi", "phi_dot", "m_roll", "zc_y"),
@@ -286,12 +288,23 @@ SUBSYSTEMS: dict[str, tuple[str, ...]] = {
 }
 
 
+def subsystems(state_names: Sequence[str]) -> dict[str, tuple[str, ...]]:
+    """:data:`SUBSYSTEMS` of a cascade with these states: each horizontal axis ends with every controller state of
+    that axis, in state order (NNI: ``zc_x``; ``sni2``: ``zc_x, zcd_x``)."""
+    ctrl = [n for n in state_names if n.startswith("zc")]
+    out = dict(SUBSYSTEMS)
+    for axis in ("x", "y"):
+        out[axis] = SUBSYSTEMS[axis][:-1] + tuple(n for n in ctrl if n.endswith(f"_{axis}"))
+    return out
+
+
 def mode_transform(state_names: Sequence[str]) -> tuple[np.ndarray, tuple[str, ...]]:
-    """The fixed orthogonal map ``ζ = T_m x`` to the coordinates of :data:`SUBSYSTEMS` (rotor modes, permuted).
+    """The fixed orthogonal map ``ζ = T_m x`` to the coordinates of :func:`subsystems` (rotor modes, permuted).
 
     Returns ``T_m`` (rows in the order x, y, altitude, yaw subsystems) and the new state names.
     """
     names = list(state_names)
+    subs = subsystems(names)
     n = len(names)
     R = np.eye(n)
     iw = [names.index(f"w{k}") for k in range(1, 5)]
@@ -299,15 +312,16 @@ def mode_transform(state_names: Sequence[str]) -> tuple[np.ndarray, tuple[str, .
     mode_names = list(names)
     for i, m in zip(iw, _ROTOR_MODE_NAMES):
         mode_names[i] = m
-    order = [mode_names.index(s) for sub in SUBSYSTEMS.values() for s in sub]
+    order = [mode_names.index(s) for sub in subs.values() for s in sub]
     if sorted(order) != list(range(n)):
         raise CascadeError("the subsystems do not partition the cascade's states")
     return R[order], tuple(mode_names[i] for i in order)
 
 
-def _blocks() -> dict[str, slice]:
+def _blocks(state_names: Sequence[str] | None = None) -> dict[str, slice]:
+    """Each subsystem's slice of the mode coordinates (:func:`subsystems` of ``state_names``; NNI's without)."""
     out, k = {}, 0
-    for name, sub in SUBSYSTEMS.items():
+    for name, sub in (SUBSYSTEMS if state_names is None else subsystems(state_names)).items():
         out[name] = slice(k, k + len(sub))
         k += len(sub)
     return out
@@ -325,7 +339,7 @@ def coupling(family: CascadeFamily) -> float:
     _, (s, _) = sla.matrix_balance(Z[0], permute=False, separate=True)
     Zb = Z / s[None, :, None] * s[None, None, :]
     mask = np.ones(Z.shape[1:], bool)
-    for sl in _blocks().values():
+    for sl in _blocks(family.state_names).values():
         mask[sl, sl] = False
     return float(np.max(np.abs(Zb[:, mask])) / max(np.max(np.abs(Zb)), 1.0))
 
@@ -333,7 +347,7 @@ def coupling(family: CascadeFamily) -> float:
 def _subsystem(family: CascadeFamily, name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``(A_d, A0, B, K)`` of one subsystem at every point (B and K: the axis's own input/command; else None)."""
     Tm, _ = mode_transform(family.state_names)
-    sl = _blocks()[name]
+    sl = _blocks(family.state_names)[name]
     R = Tm[sl]
     A_d = R @ family.A_d @ R.T
     A0 = R @ family.A0 @ R.T

@@ -383,7 +383,7 @@ def _assemble_P(lyap: Mapping[str, RobustLyapunov], dims: Mapping[str, Sequence[
     Tm, _ = mode_transform(state_names)
     n = Tm.shape[0]
     Pz = np.zeros((points.shape[0], n, n))
-    for name, sl in _blocks().items():
+    for name, sl in _blocks(state_names).items():
         Pz[:, sl, sl] = _affine(lyap[name].P, _coords(box, points, dims[name]))
     return Tm.T @ Pz @ Tm
 

@@ -16,7 +16,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from nniquad.analysis.robust.box import POINT_NAMES, ParameterBox, _coords, _subgrid, tilt_accel_limit
-from nniquad.analysis.robust.family import (SUBSYSTEMS, CascadeFamily, _subsystem, _take, coupling,
+from nniquad.analysis.robust.family import (SUBSYSTEMS, CascadeFamily, _subsystem, _take, coupling, subsystems,
                                             relevant_coordinates, sampled_family)
 from nniquad.analysis.robust.lyapunov import (WitnessMargins, _assemble_P, _block_loops, _mirror,
                                               _mirrored, grid_check, reach_lyapunov, robust_lyapunov,
@@ -28,13 +28,23 @@ from nniquad.control.gains import Gains, InnerLoopGains
 from nniquad.errors import CascadeError, SolverError
 from nniquad.model.vehicle import Vehicle
 
-__all__ = ["LMI_POINTS_PER_AXIS", "BoxSearch", "widest_box", "cascade_section", "last_timings"]
+__all__ = ["LMI_POINTS_PER_AXIS", "BoxSearch", "widest_box", "cascade_section", "last_timings", "model_text",
+           "roa_note"]
 
 
 #: Points per coordinate of each subsystem's Lyapunov LMI (the vertices and the centre); the numpy grid
 #: check uses :data:`nniquad.config.CASCADE_GRID_POINTS_PER_AXIS` (other points than these, but the vertices).
 LMI_POINTS_PER_AXIS = 3
 _MODEL = "full (linearised at hover, 19 states: rigid body, altitude PID, yaw, attitude PD, motors, NNI)"
+
+
+def model_text(n_states: int) -> str:
+    """The section's stated model: :data:`_MODEL` for the NNI law's 19 states; the ``sni2`` law's two more
+    controller states give 21 (the text names the controller by its state count)."""
+    if n_states == 19:
+        return _MODEL
+    return (f"full (linearised at hover, {n_states} states: rigid body, altitude PID, yaw, attitude PD, motors, "
+            f"{'second-order SNI controller' if n_states == 21 else 'controller'})")
 _FORM = "P(θ) = P0 + Σ θ_j P_j per decoupled subsystem, θ ∈ [-1, 1] the log factors normalised on the box"
 _COVERAGE = ("the LMI holds at the LMI points (grid of 3 per coordinate: vertices, centre, mid-faces); "
              "the interior is checked with numpy at the grid points only")
@@ -43,6 +53,16 @@ _ROA_NOTE = ("linear_zone: the level set x'P(θ)x <= c(θ) of the grid-checked L
              "and contracts by the grid's worst rho); gsc: discrete generalised sector condition, scalar "
              "multiplier. u0 = (min mass factor) g tan(tilt); start: position offset in any direction, "
              "all else at hover, controller state 0")
+#: The end of the note for the ``sni2`` law, whose controller starts at its DC value (:func:`roa_note`).
+_SNI2_START = "controller state at rest at its DC value C(0) times the position (the sni2 law's take-over state)"
+
+
+def roa_note(controller: str) -> str:
+    """The section's stated region-of-attraction note: :data:`_ROA_NOTE`, and for ``sni2`` the start with its
+    controller at its DC value (:func:`nniquad.control.sni.start_state`)."""
+    return _ROA_NOTE if controller != "sni2" else _ROA_NOTE.replace("controller state 0", _SNI2_START)
+
+
 _MARGIN_POINTS = "vertices of the box in the coordinates that reach the horizontal axes"
 _MARGIN_MODEL = "Padé (order 2) model of the sampling, continuous time (nniquad.analysis.fast_margins)"
 #: Wall-clock seconds of the parts of the last :func:`cascade_section` (not stored in the section: not checkable).
@@ -290,7 +310,7 @@ def _cascade_section(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, t
     lz_grid = linear_zone_reach(lyap, dims, box, grid_fam, L)
     roa_block: dict[str, Any] = {"u0_m_s2": L, "tilt_limit_deg": float(tilt_limit_deg), "method": "linear_zone",
                                  "max_displacement_m": min(lz_lmi, lz_grid), "linear_zone_reach_lmi_points_m": lz_lmi,
-                                 "linear_zone_reach_grid_m": lz_grid, "note": _ROA_NOTE}
+                                 "linear_zone_reach_grid_m": lz_grid, "note": roa_note(gains.controller)}
     timings["roa_s"] = time.perf_counter() - t0 - sum(timings.values())
     mdims = tuple(sorted(set(dims["x"]) | set(dims["y"])))
     margins = _vertex_margins(sampled_family(vehicle, gains, inner, _subgrid(box, mdims, 2),
@@ -299,7 +319,8 @@ def _cascade_section(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, t
     loops = _block_loops(fam, box, pts, dims)
     timings["margins_s"] = time.perf_counter() - t0 - sum(timings.values())
     section = {
-        "rate_hz": float(rate_hz), "controller": "discrete", "attitude_loop": "continuous", "model": _MODEL,
+        "rate_hz": float(rate_hz), "controller": "discrete", "attitude_loop": "continuous",
+        "model": model_text(len(fam.state_names)),
         "box": box.to_json(), "monte_carlo_default_box": mc.to_json(),
         "covers_monte_carlo_default": bool(box.contains(mc)),
         # how the box was found: a record (nniquad.certificates.verify.RECORD_FIELDS), not a claim: verify
@@ -313,7 +334,8 @@ def _cascade_section(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, t
         "lyapunov": {
             "form": _FORM, "coverage": _COVERAGE,
             "period_s": T, "rho": max(l.rho for l in lyap.values()), "coupling": coupling(nom),
-            "subsystems": {name: {"states": list(SUBSYSTEMS[name]), "dims": [POINT_NAMES[j] for j in dims[name]],
+            "subsystems": {name: {"states": list(subsystems(fam.state_names)[name]),
+                                  "dims": [POINT_NAMES[j] for j in dims[name]],
                                   "lmi_points": int(pts[name].shape[0]), "rho": l.rho,
                                   "decay_rate_1_s": l.decay_rate_1_s, "spectral_radius": l.spectral_radius,
                                   **_margin_fields(witness_margins(l.P, *loops[name])),
