@@ -424,6 +424,10 @@ class ReducedLoop:
         """State scaling of the controller's NI lemma LMI: none (one state)."""
         return np.eye(1)
 
+    def controller_normalisation(self) -> tuple[np.ndarray, float]:
+        """``(T, time scale)`` in which ``verify`` judges the controller's NI storage: none for this law."""
+        return np.eye(1), 1.0
+
     def min_stable_mass(self) -> float:
         """Smallest true mass of the paper model that keeps the loop stable: ``1/(min kp δ)`` [kg]."""
         return 1.0 / (min(self.gains.axes()) * self.gains.delta)

@@ -114,6 +114,12 @@ class SNI2Loop:
         rest at its DC value (:func:`nniquad.control.sni.start_state`, what the simulator and the export do)."""
         return start_direction(self.gains.k, self.gains.omega)
 
+    def controller_normalisation(self) -> tuple[np.ndarray, float]:
+        """``(T, ω)``: :meth:`controller_scaling` and the time in units of ``1/ω``, in which the controller is
+        ``[[0, 1], [-1, -2ζ]]``, ``[0, 1]``, ``[C(0), 0]`` and every term of the NI dissipation matrix is of
+        order ``C(0)`` (``verify`` judges the stored storage there)."""
+        return self.controller_scaling(), float(self.gains.omega)
+
     def controller_scaling(self) -> np.ndarray:
         """Diagonal state scaling ``T`` of the controller for its NI lemma LMI: ``z`` in units of ``C(0) = k/ω²``
         per metre, ``z'`` in units of ``k/ω`` (the realisation ``(T⁻¹A_cT, T⁻¹B_c, C_cT)`` is then of order ω and 1)."""

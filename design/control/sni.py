@@ -140,7 +140,9 @@ def zoh_entries(k: Any, omega: Any, zeta: Any, T: Any, lib: Any = np) -> tuple[l
     With ``σ = ζω`` and ``ν² = σ² - ω²`` (``(A_c + σI)² = ν² I``),
     ``e^{A_c T} = e^{-σT} [cosh(νT) I + sinh(νT)/ν (A_c + σI)]`` (``cos``/``sin`` of ``|ν|T`` when the
     poles are complex), and since ``A_c`` is invertible ``B_d = A_c^{-1}(e^{A_c T} - I) B_c``, whose
-    entries are ``k (1 - E_11)/ω²`` and ``k E_12``.
+    entries are ``k (1 - E_11)/ω²`` and ``k E_12``.  ``1 - E_11 ≈ (ωT)²/2`` is formed by a
+    difference, so ``B_d[0]`` carries a relative rounding error of about ``2 ε/(ωT)²`` (1e-11 at
+    the tuner's smallest ``ωT = 0.005``), far below what the closed loop resolves.
 
     Parameters
     ----------

@@ -113,7 +113,8 @@ from nniquad.analysis.bound import BoundResult, time_optimal_bound
 from nniquad.analysis.linear import ReducedLoop
 from nniquad.analysis.lmi.roa import certified_reach
 from nniquad.analysis.verdicts import Metrics
-from nniquad.control.gains import ControllerGains, Gains, InnerLoopGains
+from nniquad.analysis.sni_loop import reduced_loop
+from nniquad.control.gains import NI_LAWS, ControllerGains, Gains, InnerLoopGains
 from nniquad.config import BAND_FRACTION, XI0_NORM_M
 from nniquad.errors import NniquadError
 from nniquad.model.vehicle import PAPER_VEHICLE, Vehicle
@@ -437,12 +438,12 @@ def tune(vehicle: Vehicle = PAPER_VEHICLE, options: TuneOptions | None = None,
         say(f"the design misses GM >= 6 dB / PM >= 45 deg at a break point (PM {pms} deg; "
             + ("smallest shortfall kept)" if options.require_pm else "gain margins enforced, PM reported)"))
     robust_info = _robust_summary(vehicle, options, details)
-    if options.controller != "nni":
-        reach = math.nan  # not an NNI design: no certified region
+    if options.controller not in NI_LAWS:
+        reach = math.nan  # not a design of the NI structure: no certified region
     elif best.reach_m is not None:
         reach = best.reach_m
     else:
-        reach = certified_reach(ReducedLoop.from_vehicle(vehicle, gains), options.tilt_limit_deg)
+        reach = certified_reach(reduced_loop(vehicle, gains), options.tilt_limit_deg)
     reruns = []
     for seed, cand in results:
         g, inn = decode(cand.q, vehicle.m, options.gamma_max, alpha_avail=alpha, tau_motor_s=_tau_cap(vehicle, options),
