@@ -290,6 +290,7 @@ def build_certificate(vehicle: Vehicle, gains: Gains | SNI2Gains, *, inner: Inne
         say(f"certifying the sampled-data cascade at {rate_hz:g} Hz over the parameter box")
         try:
             section = cascade_section(vehicle, gains, inner, tilt_limit_deg=tilt_limit_deg, rate_hz=rate_hz, box=box,
+                                      xi0_m=xi0,
                                       widest=widest_box, grid_points_per_axis=grid_points_per_axis)
         except (CascadeError, SolverError) as exc:
             raise CertificateError(f"the sampled-data cascade is not certified at {rate_hz:g} Hz: {exc}") from None

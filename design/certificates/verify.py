@@ -158,7 +158,8 @@ def ni_storage_check(name: str, P: np.ndarray, A: np.ndarray, B: np.ndarray, C: 
 #: Fields that are records, not claims: ``verify`` checks none of them, and they change
 #: no check and nothing ``montecarlo`` simulates (``tests/test_tampering.py`` shows it
 #: for every leaf).  ``tuning.model`` is the exception: it must equal ``model``.
-RECORD_FIELDS: tuple[str, ...] = ("software", "tuning", "vehicle.name", "cascade.box_search")
+RECORD_FIELDS: tuple[str, ...] = ("software", "tuning", "vehicle.name", "cascade.box_search",
+                                  "cascade.region_of_attraction.lure_search")
 
 #: The keys of every schema-1 section (a signed key no check reads would be a claim nobody verifies).
 SECTION_KEYS: dict[str, frozenset[str]] = {k: frozenset(v) for k, v in {
@@ -595,11 +596,13 @@ def _cascade_checks(cert: Certificate) -> list[Check]:
     section = _thaw_json(cert.cascade)
     if isinstance(section, dict):
         section.pop("box_search", None)  # a record (RECORD_FIELDS): how the box was found, not what is certified
+        if isinstance(section.get("region_of_attraction"), dict):
+            section["region_of_attraction"].pop("lure_search", None)  # a record too: how the region was found
     # a pure function of the section and the design: an edit elsewhere in the document does not re-run it
     rows = _memo("cascade", [section, cert.vehicle.as_dict(), _gains_key(cert), cert.inner_loop.as_dict(),
-                             cert.tilt_limit_deg],
+                             cert.tilt_limit_deg, list(cert.xi0_m)],
                  lambda: check_cascade_section(section, cert.vehicle, cert.gains, cert.inner_loop,
-                                               tilt_limit_deg=cert.tilt_limit_deg))
+                                               tilt_limit_deg=cert.tilt_limit_deg, xi0_m=cert.xi0_m))
     checks = [Check(f"cascade.{name}", ok, detail) for name, ok, detail in rows]
     return checks or [Check("cascade", False, "the cascade check returned no checks")]
 

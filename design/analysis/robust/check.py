@@ -7,7 +7,7 @@ recomputed with numpy and compared (values within their rounding bounds, never w
 from __future__ import annotations
 
 import math
-from typing import Any, Mapping
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 
@@ -16,11 +16,11 @@ from nniquad.analysis.robust.family import (COUPLING_TOL, SUBSYSTEMS, _relevance
                                             family_cached, relevance_consistent)
 from nniquad.analysis.robust.lyapunov import (GridCheck, RobustLyapunov, _assemble_P, _block_loops, grid_check,
                                               point_index, witness_margins)
-from nniquad.analysis.robust.roa import linear_zone_reach
+from nniquad.analysis.robust.roa import HORIZONTAL, check_lure_block, linear_zone_reach, roa_note
 from nniquad.analysis.robust.section import (LMI_POINTS_PER_AXIS, _COVERAGE, _FORM, _MARGIN_MODEL, _MARGIN_POINTS,
-                                             _margin_fields, model_text, roa_note)
+                                             _margin_fields, model_text)
 from nniquad.analysis.sampled import _period
-from nniquad.config import CASCADE_GRID_POINTS_PER_AXIS
+from nniquad.config import CASCADE_GRID_POINTS_PER_AXIS, XI0_M
 from nniquad.control.gains import Gains, InnerLoopGains, SNI2Gains
 from nniquad.sim import CONTROLLER_STATES, state_names
 from nniquad.errors import CascadeError
@@ -70,7 +70,7 @@ _N_RIGID_AND_INNER = 17
 
 def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: Gains | SNI2Gains,
                           inner: InnerLoopGains, *,
-                          tilt_limit_deg: float) -> list[tuple[str, bool, str]]:
+                          tilt_limit_deg: float, xi0_m: Sequence[float] = XI0_M) -> list[tuple[str, bool, str]]:
     """Re-check a ``cascade`` section from the design alone (cheap checks first).
 
     Every system matrix is rebuilt from ``vehicle``, ``gains``, ``inner``, the
@@ -79,8 +79,11 @@ def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: G
     condition is re-checked with numpy at the LMI points (contraction of
     ``P(θ)`` equal to the stated ``ρ < 1``, ``P(θ) ≻ 0`` on the cube's corners);
     the grid check is re-run and every stated number compared (relative 1e-9);
-    the reach is recomputed; the margins are recomputed at the stated worst
-    vertices.  The box search (``box_search``) is a record, not re-run: the
+    the region of attraction is recomputed from its stated matrices (method
+    ``lure``: :func:`nniquad.analysis.robust.roa.check_lure_block`) and
+    ``start_certified`` from the reach and ``xi0_m`` (the certificate's start,
+    by default :data:`nniquad.config.XI0_M` as for :func:`cascade_section`);
+    the margins are recomputed at the stated worst vertices.  The box search (``box_search``) is a record, not re-run: the
     certified box is what is checked.
 
     Returns
@@ -96,7 +99,7 @@ def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: G
 
     need = ("rate_hz", "controller", "attitude_loop", "model", "box", "monte_carlo_default_box",
             "covers_monte_carlo_default", "lyapunov", "grid", "region_of_attraction", "margins", "matrices",
-            "decay_rate_1_s")
+            "decay_rate_1_s", "start_certified")
     missing = [k for k in need if not isinstance(section, Mapping) or k not in section]
     if not add("section keys", not missing, f"missing {missing}" if missing else "all present"):
         return out
@@ -213,11 +216,27 @@ def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: G
         method = roa.get("method")
         ok = _close(roa.get("linear_zone_reach_lmi_points_m"), lz_lmi) and _close(roa.get("linear_zone_reach_grid_m"),
                                                                                   lz_grid)
+        reach, detail = min(lz_lmi, lz_grid), f"linear zone {min(lz_lmi, lz_grid):.6g} m"
         if method == "linear_zone":
-            ok = ok and _close(roa.get("max_displacement_m"), min(lz_lmi, lz_grid))
+            ok = ok and _close(roa.get("max_displacement_m"), reach) and "lure" not in roa
+        elif method == "lure" and gains.controller != "sni2":  # solved for a start with the controller at 0
+            start, lmi = 1, {}
+            for name in SUBSYSTEMS:  # each horizontal axis's LMI points, as the family is stacked above
+                if name in HORIZONTAL:
+                    lmi[name] = _take(fam, np.arange(start, start + pts[name].shape[0]))
+                start += pts[name].shape[0]
+            lure_ok, lure_detail, lure_reach = check_lure_block(roa["lure"], dims, box, lmi, grid_fam, lyap)
+            # the stated reach is the recomputed one (never larger), and reaches beyond the linear zone
+            stated = roa.get("max_displacement_m")
+            ok = (ok and lure_ok and _is_number(stated) and lure_reach * (1 - 2e-9) <= stated <= lure_reach
+                  and lure_reach > reach)
+            reach, detail = lure_reach, lure_detail
         else:
             ok = False
-        add("region of attraction", ok, f"{method}: reach {roa.get('max_displacement_m')} m")
+        add("region of attraction", ok, f"{method}: stated reach {roa.get('max_displacement_m')} m; {detail}")
+        r0 = math.hypot(*(float(v) for v in xi0_m))
+        add("start certified", section["start_certified"] is bool(r0 <= float(roa["max_displacement_m"])),
+            f"start {r0:.6g} m, reach {roa.get('max_displacement_m')} m: stated {section['start_certified']}")
     except (KeyError, TypeError, ValueError, np.linalg.LinAlgError) as exc:
         add("region of attraction", False, f"unreadable ({exc})")
     # ---- margins at the stated worst points (the most expensive check: last)

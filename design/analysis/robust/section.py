@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
-from typing import Any, Mapping
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 
@@ -21,15 +21,15 @@ from nniquad.analysis.robust.family import (SUBSYSTEMS, CascadeFamily, _subsyste
 from nniquad.analysis.robust.lyapunov import (WitnessMargins, _assemble_P, _block_loops, _mirror,
                                               _mirrored, grid_check, reach_lyapunov, robust_lyapunov,
                                               witness_margins)
-from nniquad.analysis.robust.roa import linear_zone_reach
+from nniquad.analysis.robust.roa import linear_zone_reach, roa_note
+from nniquad.analysis.robust.roa_lmi import lure_section
 from nniquad.config import (CASCADE_GRID_POINTS_PER_AXIS, CASCADE_REACH_DECAY_FRACTION, CASCADE_SMALLEST_SCALE,
-                            CASCADE_WIDEST_SCALE_MAX, CASCADE_WIDEST_STEPS, CONTROL_RATE_HZ)
+                            CASCADE_WIDEST_SCALE_MAX, CASCADE_WIDEST_STEPS, CONTROL_RATE_HZ, XI0_M)
 from nniquad.control.gains import Gains, InnerLoopGains
 from nniquad.errors import CascadeError, SolverError
 from nniquad.model.vehicle import Vehicle
 
-__all__ = ["LMI_POINTS_PER_AXIS", "BoxSearch", "widest_box", "cascade_section", "last_timings", "model_text",
-           "roa_note"]
+__all__ = ["LMI_POINTS_PER_AXIS", "BoxSearch", "widest_box", "cascade_section", "last_timings", "model_text"]
 
 
 #: Points per coordinate of each subsystem's Lyapunov LMI (the vertices and the centre); the numpy grid
@@ -48,21 +48,6 @@ def model_text(n_states: int) -> str:
 _FORM = "P(θ) = P0 + Σ θ_j P_j per decoupled subsystem, θ ∈ [-1, 1] the log factors normalised on the box"
 _COVERAGE = ("the LMI holds at the LMI points (grid of 3 per coordinate: vertices, centre, mid-faces); "
              "the interior is checked with numpy at the grid points only")
-_ROA_NOTE = ("linear_zone: the level set x'P(θ)x <= c(θ) of the grid-checked Lyapunov matrix inside "
-             "‖K x‖ <= u0 (the generalised sector condition with G = 0: no saturation inside, so it is invariant "
-             "and contracts by the grid's worst rho); gsc: discrete generalised sector condition, scalar "
-             "multiplier. u0 = (min mass factor) g tan(tilt); start: position offset in any direction, "
-             "all else at hover, controller state 0")
-#: The end of the note for the ``sni2`` law, whose controller starts at its DC value (:func:`roa_note`).
-_SNI2_START = "controller state at rest at its DC value C(0) times the position (the sni2 law's take-over state)"
-
-
-def roa_note(controller: str) -> str:
-    """The section's stated region-of-attraction note: :data:`_ROA_NOTE`, and for ``sni2`` the start with its
-    controller at its DC value (:func:`nniquad.control.sni.start_state`)."""
-    return _ROA_NOTE if controller != "sni2" else _ROA_NOTE.replace("controller state 0", _SNI2_START)
-
-
 _MARGIN_POINTS = "vertices of the box in the coordinates that reach the horizontal axes"
 _MARGIN_MODEL = "Padé (order 2) model of the sampling, continuous time (nniquad.analysis.fast_margins)"
 #: Wall-clock seconds of the parts of the last :func:`cascade_section` (not stored in the section: not checkable).
@@ -233,7 +218,8 @@ _SECTIONS: dict[tuple, dict[str, Any]] = {}
 
 def cascade_section(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, tilt_limit_deg: float,
                     rate_hz: float = CONTROL_RATE_HZ, box: ParameterBox | None = None,
-                    widest: bool = False, grid_points_per_axis: int = CASCADE_GRID_POINTS_PER_AXIS) -> dict[str, Any]:
+                    widest: bool = False, grid_points_per_axis: int = CASCADE_GRID_POINTS_PER_AXIS,
+                    xi0_m: Sequence[float] = XI0_M) -> dict[str, Any]:
     """The schema-2 ``cascade`` section of a certificate (module docstring for the maths).
 
     A section is a pure function of its inputs, so one computed earlier in the
@@ -243,17 +229,18 @@ def cascade_section(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, ti
     import copy
 
     key = (vehicle, gains, inner, float(tilt_limit_deg), float(rate_hz), box, bool(widest),
-           int(grid_points_per_axis))
+           int(grid_points_per_axis), tuple(float(v) for v in xi0_m))
     if key not in _SECTIONS:
         _SECTIONS[key] = _cascade_section(vehicle, gains, inner, tilt_limit_deg=tilt_limit_deg, rate_hz=rate_hz,
-                                          box=box, widest=widest,
-                                          grid_points_per_axis=grid_points_per_axis)
+                                          box=box, widest=widest, grid_points_per_axis=grid_points_per_axis,
+                                          xi0_m=xi0_m)
     return copy.deepcopy(_SECTIONS[key])
 
 
 def _cascade_section(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, tilt_limit_deg: float,
                      rate_hz: float = CONTROL_RATE_HZ, box: ParameterBox | None = None,
-                     widest: bool = False, grid_points_per_axis: int = CASCADE_GRID_POINTS_PER_AXIS) -> dict[str, Any]:
+                     widest: bool = False, grid_points_per_axis: int = CASCADE_GRID_POINTS_PER_AXIS,
+                     xi0_m: Sequence[float] = XI0_M) -> dict[str, Any]:
     """:func:`cascade_section` without the cache.
 
     Parameters
@@ -276,6 +263,8 @@ def _cascade_section(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, t
     grid_points_per_axis
         Points per coordinate of the numpy grid check (default
         :data:`nniquad.config.CASCADE_GRID_POINTS_PER_AXIS`).
+    xi0_m
+        The reference start [m]: ``start_certified`` states whether it lies in the certified region.
 
     Raises
     ------
@@ -308,9 +297,19 @@ def _cascade_section(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, t
     timings["box_lyapunov_and_grid_s"] = time.perf_counter() - t0  # the box search included
     lz_lmi = linear_zone_reach(lyap, dims, box, fam, L)
     lz_grid = linear_zone_reach(lyap, dims, box, grid_fam, L)
-    roa_block: dict[str, Any] = {"u0_m_s2": L, "tilt_limit_deg": float(tilt_limit_deg), "method": "linear_zone",
-                                 "max_displacement_m": min(lz_lmi, lz_grid), "linear_zone_reach_lmi_points_m": lz_lmi,
-                                 "linear_zone_reach_grid_m": lz_grid, "note": roa_note(gains.controller)}
+    # the Lur'e-Postnikov region, kept when it passes every numpy check and reaches further than the linear zone;
+    # it is solved for a start with the controller state 0, so not for the sni2 law (which starts at its DC value)
+    lure, record = (lure_section(fam, pts, lyap, grid_fam, box, dims) if gains.controller != "sni2"
+                    else (None, None))
+    reach = min(lz_lmi, lz_grid)
+    roa_block: dict[str, Any] = {"u0_m_s2": L, "tilt_limit_deg": float(tilt_limit_deg), "method": "linear_zone"}
+    if lure is not None and min(lure["check_lmi_points"]["reach_m"], lure["check_grid"]["reach_m"]) > reach:
+        # stated a hair below the reach checked, so that another machine's rounding never finds it larger
+        reach = min(lure["check_lmi_points"]["reach_m"], lure["check_grid"]["reach_m"]) * (1.0 - 1e-9)
+        roa_block.update(method="lure", lure=lure)
+    roa_block.update({"max_displacement_m": reach, "linear_zone_reach_lmi_points_m": lz_lmi,
+                      "linear_zone_reach_grid_m": lz_grid, "note": roa_note(gains.controller),
+                      "lure_search": record})  # a record (nniquad.certificates.verify.RECORD_FIELDS)
     timings["roa_s"] = time.perf_counter() - t0 - sum(timings.values())
     mdims = tuple(sorted(set(dims["x"]) | set(dims["y"])))
     margins = _vertex_margins(sampled_family(vehicle, gains, inner, _subgrid(box, mdims, 2),
@@ -348,6 +347,7 @@ def _cascade_section(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, t
                      "Gamma_d": nom.Gam[0].tolist(), "A_kd": fam.A_kd.tolist(), "B_kd": fam.B_kd.tolist(),
                      "C_k": fam.C_k.tolist(), "D_k": fam.D_k.tolist()},
         "decay_rate_1_s": decay,
+        "start_certified": bool(math.hypot(*(float(v) for v in xi0_m)) <= reach),
     }
     last_timings.clear()
     last_timings.update(timings, total_s=time.perf_counter() - t0)

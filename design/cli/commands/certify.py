@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 
 from nniquad.config import CONTROL_RATE_HZ
@@ -154,7 +155,11 @@ def run(args: argparse.Namespace) -> int:
               f"motor tau x{bx['tau_motor_factor'][0]:.3g}-{bx['tau_motor_factor'][1]:.3g} "
               f"(covers the Monte Carlo ranges: {cas['covers_monte_carlo_default']}); decay "
               f"{fmt(cas['decay_rate_1_s'], '1/s')}, grid {cas['grid']['size']} points worst rho "
-              f"{cas['grid']['worst_rho']:.6f}, cascade reach {fmt(cas['region_of_attraction']['max_displacement_m'], 'm')}")
+              f"{cas['grid']['worst_rho']:.6f}")
+        roa = cas["region_of_attraction"]
+        start = math.hypot(*cert.xi0_m)
+        print(f"  cascade region of attraction ({roa['method']}): reach {fmt(roa['max_displacement_m'], 'm')} beside "
+              f"the start {fmt(start, 'm')}: start certified {fmt(cas['start_certified'])}")
         search = cas.get("box_search")
         if search:
             failed = search["first_failed_scale"]
