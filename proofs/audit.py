@@ -75,7 +75,8 @@ def audit(only: Iterable[str] | None = None, section: str | None = None) -> Audi
         Claim ids to run (default: all, see :func:`nniquad.proofs.claims.claim_ids`).
     section
         Run only the claims of this paper section (``"ni_preliminaries"``,
-        ``"quadrotor_model"``, ``"control_design"``, ``"simulation"``).
+        ``"quadrotor_model"``, ``"control_design"``, ``"simulation"``), or the project's
+        extensions (``"extensions"``: not claims of the paper).
 
     Returns
     -------

@@ -13,6 +13,12 @@ Claim functions take the object under test as a keyword parameter whose default
 is the paper's version (typed from the LaTeX source), so tests can feed a
 deliberately wrong variant and check that the verdict changes.
 
+Besides the paper's claims the audit holds a few **extensions** (section
+``extensions``, ``kind = "extension"``): statements the project relies on that
+the paper does not make (e.g. that the filtered-derivative PD law is the NNI
+law).  They are checked the same way and always marked as extensions, never as
+claims of the paper (the table, the JSON ``kind`` and the Markdown say so).
+
 Verdicts
 --------
 ``holds``
@@ -42,6 +48,8 @@ __all__ = [
     "HOLDS_WITH_CORRECTION",
     "VERDICTS",
     "METHODS",
+    "KINDS",
+    "EXTENSION_SECTIONS",
     "SECTIONS",
     "Finding",
     "ClaimResult",
@@ -70,13 +78,33 @@ SECTIONS: dict[str, str] = {
     "quadrotor_model": "Quadrotor system (Sec. sec:quadrotor)",
     "control_design": "Control design and stability analysis (Sec. sec:control)",
     "simulation": "Simulation results (Sec. sec:simulation)",
+    "extensions": "Extensions: not claims of the paper (statements the project adds and checks)",
 }
+
+#: A record's ``kind``: a claim of the paper, or an extension the project adds (never a claim of the paper).
+KINDS: tuple[str, ...] = ("paper", "extension")
+
+#: Sections that hold extensions only (every claim there has ``kind = "extension"``, and no other does).
+EXTENSION_SECTIONS: tuple[str, ...] = ("extensions",)
 
 
 def _check_verdict(verdict: str) -> str:
     if verdict not in VERDICTS:
         raise ValueError(f"verdict must be one of {VERDICTS}, got {verdict!r}")
     return verdict
+
+
+#: The statement of every extension starts with this (what a reader sees first).
+EXTENSION_PREFIX = "EXTENSION (not a claim of the paper): "
+
+
+def _check_kind(kind: str, section: str) -> str:
+    if kind not in KINDS:
+        raise ValueError(f"kind must be one of {KINDS}, got {kind!r}")
+    if (kind == "extension") != (section in EXTENSION_SECTIONS):
+        raise ValueError(f"section {section!r} holds {'extensions' if section in EXTENSION_SECTIONS else 'claims of the paper'}"
+                         f", not kind {kind!r}")
+    return kind
 
 
 def _check_method(method: str) -> str:
@@ -126,11 +154,14 @@ class ClaimResult:
     Attributes
     ----------
     id, paper_ref, section, statement, method
-        Metadata from :func:`claim` (``paper_ref``: LaTeX labels of the paper).
+        Metadata from :func:`claim` (``paper_ref``: LaTeX labels of the paper; for an
+        extension, the labels it builds on).
     verdict, reason, evidence, counterexample, correction
         From the claim's :class:`Finding`.
     seconds
         Wall time of the check.
+    kind
+        ``"paper"`` (a claim of the paper) or ``"extension"`` (:data:`KINDS`).
     """
 
     id: str
@@ -144,15 +175,23 @@ class ClaimResult:
     correction: dict[str, Any] | str | None
     method: str
     seconds: float = 0.0
+    kind: str = "paper"
 
     def __post_init__(self) -> None:
         _check_verdict(self.verdict)
         _check_method(self.method)
+        _check_kind(self.kind, self.section)
+
+    @property
+    def extension(self) -> bool:
+        """Whether this record is an extension (not a claim of the paper)."""
+        return self.kind == "extension"
 
     def to_json(self) -> dict[str, Any]:
         """JSON-ready dictionary (sympy objects as strings, arrays as lists)."""
         return {
             "id": self.id,
+            "kind": self.kind,
             "paper_ref": list(self.paper_ref),
             "section": self.section,
             "verdict": self.verdict,
@@ -176,6 +215,7 @@ class ClaimSpec:
     statement: str
     method: str
     func: Callable[..., Finding]
+    kind: str = "paper"
 
 
 _REGISTRY: dict[str, ClaimSpec] = {}
@@ -192,9 +232,11 @@ def claim(id: str, paper_ref: Sequence[str] | str, section: str, statement: str,
     id
         Claim id (unique).
     paper_ref
-        LaTeX label(s) of the equations / lemmas checked.
+        LaTeX label(s) of the equations / lemmas checked (for an extension: the ones it builds on).
     section
-        Section module name (a key of :data:`SECTIONS`).
+        Section module name (a key of :data:`SECTIONS`); a section of
+        :data:`EXTENSION_SECTIONS` makes the record an extension (``kind = "extension"``),
+        and its statement must say so.
     statement
         The claim in our own words.
     method
@@ -204,9 +246,12 @@ def claim(id: str, paper_ref: Sequence[str] | str, section: str, statement: str,
     if section not in SECTIONS:
         raise ValueError(f"unknown section {section!r}")
     _check_method(method)
+    kind = "extension" if section in EXTENSION_SECTIONS else "paper"
+    if kind == "extension" and not statement.startswith(EXTENSION_PREFIX):
+        raise ValueError(f"an extension's statement must start with {EXTENSION_PREFIX!r}")
 
     def decorate(func: Callable[..., Finding]) -> Callable[..., ClaimResult]:
-        spec = ClaimSpec(id, refs, section, statement, method, func)
+        spec = ClaimSpec(id, refs, section, statement, method, func, kind)
         if id in _REGISTRY and _REGISTRY[id].func.__qualname__ != func.__qualname__:
             raise ValueError(f"claim id {id!r} registered twice")
 
@@ -219,7 +264,7 @@ def claim(id: str, paper_ref: Sequence[str] | str, section: str, statement: str,
                 id=id, paper_ref=list(refs), section=section, statement=statement,
                 verdict=finding.verdict, reason=finding.reason, evidence=finding.evidence,
                 counterexample=finding.counterexample, correction=finding.correction,
-                method=method, seconds=time.perf_counter() - t0,
+                method=method, seconds=time.perf_counter() - t0, kind=kind,
             )
 
         wrapper.__name__ = func.__name__
@@ -227,7 +272,7 @@ def claim(id: str, paper_ref: Sequence[str] | str, section: str, statement: str,
         wrapper.__doc__ = func.__doc__
         wrapper.__module__ = func.__module__
         wrapper.spec = spec  # type: ignore[attr-defined]
-        _REGISTRY[id] = ClaimSpec(id, refs, section, statement, method, wrapper)
+        _REGISTRY[id] = ClaimSpec(id, refs, section, statement, method, wrapper, kind)
         return wrapper
 
     return decorate
@@ -302,6 +347,7 @@ def audit_to_json(results: Sequence[ClaimResult]) -> dict[str, Any]:
     data = {
         "claims": [r.to_json() for r in results],
         "summary": {"n_claims": len(results), "verdicts": counts,
+                    "n_extensions": sum(r.kind == "extension" for r in results),
                     "seconds": round(sum(r.seconds for r in results), 3)},
     }
     json.dumps(data, allow_nan=False)  # fail here, not in the writer, if something is not JSON
@@ -314,10 +360,13 @@ def audit_table(results: Sequence[ClaimResult], width: int = 100) -> str:
     vw = max(len(v) for v in VERDICTS)
     lines = [f"{'id':<{idw}}  {'verdict':<{vw}}  reason", f"{'-' * idw}  {'-' * vw}  {'-' * 6}"]
     for r in results:
-        reason = r.reason if len(r.reason) <= width else r.reason[: width - 3] + "..."
+        reason = ("[EXTENSION] " if r.extension else "") + r.reason
+        reason = reason if len(reason) <= width else reason[: width - 3] + "..."
         lines.append(f"{r.id:<{idw}}  {r.verdict:<{vw}}  {reason}")
     counts = ", ".join(f"{sum(r.verdict == v for r in results)} {v}" for v in VERDICTS)
-    lines.append(f"{len(results)} claims: {counts}")
+    n_ext = sum(r.extension for r in results)
+    lines.append(f"{len(results)} claims: {counts}"
+                 + (f" ({n_ext} of them extensions, not claims of the paper)" if n_ext else ""))
     return "\n".join(lines)
 
 
@@ -371,7 +420,9 @@ def audit_to_markdown(results: Sequence[ClaimResult], title: str = "Audit of the
         "Quadrotor Aircraft via Nonlinear Negative Imaginary Systems Theory*. Each claim is checked "
         "**literally as printed** first; where it fails, the smallest correction is stated and checked "
         "by the same code. Verdicts: `holds` (as printed), `fails`, `holds-with-correction`. "
-        "Symbolic checks hold for all positive parameters unless the evidence says *numeric*."
+        "Symbolic checks hold for all positive parameters unless the evidence says *numeric*. "
+        "The last section holds **extensions**: statements the project adds and checks, marked as such; they "
+        "are not claims of the paper."
     )
     lines.append("")
     counts = ", ".join(f"{sum(r.verdict == v for r in results)} `{v}`" for v in VERDICTS)
@@ -380,7 +431,7 @@ def audit_to_markdown(results: Sequence[ClaimResult], title: str = "Audit of the
     lines.append("| id | paper ref | verdict | reason |")
     lines.append("|---|---|---|---|")
     for r in results:
-        reason = r.reason.replace("|", "\\|")
+        reason = ("**EXTENSION, not a claim of the paper.** " if r.extension else "") + r.reason.replace("|", "\\|")
         lines.append(f"| [`{r.id}`](#{r.id}) | {', '.join(r.paper_ref)} | **{r.verdict}** | {reason} |")
     lines.append("")
     for sec, title_ in SECTIONS.items():
@@ -390,6 +441,9 @@ def audit_to_markdown(results: Sequence[ClaimResult], title: str = "Audit of the
         lines += [f"## {title_}", ""]
         for r in sec_results:
             lines += [f"### {r.id}", ""]
+            if r.extension:
+                lines.append("- **Kind**: EXTENSION: not a claim of the paper; the paper's labels below are what it "
+                             "builds on")
             lines.append(f"- **Paper reference**: {', '.join('`' + p + '`' for p in r.paper_ref)}")
             lines.append(f"- **Statement**: {r.statement}")
             lines.append(f"- **Verdict**: **{r.verdict}** — {r.reason}")

@@ -1,4 +1,4 @@
-"""The discrete-time NNI controller in the simulator (``controller_sampling="discrete"``).
+"""The discrete-time controllers in the simulator (``controller_sampling="discrete"``).
 
 Independent references: :class:`nniquad.control.discrete.DiscreteNNI` stepped in
 numpy on the simulator's own sampled positions (the controller), and the exact
@@ -13,7 +13,7 @@ import pytest
 
 from nniquad.analysis.sampled import sampled_reduced_loop
 from nniquad.control.discrete import DiscreteNNI
-from nniquad.control.gains import Gains, PDGains
+from nniquad.control.gains import Gains, PDFilteredGains, PDGains
 from nniquad.errors import SimulationError
 from nniquad.model.vehicle import PAPER_VEHICLE as V
 from nniquad.sim import SimOptions, SimParams, exogenous_inputs, simulate
@@ -110,10 +110,43 @@ def test_bad_sampling_options(kwargs, message):
         SimOptions(model="linear", **kwargs)
 
 
-def test_discrete_variant_is_nni_only_and_its_period_must_match():
+def _exact_pd_loop(kp: float, kd: float, tau_f: float | None, T: float, n: int, xi0: float) -> np.ndarray:
+    """One axis of the linear model with a discrete PD law, by hand: the double integrator with its input held
+    over T (exact), the filter's exact ZOH step (``tau_f``) or the sampled true velocity (``None``).
+    Returns (xi_k, v_k) for k = 0..n."""
+    Phi, Gu = np.array([[1.0, T], [0.0, 1.0]]), np.array([T * T / 2.0, T])
+    x, d = np.array([xi0, 0.0]), xi0  # at rest; the filter starts at xi(0)
+    out = [x]
+    for _ in range(n):
+        if tau_f is None:
+            u = -kp * x[0] - kd * x[1]
+        else:
+            u = -kp * x[0] - kd * (x[0] - d) / tau_f
+            a = np.exp(-T / tau_f)
+            d = a * d + (1.0 - a) * x[0]
+        x = Phi @ x + Gu * u
+        out.append(x)
+    return np.array(out)
+
+
+@pytest.mark.parametrize("gains", [PDGains(kp=3.0, kd=2.0), PDFilteredGains(kp=3.0, kd=2.0, tau_f=0.05)],
+                         ids=["pd_velocity", "pd_filtered"])
+def test_discrete_pd_laws_equal_the_exact_sampled_loop(gains):
+    """The PD laws in discrete time: position and velocity at kT equal the hand-written exact sampled loop
+    (double integrator with the command held, the filter's exact ZOH step or the sampled velocity); the
+    held variant is another loop."""
+    T = 0.02
+    o = SimOptions(model="linear", horizon_s=4.0, output_dt_s=T, controller_sampling="discrete", noise_rate_hz=1 / T)
+    tr = simulate(V, gains, o)[0]
+    for axis, (pos, vel) in enumerate(((0, 1), (2, 3))):
+        ref = _exact_pd_loop(gains.kp, gains.kd, getattr(gains, "tau_f", None), T, len(tr.t) - 1, o.xi0[axis])
+        np.testing.assert_allclose(tr.state[:, [pos, vel]], ref, rtol=0, atol=1e-10)
+    held = simulate(V, gains, o.with_(controller_sampling="held"))[0]
+    assert np.max(np.abs(held.xy - tr.xy)) > 1e-3
+
+
+def test_discrete_variant_period_must_match():
     o = SimOptions(model="linear", horizon_s=0.1, controller_sampling="discrete")
-    with pytest.raises(SimulationError, match="NNI law only"):
-        simulate(V, PDGains(kp=3.0, kd=2.0), o)
     p = SimParams.from_options(V, G, o).with_(run={"sample_period": 0.02})
     with pytest.raises(SimulationError, match="differs from the sample period"):
         simulate(None, None, o, params=p)

@@ -70,19 +70,20 @@ import numpy as np
 
 from nniquad.config import TILT_LIMIT_DEG
 from nniquad.control import inner_loops as IL
-from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, InnerLoopGains
+from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, NI_LAWS, Gains, InnerLoopGains
 from nniquad.errors import CascadeError
 from nniquad.model.vehicle import Vehicle
 from nniquad.sim import (
+    CONTROLLER_STATES,
     EXO_FIELDS,
     OUTPUT_NAMES,
-    STATE_NAMES,
     SimOptions,
     SimParams,
     initial_state,
     n_params,
     output_function,
     rhs_function,
+    state_names,
 )
 
 __all__ = [
@@ -124,7 +125,7 @@ class Linearisation:
     model
         Simulator model (``"linear"`` or ``"full"``).
     state_names
-        Names of the simulator states (:data:`nniquad.sim.STATE_NAMES`).
+        Names of the simulator states (:func:`nniquad.sim.state_names`).
     x_eq : ndarray
         The hover state (position 0, at rest, rotors at the nominal hover speed).
     residual
@@ -151,15 +152,16 @@ class Linearisation:
 
 
 @lru_cache(maxsize=8)
-def _jacobian_function(model: str) -> ca.Function:
-    n = len(STATE_NAMES[model])
+def _jacobian_function(model: str, controller: str = "nni") -> ca.Function:
+    n = len(state_names(model, controller))
     X = ca.SX.sym("x", n)
-    p = ca.SX.sym("p", n_params("nni"))
+    p = ca.SX.sym("p", n_params(controller))
     e = ca.DM.zeros(len(EXO_FIELDS))
-    f = rhs_function(model)(X, e, p)
+    f = rhs_function(model, controller)(X, e, p)
     out = OUTPUT_NAMES[model]
-    y = output_function(model)(X, e, p)[[out.index("a_x"), out.index("a_y")]]
-    return ca.Function(f"cascade_jac_{model}", [X, p], [f, ca.jacobian(f, X), ca.jacobian(y, X)])
+    y = output_function(model, controller)(X, e, p)[[out.index("a_x"), out.index("a_y")]]
+    sfx = "" if controller == "nni" else f"_{controller}"
+    return ca.Function(f"cascade_jac_{model}{sfx}", [X, p], [f, ca.jacobian(f, X), ca.jacobian(y, X)])
 
 
 def linearise(model: str, params: SimParams, *, offset: float = LINEARISATION_OFFSET_M) -> Linearisation:
@@ -170,8 +172,9 @@ def linearise(model: str, params: SimParams, *, offset: float = LINEARISATION_OF
     model
         ``"linear"`` or ``"full"`` (``"reduced"`` equals ``"linear"`` near hover).
     params
-        Parameter set (:class:`nniquad.sim.SimParams`, NNI gains); its
-        ``run.sample_hold`` is set to 1 and ``run.discrete`` to 0 here.
+        Parameter set (:class:`nniquad.sim.SimParams`, gains of a law of the NI structure:
+        :data:`nniquad.control.gains.NI_LAWS`); its ``run.sample_hold`` is set to 1 and
+        ``run.discrete`` to 0 here.
     offset
         Symmetric offset of the held measurement [m] (module docstring).
 
@@ -187,12 +190,13 @@ def linearise(model: str, params: SimParams, *, offset: float = LINEARISATION_OF
     """
     if model not in ("linear", "full"):
         raise CascadeError(f"the cascade is linearised on the 'linear' or 'full' model, not {model!r}")
-    if not isinstance(params, SimParams) or params.controller != "nni":
-        raise CascadeError("the cascade is linearised with a SimParams of the NNI controller")
+    if not isinstance(params, SimParams) or params.controller not in NI_LAWS:
+        raise CascadeError(f"the cascade is linearised with a SimParams of the NNI controller or another law of "
+                           f"the NI structure ({', '.join(NI_LAWS)})")
     p = params.with_(run={"sample_hold": 1.0, "discrete": 0.0})  # the continuous controller's Jacobian
-    names = STATE_NAMES[model]
+    names = state_names(model, params.controller)
     x_eq = initial_state(model, p, (0.0, 0.0))
-    fn = _jacobian_function(model)
+    fn = _jacobian_function(model, params.controller)
     f0 = np.asarray(fn(x_eq, p.vector())[0], float).ravel()
     residual = float(np.max(np.abs(f0)))
     if not residual <= EQUILIBRIUM_TOL:
@@ -510,7 +514,7 @@ def linearise_cascade(
                            tau_motor_s)
     lin = linearise("full", params)
     names = lin.state_names
-    ctrl = ("zc_x", "zc_y")
+    ctrl = CONTROLLER_STATES[params.controller]
     held = ("held_x", "held_y")
     motors = ("w1", "w2", "w3", "w4")
     rigid = tuple(n for n in names if n not in ctrl + held + motors)

@@ -404,12 +404,50 @@ class ReducedLoop:
         kp = min(self._kp_eff(axis) for axis, _ in self.axes)
         return float(lambdified()["delta_min"](self.m, kp, g))
 
+    def axis_scaling(self, axis: str = "x") -> np.ndarray:
+        """Diagonal state scaling ``T = diag(1, sqrt(kp), Γ)`` of the decay LMIs of one axis
+        (:func:`nniquad.analysis.lmi.decay.closed_loop_decay`): the velocity in units of the inner loop's natural
+        frequency, the controller state in units of Γ.
+
+        Parameters
+        ----------
+        axis
+            ``'x'`` or ``'y'``.
+        """
+        return np.diag([1.0, float(np.sqrt(self.kp(axis))), self.gains.Gamma])
+
+    def start_direction(self) -> np.ndarray:
+        """The start state of one axis per metre of displacement from rest: ``[1, 0, 0]`` (controller state 0)."""
+        return np.array([1.0, 0.0, 0.0])
+
+    def controller_scaling(self) -> np.ndarray:
+        """State scaling of the controller's NI lemma LMI: none (one state)."""
+        return np.eye(1)
+
+    def controller_normalisation(self) -> tuple[np.ndarray, float]:
+        """``(T, time scale)`` in which ``verify`` judges the controller's NI storage: none for this law."""
+        return np.eye(1), 1.0
+
+    def min_stable_mass(self) -> float:
+        """Smallest true mass of the paper model that keeps the loop stable: ``1/(min kp δ)`` [kg]."""
+        return 1.0 / (min(self.gains.axes()) * self.gains.delta)
+
+    @property
+    def routh_margin(self) -> float:
+        """``m kp δ - 1`` of the weaker axis (``= 1/γ - 1``): positive iff the loop is stable."""
+        return self.margin_product - 1.0
+
     def poles_and_damping(self) -> PolesDamping:
         """Poles, natural frequencies and damping of the closed loop of both axes (python-control ``damp``)."""
+        return self._damp(self.closed_loop_A())
+
+    @staticmethod
+    def _damp(A: np.ndarray) -> PolesDamping:
+        """:class:`PolesDamping` of a closed-loop matrix (python-control ``damp``)."""
         import control as ct
 
-        A = self.closed_loop_A()
-        sys = ct.ss(A, np.zeros((6, 1)), np.zeros((1, 6)), 0)
+        n = A.shape[0]
+        sys = ct.ss(A, np.zeros((n, 1)), np.zeros((1, n)), 0)
         wn, zeta, poles = sys.damp()
         order = np.argsort(poles.real)[::-1]
         max_re = float(np.max(poles.real))

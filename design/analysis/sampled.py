@@ -243,11 +243,12 @@ def sampled_reduced_loop(vehicle, gains, rate_hz: float = CONTROL_RATE_HZ, *, co
     the cascade; the sampling is as in :func:`sampled_cascade`.
     """
     from nniquad.analysis.cascade import linearise
-    from nniquad.sim import SimOptions, SimParams
+    from nniquad.sim import CONTROLLER_STATES, SimOptions, SimParams
 
     p = SimParams.from_options(vehicle, gains, SimOptions(model="linear", sample_hold=True))
     lin = linearise("linear", p)
-    ik, ih = lin.index("zc_x", "zc_y"), lin.index("held_x", "held_y")
+    ctrl = CONTROLLER_STATES[p.controller]
+    ik, ih = lin.index(*ctrl), lin.index("held_x", "held_y")
     plant = ("x", "x_dot", "y", "y_dot")
     ip = lin.index(*plant)
     A_k, B_k, C_k, D_k = lin.J[np.ix_(ik, ik)], lin.J[np.ix_(ik, ih)], lin.Y[:, ik], lin.Y[:, ih]
@@ -255,7 +256,7 @@ def sampled_reduced_loop(vehicle, gains, rate_hz: float = CONTROL_RATE_HZ, *, co
     B_p = lin.J[np.ix_(ip, ik + ih)] @ np.linalg.pinv(np.hstack([C_k, D_k]))
     C_p = np.zeros((2, len(plant)))
     C_p[0, plant.index("x")] = C_p[1, plant.index("y")] = 1.0
-    return sampled_loop_from_blocks(lin.J[np.ix_(ip, ip)], B_p, C_p, A_k, B_k, C_k, D_k, plant + ("zc_x", "zc_y"),
+    return sampled_loop_from_blocks(lin.J[np.ix_(ip, ip)], B_p, C_p, A_k, B_k, C_k, D_k, plant + ctrl,
                                     rate_hz, controller)
 
 

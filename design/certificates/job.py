@@ -8,7 +8,7 @@ from typing import Any, Callable, Mapping
 from nniquad.certificates.build import build_certificate
 from nniquad.certificates.certificate import Certificate
 from nniquad.certificates.verify import Verification, verify_certificate
-from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, InnerLoopGains
+from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, InnerLoopGains, SNI2Gains
 from nniquad.errors import CertificateCheckError, CertificateError, NniquadError
 from nniquad.model.vehicle import PAPER_VEHICLE, Vehicle
 
@@ -28,7 +28,10 @@ def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLo
     vehicle
         The vehicle; default the paper's.
     gains
-        Gains to certify (:class:`nniquad.control.gains.Gains`); a
+        Gains to certify (:class:`nniquad.control.gains.Gains`, the ``sni2`` law's
+        :class:`~nniquad.control.gains.SNI2Gains`, or a
+        :class:`~nniquad.control.gains.PDFilteredGains`, certified as its NNI image,
+        :func:`nniquad.control.pd_equivalence.nni_from_filtered_pd`); a
         :class:`nniquad.tuning.tune.TuneResult` (its gains and inner loops, and
         the record of how they were found); or ``None``, which tunes them first
         with ``options``.
@@ -38,6 +41,7 @@ def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLo
         gains are tuned, the inner loops are tuned with them.
     options
         A :class:`nniquad.tuning.tune.TuneOptions`: the model, ``gamma_max``, the
+        law class (``law_class``: ``paper`` or ``cascade``), the
         tilt limit and the mass interval of the certificate, and how to tune
         (default: those of a given :class:`~nniquad.tuning.tune.TuneResult`, else
         ``TuneOptions()``).
@@ -51,8 +55,8 @@ def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLo
         Also search the widest scale of the Monte Carlo default box that certifies
         (about a minute more) and certify that box.
     rate_hz
-        Control rate of the certificate [Hz] (default
-        :data:`nniquad.config.CONTROL_RATE_HZ`; :func:`build_certificate`).
+        Control rate of the certificate [Hz] (default ``options.rate_hz``, the rate the
+        tuner ranked the candidates at; :func:`build_certificate`).
 
     Returns
     -------
@@ -63,7 +67,7 @@ def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLo
     Raises
     ------
     CertificateError
-        The gains violate the sector bound, an LMI is infeasible, or the
+        The gains violate the sector bound (class ``paper``), an LMI is infeasible, or the
         certificate fails its own verification, or a reference run does not
     settle, diverges or is not seen to stay in the band for the hold time
     (:func:`unsettled_reference_run`): nothing is certified.
@@ -77,6 +81,12 @@ def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLo
         raise NniquadError("options must be a TuneOptions")
     say = progress or (lambda msg: None)
     tuning: dict[str, Any]
+    from nniquad.control.gains import PDFilteredGains
+    from nniquad.control.pd_equivalence import nni_from_filtered_pd
+
+    if options.controller == "pd_velocity":
+        raise NniquadError("the PD law with true velocity is no NNI law: there is nothing to certify")
+    law_class = options.law_class if options.law_class is not None else "paper"
     if gains is None or isinstance(gains, TuneResult):
         if inner is not None:
             raise NniquadError("the inner loops are tuned with the gains: give gains to certify given inner loops")
@@ -84,15 +94,19 @@ def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLo
         gains, inner = res.gains, res.inner
         tuning = {"source": "nniquad tune", **res.to_json()}
     else:
-        if not isinstance(gains, Gains):
-            raise NniquadError("gains must be a Gains (kp, Gamma, delta)")
         inner = DEFAULT_INNER_LOOP_GAINS if inner is None else inner
         tuning = {"source": "given gains"}
+    if isinstance(gains, PDFilteredGains):  # the filtered PD is the NNI law with these gains
+        tuning["certified_as_nni_image_of"] = {"pd_filtered": gains.as_dict()}
+        gains = nni_from_filtered_pd(gains, vehicle.m)
+    if not isinstance(gains, (Gains, SNI2Gains)):
+        raise NniquadError("gains must be a Gains (kp, Gamma, delta), an SNI2Gains (kp, k, omega, zeta) or a filtered "
+                           "PD (certified as its NNI image)")
     cert = build_certificate(vehicle, gains, inner=inner, gamma_max=options.gamma_max,
                              tilt_limit_deg=options.tilt_limit_deg, mass_range=options.mass_range,
                              model=options.model, tuning=tuning, progress=progress,
-                             box=box, widest_box=widest_box, refuse_unsettled=True,
-                             **({} if rate_hz is None else {"rate_hz": rate_hz}))
+                             box=box, widest_box=widest_box, refuse_unsettled=True, law_class=law_class,
+                             rate_hz=options.rate_hz if rate_hz is None else rate_hz)
     unsettled = unsettled_reference_run(cert)
     if unsettled is not None:
         raise CertificateError(f"refused: {unsettled}; nothing certified")

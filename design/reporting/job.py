@@ -50,7 +50,7 @@ class Report:
 
 def report(out_dir: str | Path = "out", vehicle: Vehicle | None = None, *, model: str = "full",
            gamma_max: float = GAMMA_MAX, roa_radius_m: float | None = None, budget: str = "normal",
-           reruns: int | None = 1, objective: str | None = None,
+           reruns: int | None = 1, objective: str | None = None, law_class: str = "paper",
            progress: Callable[..., None] | None = None) -> Report:
     """Run the main job: audit, bound, paper-gain runs, tuning, certificate, verification, figures, report.md.
 
@@ -72,6 +72,9 @@ def report(out_dir: str | Path = "out", vehicle: Vehicle | None = None, *, model
         Extra tuner seeds for the grid-artefact check.
     objective
         ``"robust"`` (default for ``full``) or ``"nominal"`` (:class:`nniquad.tuning.tune.TuneOptions`).
+    law_class
+        ``"paper"`` (default) or ``"cascade"`` (:mod:`nniquad.control.law_classes`): the class
+        the design is tuned in and certified as; the report names the theorem.
     progress
         Called as ``progress(stage, fraction, detail="")``.
 
@@ -84,6 +87,6 @@ def report(out_dir: str | Path = "out", vehicle: Vehicle | None = None, *, model
 
     vehicle = PAPER_VEHICLE if vehicle is None else vehicle
     options = ReportOptions(out_dir=Path(out_dir), model=model, gamma_max=gamma_max, roa_radius_m=roa_radius_m,
-                            budget=budget, reruns=reruns, objective=objective)
+                            budget=budget, reruns=reruns, objective=objective, law_class=law_class)
     data = build_report(vehicle, options, progress=progress)
     return Report(Path(out_dir), data)

@@ -90,6 +90,9 @@ class ReportOptions:
     objective
         Tuning objective (:attr:`nniquad.tuning.tune.TuneOptions.objective`; ``None``:
         robust for ``full``, nominal for ``reduced``).
+    law_class
+        ``"paper"`` or ``"cascade"`` (:mod:`nniquad.control.law_classes`); ``roa_radius_m``
+        ``None`` demands ‖ξ_h(0)‖ in the paper class and nothing in the cascade class.
     """
 
     out_dir: Path
@@ -100,6 +103,7 @@ class ReportOptions:
     budget: str = "normal"
     reruns: int | None = 1
     objective: str | None = None
+    law_class: str = "paper"
 
 
 def _relative(out_dir: Path, path: Path) -> str:
@@ -142,13 +146,14 @@ def build_report(vehicle: Vehicle, options: ReportOptions, progress: Progress | 
         or does not verify; nothing of this run is left half-written.
     """
     from nniquad.sim import SimOptions
-    from nniquad.tuning.tune import DEFAULT_ROA_RADIUS_M, TuneOptions
+    from nniquad.tuning.tune import TuneOptions
 
     say = progress or (lambda stage, frac, detail="": None)
     # every option first: a bad one is refused before any work (and before the folder is touched)
-    reach = DEFAULT_ROA_RADIUS_M if options.roa_radius_m is None else options.roa_radius_m
-    tune_opts = TuneOptions(model=options.model, gamma_max=options.gamma_max, roa_radius_m=reach,
-                            budget=options.budget, reruns=options.reruns, objective=options.objective)
+    tune_opts = TuneOptions(model=options.model, gamma_max=options.gamma_max, roa_radius_m=options.roa_radius_m,
+                            budget=options.budget, reruns=options.reruns, objective=options.objective,
+                            law_class=options.law_class)
+    reach = tune_opts.roa_radius_m
     SimOptions(horizon_s=options.paper_horizon_s)
     with ReportFolder(options.out_dir, REPORT_OUTPUTS) as folder:
         data = _build(vehicle, options, tune_opts, folder.path, say)
@@ -165,7 +170,7 @@ def _build(vehicle: Vehicle, options: ReportOptions, tune_opts: Any, out: Path, 
     from nniquad.certificates import build_certificate, certificate_gains, certificate_inner_loop, verify_certificate, write_certificate
     from nniquad.errors import CertificateCheckError
     from nniquad.analysis.linear import ReducedLoop
-    from nniquad.control.gains import PAPER_GAINS
+    from nniquad.control.gains import PAPER_GAINS, gains_text
     from nniquad.sim import SimOptions, paper_figure_runs
     from nniquad.tuning.tune import tune
 
@@ -207,7 +212,8 @@ def _build(vehicle: Vehicle, options: ReportOptions, tune_opts: Any, out: Path, 
     tuned = tune(vehicle, tune_opts, progress=lambda msg: say(stage, 0.55, msg), warm_starts=warm)
     say("building the certificate", 0.75)
     cert = build_certificate(vehicle, tuned.gains, gamma_max=options.gamma_max, inner=tuned.inner,
-                             tilt_limit_deg=tune_opts.tilt_limit_deg, model=options.model,
+                             tilt_limit_deg=tune_opts.tilt_limit_deg, model=options.model, law_class=options.law_class,
+                             rate_hz=tune_opts.rate_hz,
                              tuning={"source": "nniquad report", **tuned.to_json()}).to_json()  # the JSON document
     say("verifying the certificate independently", 0.8)
     report_check = verify_certificate(cert)
@@ -224,7 +230,7 @@ def _build(vehicle: Vehicle, options: ReportOptions, tune_opts: Any, out: Path, 
     cert_runs = paper_figure_runs(vehicle, gains, horizon_s=cert_horizon,
                                   options=SimOptions(inner=certificate_inner_loop(cert), motor_lag=True))
     written.append(plots.paper_figure(cert_runs, out / "certified_gains.png",
-                                      title=f"Certified gains (kp={fmt(gains.kp)}, Γ={fmt(gains.Gamma)}, δ={fmt(gains.delta)})",
+                                      title=f"Certified gains ({gains_text(gains, sep=', ', greek=True, number=fmt)})",
                                       zoom_s=min(10.0, cert_horizon)))
     cert_rows = _model_rows(cert_runs)
 
@@ -247,6 +253,7 @@ def _build(vehicle: Vehicle, options: ReportOptions, tune_opts: Any, out: Path, 
             "inner_loop": cert.get("inner_loop"),
             "gamma": cert["sector"]["gamma"],
             "gamma_max": cert["sector"]["gamma_max"],
+            "law_class": cert["law_class"],
             "start_certified": cert["start_certified"],
             "max_displacement_m": cert["region_of_attraction"]["max_displacement_m"],
             "roa_radius_m": tuned.roa_radius_m,
@@ -343,6 +350,7 @@ def _markdown(d: dict[str, Any], audit_txt: str, verify_txt: str) -> str:
         "",
         f"kp = {fmt(g['kp'])} 1/s^2, Gamma = {fmt(g['Gamma'])}, delta = {fmt(g['delta'])}; "
         f"smallest sector gamma = {fmt(c['gamma'])} (gamma_max = {fmt(c['gamma_max'])}). "
+        f"Law class **{c['law_class']['name']}**: certified by {c['law_class']['theorem']}. "
         f"Certified region of attraction under the tilt limit: displacements from rest up to {fmt(c['max_displacement_m'])} m "
         f"(required: {fmt(c['roa_radius_m'])} m); start state certified: {fmt(c['start_certified'])}.",
         "",

@@ -51,18 +51,29 @@ Controller sampling
 -------------------
 ``run.sample_hold = 1`` feeds every law the measurement sampled at the sensor
 rate and held (``ξ_m`` above = the held value).  With ``run.discrete = 1`` the
-NNI law also runs in discrete time at that rate (period ``run.sample_period``):
-``z`` is constant over a period and :func:`step_function` advances it at each
-later sample by the exact ZOH equivalent ``z ← e^{-ΓδT} z + (1 - e^{-ΓδT})/δ ξ_m``
-of the period that ends, before it latches the new measurement, so ``a_h``
-is held over the period (:class:`nniquad.control.discrete.DiscreteNNI`).
+law also runs in discrete time at that rate (period ``run.sample_period``):
+its state is constant over a period and :func:`step_function` advances it at
+each later sample by the exact ZOH equivalent of the period that ends, before
+it latches the new measurement, so ``a_h`` is held over the period.  NNI:
+``z ← e^{-ΓδT} z + (1 - e^{-ΓδT})/δ ξ_m``
+(:class:`nniquad.control.discrete.DiscreteNNI`); ``pd_filtered``:
+``d ← e^{-T/τ_f} d + (1 - e^{-T/τ_f}) ξ_m``; ``pd_velocity``: the velocity is
+sampled with the position and held (stored in ``zc``).
 
 Every law has its own parameter layout (:func:`nniquad.sim.params.param_layout`,
-the gain entries named after the block's fields) and its own compiled
-function; all share the state layout (:data:`STATE_NAMES`: ``zc_x, zc_y`` hold
-the NNI state z, the ``pd_filtered`` filter state d, or zeros for
-``pd_velocity``).  With ``pd_filtered`` the RK4 step must satisfy
-``dt/τ_f ≤ 2.5`` (filter pole), checked before every run.
+the gain entries named after the block's fields), its own state layout
+(:func:`nniquad.sim.params.state_names`: ``zc_x, zc_y`` hold the NNI state z, the
+``pd_filtered`` filter state d, or zeros for ``pd_velocity``; ``sni2`` adds
+``zcd_x, zcd_y``) and its own compiled function.  With ``pd_filtered`` the RK4
+step must satisfy ``dt/τ_f ≤ 2.5`` (filter pole), checked before every run.
+
+``"sni2"``
+    The NNI structure with a second-order strictly negative-imaginary controller
+    (:mod:`nniquad.control.sni`): ``a_h = -k_p ξ_m + z/m̂``,
+    ``z'' + 2ζω z' + ω² z = k ξ_m``, state ``(z, z')`` per axis; gains
+    :class:`nniquad.control.gains.SNI2Gains`.  Discrete variant: ``(z, z')``
+    advanced by the exact ZOH of ``C(s)`` in closed form
+    (:func:`nniquad.control.sni.zoh_entries`).
 
 Integration
 -----------
@@ -82,10 +93,11 @@ from functools import lru_cache
 import casadi as ca
 
 from nniquad.control import inner_loops as IL
+from nniquad.control import sni as SNI
 from nniquad.model.numeric import PARAM_NAMES, mixer_function, reaction_torque_function, rotation_function
 from nniquad.sim.codegen import compile_function
 from nniquad.sim.options import check_model
-from nniquad.sim.params import EXO_FIELDS, STATE_NAMES, check_controller, param_layout
+from nniquad.sim.params import CONTROLLER_STATES, EXO_FIELDS, check_controller, param_layout, state_names
 
 __all__ = ["vehicle_dynamics", "rhs_function", "output_function", "step_function", "chunk_function"]
 
@@ -128,38 +140,51 @@ def _closed_loop(model: str, X: ca.SX, e: ca.SX, p: ca.SX, controller: str = "nn
     P = {f.name: p[i] for i, f in enumerate(param_layout(controller))}
     noise, gust = e[0:2], e[3:5]
     wind = ca.vertcat(P["run.wind_x"], P["run.wind_y"]) + gust
-    if model in ("linear", "reduced"):
-        pos, vel, zc, held = X[[0, 2]], X[[1, 3]], X[4:6], X[6:8]
-    else:
-        pos, vel, zc, held = X[[0, 2]], X[[1, 3]], X[12:14], X[14:16]
+    ix = _index(model, controller)
+    pos, vel = X[[ix["x"], ix["y"]]], X[[ix["x_dot"], ix["y_dot"]]]
+    zc, held = X[[ix["zc_x"], ix["zc_y"]]], X[[ix["held_x"], ix["held_y"]]]
+    zc_dot_extra = []  # derivatives of the controller states after zc_x, zc_y (sni2: z')
     meas = ca.if_else(P["run.sample_hold"] > 0.5, held, pos + noise)
-    if controller == "nni":
+    if controller == "sni2":
+        # a_h = -kp xi + z/m, z'' + 2 zeta omega z' + omega^2 z = k xi (nniquad.control.sni, written once there)
+        zd = X[[ix["zcd_x"], ix["zcd_y"]]]
+        A_c, B_c, _ = SNI.realisation(P["gains.k"], P["gains.omega"], P["gains.zeta"])
+        a_h = -P["gains.kp"] * meas + zc / P["nominal.m"]
+        still = ca.SX.zeros(2)
+        # discrete variant: (z, z') constant over the period and advanced by step_function at the samples
+        discrete = P["run.discrete"] > 0.5
+        zc_dot = ca.if_else(discrete, still, A_c[0][0] * zc + A_c[0][1] * zd + B_c[0][0] * meas)
+        zc_dot_extra = [ca.if_else(discrete, still, A_c[1][0] * zc + A_c[1][1] * zd + B_c[1][0] * meas)]
+    elif controller == "nni":
         kp = ca.vertcat(P["gains.kp"], P["gains.kpy"])
         a_h = -kp * meas + zc / P["nominal.m"]
         # discrete variant: z is constant over the period and advanced by step_function at the samples
         zc_dot = ca.if_else(P["run.discrete"] > 0.5, ca.SX.zeros(2),
                             -P["gains.Gamma"] * P["gains.delta"] * zc + P["gains.Gamma"] * meas)
     elif controller == "pd_velocity":
-        a_h = -P["gains.kp"] * meas - P["gains.kd"] * vel
+        # discrete variant: the velocity sampled with the position (latched into zc by step_function)
+        v_meas = ca.if_else(P["run.discrete"] > 0.5, zc, vel)
+        a_h = -P["gains.kp"] * meas - P["gains.kd"] * v_meas
         zc_dot = ca.SX.zeros(2)
     else:  # pd_filtered; zc = filter state d
         v_hat = (meas - zc) / P["gains.tau_f"]
         a_h = -P["gains.kp"] * meas - P["gains.kd"] * v_hat
-        zc_dot = v_hat
+        # discrete variant: d is constant over the period and advanced by step_function at the samples
+        zc_dot = ca.if_else(P["run.discrete"] > 0.5, ca.SX.zeros(2), v_hat)
     if model in ("linear", "reduced"):
         g = P["nominal.g"]
         if model == "reduced":
             a_h = IL.limit_norm(a_h, g * ca.tan(P["run.tilt_limit"]))
         acc = (P["nominal.m"] / P["plant.m"]) * a_h + wind / P["plant.m"]
         phi_d, theta_d, tilt = IL.tilt_setpoints(a_h, g, 0)
-        Xdot = ca.vertcat(vel[0], acc[0], vel[1], acc[1], zc_dot, ca.SX.zeros(2))
+        Xdot = ca.vertcat(vel[0], acc[0], vel[1], acc[1], zc_dot, *zc_dot_extra, ca.SX.zeros(2))
         return Xdot, ca.vertcat(a_h, tilt, phi_d, theta_d)
 
     # ---- full vehicle
     s = X[0:12]
     z, z_dot = s[4], s[5]
     eta, eta_dot = s[[6, 8, 10]], s[[7, 9, 11]]
-    z_int, w_state = X[16], X[17:21]
+    z_int, w_state = X[ix["z_int"]], X[[ix[f"w{i}"] for i in range(1, 5)]]
     a_z = IL.altitude_command(z, z_dot, z_int, P["inner.altitude_wn_rad_s"])
     g_z = ca.fmax(P["nominal.g"] - a_z, IL.G_Z_MIN_FRACTION * P["nominal.g"])
     a_h = IL.limit_norm(a_h, g_z * ca.tan(P["run.tilt_limit"]))
@@ -183,12 +208,18 @@ def _closed_loop(model: str, X: ca.SX, e: ca.SX, p: ca.SX, controller: str = "nn
     sdot = vehicle_dynamics()(s, u, omega_r, p_true)
     sdot[1] += wind[0] / P["plant.m"]
     sdot[3] += wind[1] / P["plant.m"]
-    Xdot = ca.vertcat(sdot, zc_dot, ca.SX.zeros(2), z, w_dot)
+    Xdot = ca.vertcat(sdot, zc_dot, *zc_dot_extra, ca.SX.zeros(2), z, w_dot)
     return Xdot, ca.vertcat(a_h, tilt, w_act, u[0])
 
 
+@lru_cache(maxsize=None)
+def _index(model: str, controller: str) -> dict[str, int]:
+    """Position of every state of a model with a controller law (:func:`nniquad.sim.params.state_names`)."""
+    return {n: i for i, n in enumerate(state_names(check_model(model), controller))}
+
+
 def _symbols(model: str, controller: str) -> tuple[ca.SX, ca.SX, ca.SX]:
-    nx = len(STATE_NAMES[check_model(model)])
+    nx = len(state_names(check_model(model), controller))
     return ca.SX.sym("x", nx), ca.SX.sym("e", len(EXO_FIELDS)), ca.SX.sym("p", len(param_layout(controller)))
 
 
@@ -218,12 +249,6 @@ def output_function(model: str, controller: str = "nni") -> ca.Function:
     return ca.Function(f"out_{model}{_suffix(controller)}", [X, e, p], [ca.cse(y)], ["x", "e", "p"], ["y"])
 
 
-def _held_slice(model: str) -> slice:
-    return slice(6, 8) if model in ("linear", "reduced") else slice(14, 16)
-
-
-def _zc_slice(model: str) -> slice:
-    return slice(4, 6) if model in ("linear", "reduced") else slice(12, 14)
 
 
 @lru_cache(maxsize=None)
@@ -232,26 +257,44 @@ def step_function(model: str, controller: str = "nni") -> ca.Function:
 
     At the start of the step a sample flag ``e[2] >= 1`` latches the measurement
     ``ξ + n`` into the held states; the step then integrates with it constant.
-    With the discrete NNI controller (``run.discrete = 1``) a later sample
+    With the discrete controller (``run.discrete = 1``) a later sample
     (``e[2] = 2``) first advances the controller state by one period on the
-    value held over the period that ends, ``z_{k+1} = e^{-ΓδT} z_k +
-    (1 - e^{-ΓδT})/δ ξ_k`` (:class:`nniquad.control.discrete.DiscreteNNI`), and
-    then latches ``ξ_{k+1}``; the first sample (``e[2] = 1``, ``t = 0``) only latches.
+    value held over the period that ends, and then latches ``ξ_{k+1}``; the
+    first sample (``e[2] = 1``, ``t = 0``) only latches.  The advance is the exact
+    ZOH equivalent of the law's continuous state equation: NNI
+    ``z_{k+1} = e^{-ΓδT} z_k + (1 - e^{-ΓδT})/δ ξ_k``
+    (:class:`nniquad.control.discrete.DiscreteNNI`); ``pd_filtered``
+    ``d_{k+1} = e^{-T/τ_f} d_k + (1 - e^{-T/τ_f}) ξ_k``.  ``pd_velocity`` has no
+    controller state: every sample latches the true velocity into ``zc`` with the
+    position (a sampled velocity sensor).
     """
     X, e, p = _symbols(model, controller)
-    hs = _held_slice(model)
-    pos = X[[0, 2]]
-    if check_controller(controller) == "nni":
-        P = {f.name: p[i] for i, f in enumerate(param_layout(controller))}
-        zs = _zc_slice(model)
+    ix = _index(model, controller)
+    hs = [ix["held_x"], ix["held_y"]]
+    zs = [ix[n] for n in CONTROLLER_STATES[controller]]
+    pos = X[[ix["x"], ix["y"]]]
+    P = {f.name: p[i] for i, f in enumerate(param_layout(check_controller(controller)))}
+    discrete = P["run.discrete"] > 0.5
+    advance = ca.logic_and(e[2] > 1.5, discrete)  # a later sample: the period that ends is integrated first
+    if controller == "sni2":
+        # exact ZOH of (z, z') over the period on the value held over it (nniquad.control.sni.zoh_entries)
+        Ad, Bd = SNI.zoh_entries(P["gains.k"], P["gains.omega"], P["gains.zeta"], P["run.sample_period"], ca)
+        z, zd, h = X[zs[0:2]], X[zs[2:4]], X[hs]
+        zc = ca.if_else(advance, ca.vertcat(Ad[0][0] * z + Ad[0][1] * zd + Bd[0][0] * h,
+                                            Ad[1][0] * z + Ad[1][1] * zd + Bd[1][0] * h), X[zs])
+    elif controller == "nni":
         gd_T = P["gains.Gamma"] * P["gains.delta"] * P["run.sample_period"]
         a, b = ca.exp(-gd_T), -ca.expm1(-gd_T) / P["gains.delta"]
-        advance = ca.logic_and(e[2] > 1.5, P["run.discrete"] > 0.5)
         zc = ca.if_else(advance, a * X[zs] + b * X[hs], X[zs])
-        Xa = ca.vertcat(X[: zs.start], zc, X[zs.stop :])
-    else:
-        Xa = X
-    Xs = ca.vertcat(Xa[: hs.start], ca.if_else(e[2] > 0.5, pos + e[0:2], Xa[hs]), Xa[hs.stop :])
+    elif controller == "pd_filtered":
+        # exact ZOH of d' = (xi - d)/tau_f over the period, on the value held over it
+        a = ca.exp(-P["run.sample_period"] / P["gains.tau_f"])
+        zc = ca.if_else(advance, a * X[zs] + (1 - a) * X[hs], X[zs])
+    else:  # pd_velocity: every sample (the first too) latches the true velocity with the position
+        zc = ca.if_else(ca.logic_and(e[2] > 0.5, discrete), X[[ix["x_dot"], ix["y_dot"]]], X[zs])
+    # the controller states and the held measurement are contiguous runs of the state (state_names)
+    Xa = ca.vertcat(X[: zs[0]], zc, X[zs[-1] + 1 :])
+    Xs = ca.vertcat(Xa[: hs[0]], ca.if_else(e[2] > 0.5, pos + e[0:2], Xa[hs]), Xa[hs[-1] + 1 :])
     f = rhs_function(model, controller)
     h = p[[entry.name for entry in param_layout(controller)].index("run.dt")]
     k1 = f(Xs, e, p)
@@ -268,7 +311,7 @@ def chunk_function(model: str, K: int, controller: str = "nni") -> ca.Function:
     step = step_function(model, controller)
     # MX around the SX step keeps the K steps a loop in the generated C (step emitted once):
     # the same speed as unrolled SX, a tenth of the compile time.
-    X = ca.MX.sym("x", len(STATE_NAMES[model]))
+    X = ca.MX.sym("x", len(state_names(model, controller)))
     p = ca.MX.sym("p", len(param_layout(controller)))
     E = ca.MX.sym("E", len(EXO_FIELDS), K)
     if K == 1:

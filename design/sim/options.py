@@ -25,8 +25,9 @@ MODELS: tuple[str, ...] = ("linear", "reduced", "full")
 #: How the horizontal controller sees the position (:attr:`SimOptions.controller_sampling`):
 #: ``"continuous"`` measurement and controller; ``"held"`` measurement sampled and held at
 #: ``noise_rate_hz``, controller state integrated continuously on the held value; ``"discrete"``
-#: measurement sampled and the NNI controller run in discrete time at that rate (exact ZOH
-#: equivalent, :class:`nniquad.control.discrete.DiscreteNNI`), its command held over the period.
+#: measurement sampled and the law run in discrete time at that rate (exact ZOH equivalent of its
+#: state equation: :class:`nniquad.control.discrete.DiscreteNNI` for NNI; the PD filter likewise; the true
+#: velocity of ``pd_velocity`` sampled with the position), its command held over the period.
 CONTROLLER_SAMPLING: tuple[str, ...] = ("continuous", "held", "discrete")
 
 
@@ -106,7 +107,8 @@ class SimOptions:
         Initial horizontal position [m] (vehicle at rest, level, ψ = 0, z = 0; default
         :data:`nniquad.config.XI0_M`).
     zc0
-        Initial NNI controller state (default 0; the PD laws ignore it).
+        Initial NNI controller state (default 0; the PD laws and ``sni2`` ignore it: they start at
+        the measured position, :func:`nniquad.sim.runner.initial_state`).
     noise_sigma_m
         Standard deviation of the position noise [m] (≥ 0).
     noise_rate_hz
@@ -123,7 +125,9 @@ class SimOptions:
         the measurement is sampled, else ``"continuous"``.  ``"discrete"`` runs the
         NNI law as ``z_{k+1} = e^{-ΓδT} z_k + (1 - e^{-ΓδT})/δ ξ_k``,
         ``a_k = -k_p ξ_k + z_k/m̂``, ``T = 1/noise_rate_hz``, ``a_k`` held over
-        ``[kT, (k+1)T)``, the first sample at ``t = 0`` (``z_0 = zc0``); NNI law only.
+        ``[kT, (k+1)T)``, the first sample at ``t = 0`` (``z_0 = zc0``); ``pd_filtered``
+        likewise with ``d_{k+1} = e^{-T/τ_f} d_k + (1 - e^{-T/τ_f}) ξ_k``, and
+        ``pd_velocity`` with the true velocity sampled with the position.
     seed
         Seed of the noise and gust sequences (``numpy.random.default_rng``).
     wind_N

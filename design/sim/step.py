@@ -8,7 +8,7 @@ Monte Carlo study checks the fastest plant its ranges can draw
 (:func:`nniquad.study.check_study_step`).
 
 The poles of a run (:func:`run_poles`): the controller's own pole (NNI:
-``-Γδ``; PD with a filtered derivative: ``-1/τ_f``), the motor pole ``-1/τ_m``
+``-Γδ``; PD with a filtered derivative: ``-1/τ_f``; ``sni2``: the faster pole of ``C(s)``), the motor pole ``-1/τ_m``
 when motor lag is on, and on the ``full`` model the inner loops near hover
 (:func:`nniquad.validate.inner_loop_poles`: attitude, yaw, altitude).  The
 limit, ``|λ| dt <= RK4_STEP_LIMIT``, is :func:`nniquad.validate.check_rk4_step`.
@@ -18,7 +18,7 @@ from __future__ import annotations
 
 from typing import Mapping, Sequence
 
-from nniquad.control.gains import Gains, PDFilteredGains
+from nniquad.control.gains import Gains, PDFilteredGains, SNI2Gains
 from nniquad.errors import NniquadError, SimulationError
 from nniquad.sim.params import SimParams
 from nniquad.validate import check_rk4_step, inner_loop_poles
@@ -29,6 +29,7 @@ __all__ = ["run_poles", "check_step", "API_HINTS"]
 API_HINTS: dict[str, str] = {
     "NNI controller (Gamma*delta)": "Gamma or delta, or SimOptions.dt_s",
     "derivative filter (1/tau_f)": "tau_f or SimOptions.dt_s",
+    "SNI controller (omega, zeta)": "omega or zeta, or SimOptions.dt_s",
     "attitude": "InnerLoopGains attitude_wn_rad_s, attitude_zeta or attitude_gain_scale, or SimOptions.dt_s",
     "yaw": "InnerLoopGains yaw_wn_rad_s or yaw_zeta, or SimOptions.dt_s",
     "altitude": "InnerLoopGains altitude_wn_rad_s, or SimOptions.dt_s",
@@ -57,6 +58,10 @@ def run_poles(params: SimParams, model: str) -> dict[str, float]:
         poles["NNI controller (Gamma*delta)"] = float(g.Gamma * g.delta)
     elif isinstance(g, PDFilteredGains):
         poles["derivative filter (1/tau_f)"] = 1.0 / float(g.tau_f)
+    elif isinstance(g, SNI2Gains):
+        from nniquad.control.sni import controller_poles
+
+        poles["SNI controller (omega, zeta)"] = max(abs(pole) for pole in controller_poles(g.omega, g.zeta))
     lag = params.run.motor_lag > 0.5
     if model == "full":
         poles.update(inner_loop_poles(params.inner, tau_motor_s=float(params.plant.tau_motor) if lag else None))

@@ -15,6 +15,7 @@ import numpy as np
 from nniquad.config import (ALTITUDE_LIMIT_M, BAND_FRACTION, CONTROL_RATE_HZ, DT_S, OUTPUT_DT_S, TAU_MOTOR_FACTOR_RANGE, TILT_LIMIT_DEG,
                              WIND_WEIGHT_FRACTION_RANGE, XI0_M)
 from nniquad.errors import MonteCarloError
+from nniquad.control.gains import NI_LAWS
 from nniquad.sim import SimOptions, SimParams, to_gains
 
 __all__ = [
@@ -167,7 +168,7 @@ class StudySetup:
         Certificate identification (digest or name) for the report.
     controller
         Horizontal law of :attr:`base_params` (``"nni"``, ``"pd_velocity"``,
-        ``"pd_filtered"``: :data:`nniquad.sim.CONTROLLERS`); it fixes the layout
+        ``"pd_filtered"``, ``"sni2"``: :data:`nniquad.sim.CONTROLLERS`); it fixes the layout
         of the parameter vector.
     controller_sampling
         ``"discrete"`` (the NNI law in discrete time at the sample rate, what
@@ -251,9 +252,9 @@ def study_setup_from(vehicle: Any, gains: Any, *, inner: Any = None, tilt_limit_
     label
         Identification of the design for the report.
     controller_sampling
-        ``"discrete"`` or ``"held"``; default ``"discrete"`` for the NNI law (its
-        discrete-time controller at ``ranges.noise_rate_hz``), ``"held"`` for the
-        PD laws.
+        ``"discrete"`` or ``"held"``; default ``"discrete"`` for the laws of the NI
+        structure (NNI, ``sni2``: their discrete-time controller at ``ranges.noise_rate_hz``),
+        ``"held"`` for the PD laws.
 
     Returns
     -------
@@ -275,7 +276,7 @@ def study_setup_from(vehicle: Any, gains: Any, *, inner: Any = None, tilt_limit_
     except (TypeError, ValueError):
         raise MonteCarloError(f"initial position xi0_m must be a non-zero pair of numbers, got {xi0_m!r}") from None
     block = gains if hasattr(gains, "controller") else to_gains(gains, "nni")
-    sampling = controller_sampling or ("discrete" if block.controller == "nni" else "held")
+    sampling = controller_sampling or ("discrete" if block.controller in NI_LAWS else "held")
     if sampling not in ("discrete", "held"):
         raise MonteCarloError(f"controller sampling of a study must be 'discrete' or 'held', got {sampling!r}")
     if sampling == "discrete":

@@ -10,19 +10,17 @@ import numpy as np
 
 from nniquad import config
 from nniquad.config import DT_S
-from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, ControllerGains, Gains, InnerLoopGains, PDFilteredGains, PDGains
+from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, ControllerGains, InnerLoopGains
 from nniquad.control.inner_loops import attitude_wn_limit
 from nniquad.model.vehicle import Vehicle
+from nniquad.tuning.laws import GAMMA_DELTA_MIN, KP_RANGE, PD_ZETA_RANGE, U_RANGE, V_RANGE, law_of  # noqa: F401
 from nniquad.tuning.options import TuneOptions
 
 
 # ----------------------------------------------------------------------------- coordinates
 
 #: Number of search coordinates of each horizontal law's gains (the attitude loop adds 3).
-LAW_DIMS: dict[str, int] = {"nni": 3, "pd_velocity": 2, "pd_filtered": 3}
-
-#: Damping ratio ``k_d / (2 √k_p)`` of a PD law on the double integrator: the search range.
-PD_ZETA_RANGE: tuple[float, float] = (0.3, 2.0)
+LAW_DIMS: dict[str, int] = {"nni": 3, "pd_velocity": 2, "pd_filtered": 3, "sni2": 4}
 
 
 def law_dims(controller: str) -> int:
@@ -33,10 +31,6 @@ def law_dims(controller: str) -> int:
         raise ValueError(f"unknown controller {controller!r}") from None
 
 
-#: Bounds of the NNI coordinates that do not depend on the vehicle: kp [1/s^2], u, Gamma delta [1/s].
-KP_RANGE: tuple[float, float] = (0.5, 2000.0)
-U_RANGE: tuple[float, float] = (0.0, 4.0)
-GAMMA_DELTA_MIN: float = 0.05
 #: Bounds of the attitude coordinates (``full``): ω_a [rad/s], ζ_a, α/α_avail.
 ATTITUDE_WN_RANGE: tuple[float, float] = (10.0, 150.0)
 ATTITUDE_ZETA_RANGE: tuple[float, float] = (0.5, 1.5)
@@ -101,8 +95,10 @@ def search_box(options: TuneOptions, dt_s: float = DT_S, vehicle: Vehicle | None
                ) -> tuple[np.ndarray, np.ndarray]:
     """Lower and upper bounds of the search coordinates (see the module docstring).
 
-    NNI law: kp in [0.5, kp_max] 1/s², u in [0, 4] (γ from γ_max down to γ_max e⁻⁴),
-    Γδ in [0.05, Γδ_max] 1/s.  PD laws (``options.controller``): kp in the same
+    NNI law, ``paper`` class: kp in [0.5, kp_max] 1/s², u in [0, 4] (γ from γ_max down to
+    γ_max e⁻⁴), Γδ in [0.05, Γδ_max] 1/s; ``cascade`` class: ``v = ln(m kp δ - 1)`` in
+    :data:`nniquad.tuning.laws.V_RANGE` instead of ``u`` (:mod:`nniquad.tuning.laws`).
+    PD laws (``options.controller``): kp in the same
     range, the damping ratio ``k_d/(2√k_p)`` of the loop on the double
     integrator in :data:`PD_ZETA_RANGE`, and for ``pd_filtered`` the filter time
     constant τ_f in [1/f_s, 1] s (``f_s`` = ``config.CONTROL_RATE_HZ``: a filter
@@ -139,15 +135,8 @@ def search_box(options: TuneOptions, dt_s: float = DT_S, vehicle: Vehicle | None
         limits = gain_limits(vehicle, options.tilt_limit_deg, dt_s)
         kp_max, gd_max = limits["kp_max"], limits["gamma_delta_max"]
     law = options.controller
-    if law == "nni":
-        lo = [math.log(KP_RANGE[0]), U_RANGE[0], math.log(GAMMA_DELTA_MIN)]
-        hi = [math.log(kp_max), U_RANGE[1], math.log(gd_max)]
-    else:  # the kp bound is the vehicle's whatever the law
-        lo = [math.log(KP_RANGE[0]), PD_ZETA_RANGE[0]]
-        hi = [math.log(kp_max), PD_ZETA_RANGE[1]]
-        if law == "pd_filtered":
-            lo.append(math.log(1.0 / config.CONTROL_RATE_HZ))
-            hi.append(0.0)
+    lo, hi = law_of(law, options.law_class).box(kp_max, gd_max, config.CONTROL_RATE_HZ,
+                                                config.RK4_STEP_LIMIT / dt_s)
     if options.dims > law_dims(law):
         lo += [math.log(ATTITUDE_WN_RANGE[0]), ATTITUDE_ZETA_RANGE[0], ATTITUDE_ALPHA_RANGE[0]]
         hi += [math.log(ATTITUDE_WN_RANGE[1]), ATTITUDE_ZETA_RANGE[1], ATTITUDE_ALPHA_RANGE[1]]
@@ -201,7 +190,8 @@ def attitude_wn_cap(tau_motor_s: float | None, zeta: float) -> float:
 
 def decode(q: Sequence[float], m: float, gamma_max: float,
            inner: InnerLoopGains = DEFAULT_INNER_LOOP_GAINS, alpha_avail: float = 1.0,
-           tau_motor_s: float | None = None, controller: str = "nni") -> tuple[ControllerGains, InnerLoopGains]:
+           tau_motor_s: float | None = None, controller: str = "nni",
+           law_class: str | None = None) -> tuple[ControllerGains, InnerLoopGains]:
     """Search coordinates → gains (and inner-loop gains when ``q`` has the 3 attitude coordinates too).
 
     Parameters
@@ -221,17 +211,13 @@ def decode(q: Sequence[float], m: float, gamma_max: float,
     controller
         Horizontal law: ``"nni"`` (:class:`Gains`), ``"pd_velocity"`` (:class:`PDGains`)
         or ``"pd_filtered"`` (:class:`PDFilteredGains`).
+    law_class
+        The law class whose coordinates ``q`` are in (:mod:`nniquad.tuning.laws`; ``None``:
+        ``paper`` for the NNI law, none for a PD law).
     """
-    n = law_dims(controller)
-    kp = math.exp(q[0])
-    gains: ControllerGains
-    if controller == "nni":
-        delta = math.exp(q[1]) / (gamma_max * m * kp)
-        gains = Gains(kp=kp, Gamma=math.exp(q[2]) / delta, delta=delta)
-    elif controller == "pd_velocity":
-        gains = PDGains(kp=kp, kd=2.0 * float(q[1]) * math.sqrt(kp))
-    else:
-        gains = PDFilteredGains(kp=kp, kd=2.0 * float(q[1]) * math.sqrt(kp), tau_f=math.exp(q[2]))
+    law = law_of(controller, law_class)
+    n = law.dims
+    gains = law.decode(q, m, gamma_max)
     if len(q) > n:
         a = q[n:]
         wn = min(math.exp(a[0]), attitude_wn_cap(tau_motor_s, float(a[1])))
@@ -241,8 +227,8 @@ def decode(q: Sequence[float], m: float, gamma_max: float,
 
 
 def encode(gains: ControllerGains, m: float, gamma_max: float, inner: InnerLoopGains | None = None,
-           alpha_avail: float = 1.0) -> np.ndarray:
-    """Inverse of :func:`decode` (the law is the type of ``gains``).
+           alpha_avail: float = 1.0, law_class: str | None = None) -> np.ndarray:
+    """Inverse of :func:`decode` (the law is the type of ``gains``, the coordinates those of ``law_class``).
 
     Parameters
     ----------
@@ -256,14 +242,53 @@ def encode(gains: ControllerGains, m: float, gamma_max: float, inner: InnerLoopG
         Inner-loop gains (adds the 3 attitude coordinates), or ``None``.
     alpha_avail
         Attitude acceleration headroom [rad/s^2].
+    law_class
+        As in :func:`decode`.
     """
-    if isinstance(gains, Gains):
-        q = [math.log(gains.kp), math.log(gamma_max * m * gains.kp * gains.delta), math.log(gains.Gamma * gains.delta)]
-    else:
-        q = [math.log(gains.kp), gains.kd / (2.0 * math.sqrt(gains.kp))]
-        if isinstance(gains, PDFilteredGains):
-            q.append(math.log(gains.tau_f))
+    q = law_of(type(gains).controller, law_class).encode(gains, m, gamma_max)
     if inner is not None:
         q += [math.log(inner.attitude_wn_rad_s), inner.attitude_zeta,
               inner.attitude_accel_limit_rad_s2 / alpha_avail]
     return np.array(q)
+
+
+def warm_start_coordinates(vehicle: Vehicle, options: TuneOptions,
+                           warm_starts: Sequence[tuple[ControllerGains, InnerLoopGains]],
+                           alpha_avail: float) -> list[np.ndarray | None]:
+    """The search coordinates of warm starts, mapped into the tuned law (``None``: no such design in it).
+
+    A filtered PD seeds the NNI law through its image
+    (:func:`nniquad.control.pd_equivalence.nni_from_filtered_pd`) and an NNI gain set seeds a
+    filtered PD through the inverse map (when ``m kp δ > 1``); both seed the ``sni2`` law through
+    the NNI law followed by a fast low-pass (:func:`nniquad.control.sni.sni2_from_nni` at the top of
+    :data:`nniquad.tuning.laws.SNI2_ZETA_RANGE`); other laws seed only themselves.
+
+    Parameters
+    ----------
+    vehicle, options
+        What is tuned.
+    warm_starts
+        ``(gains, inner loops)`` pairs.
+    alpha_avail
+        The attitude acceleration headroom [rad/s²] (:func:`attitude_accel_headroom`).
+    """
+    from nniquad.control.gains import Gains, PDFilteredGains, SNI2Gains
+    from nniquad.control.pd_equivalence import filtered_pd_from_nni, nni_from_filtered_pd
+    from nniquad.control.sni import sni2_from_nni
+    from nniquad.errors import GainError
+    from nniquad.tuning.laws import SNI2_ZETA_RANGE
+
+    out: list[np.ndarray | None] = []
+    for g, inn in warm_starts:
+        try:
+            if options.controller in ("nni", "sni2") and isinstance(g, PDFilteredGains):
+                g = nni_from_filtered_pd(g, vehicle.m)
+            elif options.controller == "pd_filtered" and isinstance(g, Gains):
+                g = filtered_pd_from_nni(g, vehicle.m)
+            if options.controller == "sni2" and isinstance(g, Gains):
+                g = SNI2Gains(*sni2_from_nni(g.kp, g.Gamma, g.delta, SNI2_ZETA_RANGE[1]))
+            out.append(encode(g, vehicle.m, options.gamma_max, inn if options.dims > law_dims(options.controller)
+                              else None, alpha_avail, options.law_class))
+        except (ValueError, GainError):  # another law, or outside this class's coordinates
+            out.append(None)
+    return out

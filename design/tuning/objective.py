@@ -21,12 +21,20 @@ from nniquad.tuning.options import (ALTITUDE_CAP_M, MARGIN_NOISE_M, MARGIN_TAU_F
 
 
 def simulation_options(options: TuneOptions, horizon_s: float, inner: InnerLoopGains = DEFAULT_INNER_LOOP_GAINS):
-    """The :class:`nniquad.sim.SimOptions` every candidate is simulated with (nominal mass)."""
+    """The :class:`nniquad.sim.SimOptions` every candidate is simulated with (nominal mass).
+
+    ``full``: what flies, the position sampled at ``options.rate_hz`` and the law in
+    discrete time (the certificate's ``full`` reference run and ``nniquad export``);
+    ``reduced``: the paper's continuous loop.
+    """
     from nniquad.sim import SimOptions
 
-    return SimOptions(model=options.model, horizon_s=horizon_s, output_dt_s=0.005,
+    opts = SimOptions(model=options.model, horizon_s=horizon_s, output_dt_s=0.005,
                       tilt_limit_deg=options.tilt_limit_deg, noise_sigma_m=options.noise_sigma_m,
                       seed=options.seed, motor_lag=options.motor_lag and options.model == "full", inner=inner)
+    if options.model == "full":
+        opts = opts.with_(controller_sampling="discrete", noise_rate_hz=options.rate_hz)
+    return opts
 
 
 def _scenario_options(options: TuneOptions, base, vehicle: Vehicle) -> list:
@@ -38,7 +46,7 @@ def _scenario_options(options: TuneOptions, base, vehicle: Vehicle) -> list:
         # a design tuned to the edge of the nominal motor lag loses altitude a few ms later
         # (Monte Carlo finding): demand the same performance with slower motors and a noisy sensor
         out.append(base.with_(motor_lag=True, tau_motor_s=MARGIN_TAU_FACTOR * vehicle.tau_motor,
-                              noise_sigma_m=max(base.noise_sigma_m, MARGIN_NOISE_M), noise_rate_hz=100.0))
+                              noise_sigma_m=max(base.noise_sigma_m, MARGIN_NOISE_M), noise_rate_hz=options.rate_hz))
     return out
 
 
@@ -154,8 +162,37 @@ def evaluate(vehicle: Vehicle, points: np.ndarray, options: TuneOptions, horizon
 
 def _decode_all(vehicle: Vehicle, pts: np.ndarray, options: TuneOptions, inner: InnerLoopGains) -> list:
     alpha = attitude_accel_headroom(vehicle, options.tilt_limit_deg)
-    return [decode(q, vehicle.m, options.gamma_max, inner, alpha, _tau_cap(vehicle, options), options.controller)
-            for q in pts]
+    return [decode(q, vehicle.m, options.gamma_max, inner, alpha, _tau_cap(vehicle, options), options.controller,
+                   options.law_class) for q in pts]
+
+
+#: Cost of a filtered PD whose NNI image lies outside its law class, per unit of violation (log units), in
+#: horizons on top of the largest simulation penalty (12 horizons): above every simulated candidate, ranked.
+CLASS_PENALTY_HORIZONS = 12.0
+
+
+def class_violations(vehicle: Vehicle, decoded: list, options: TuneOptions) -> np.ndarray:
+    """How far each candidate's NNI image lies outside the law class's box (0 inside; :mod:`nniquad.tuning.laws`).
+
+    Zero for every candidate unless a filtered PD is tuned in a class.
+    """
+    from nniquad.tuning.coordinates import gain_limits
+    from nniquad.tuning.laws import law_of
+
+    law = law_of(options.controller, options.law_class)
+    if law.controller != "pd_filtered" or law.law_class is None:
+        return np.zeros(len(decoded))
+    lim = gain_limits(vehicle, options.tilt_limit_deg)
+    return np.array([law.image_violation(g, vehicle.m, options.gamma_max, lim["kp_max"], lim["gamma_delta_max"])
+                     for g, _ in decoded])
+
+
+def nni_design(vehicle: Vehicle, gains, options: TuneOptions):
+    """The NNI gains a candidate is certified as: the NNI gains themselves, or a filtered PD's image."""
+    from nniquad.control.gains import PDFilteredGains
+    from nniquad.control.pd_equivalence import nni_from_filtered_pd
+
+    return nni_from_filtered_pd(gains, vehicle.m) if isinstance(gains, PDFilteredGains) else gains
 
 
 def evaluate_details(vehicle: Vehicle, points: np.ndarray, options: TuneOptions, horizon_s: float,
@@ -173,6 +210,17 @@ def evaluate_details(vehicle: Vehicle, points: np.ndarray, options: TuneOptions,
 
     pts = np.atleast_2d(points)
     decoded = _decode_all(vehicle, pts, options, inner)
+    outside = class_violations(vehicle, decoded, options)
+    if np.any(outside > 0) and not full_report:
+        # a filtered PD whose image leaves the class: ranked by how far, never simulated
+        inside = np.flatnonzero(outside == 0)
+        out = [{"cost": float(horizon_s * CLASS_PENALTY_HORIZONS * (1.0 + v)), "metrics": None, "nominal_cost": math.inf,
+                "scenario_costs": None, "robust_settling_s": None, "margins": None, "margin_penalty": 0.0,
+                "cost_without_margins": math.inf, "class_violation": float(v)} for v in outside]
+        if len(inside):
+            for b, d in zip(inside, evaluate_details(vehicle, pts[inside], options, horizon_s, inner)):
+                out[b] = d
+        return out
     base = simulation_options(options, horizon_s, inner)
     tilt_cap = options.tilt_limit_deg + TILT_SLACK_DEG if options.model == "full" else None
     xi0_norm = math.hypot(*base.xi0)
@@ -202,7 +250,8 @@ def evaluate_details(vehicle: Vehicle, points: np.ndarray, options: TuneOptions,
     if options.require_margins:
         for b in range(len(pts)):
             if full_report or out[b]["cost"] < horizon_s:
-                short, margins = margin_penalty(vehicle, *decoded[b], options, horizon_s)
+                short, margins = margin_penalty(vehicle, nni_design(vehicle, decoded[b][0], options), decoded[b][1],
+                                                options, horizon_s)
                 out[b]["margins"] = margins
                 if short > 0:
                     s_adm = out[b]["cost"]
@@ -308,7 +357,7 @@ def _simulate_scenarios(vehicle: Vehicle, designs: list, options: TuneOptions, h
     for lo in range(0, len(jobs), ROBUST_BATCH_RUNS):
         chunk = jobs[lo:lo + ROBUST_BATCH_RUNS]
         pairs = [scen[s].params(vehicle, designs[d][0], designs[d][1], horizon_s, options.tilt_limit_deg,
-                                motor_lag=options.motor_lag) for d, s in chunk]
+                                motor_lag=options.motor_lag, rate_hz=options.rate_hz) for d, s in chunk]
         with np.errstate(all="ignore"):
             res = simulate(None, None, [o for o, _ in pairs], params=[p for _, p in pairs])
         _RUNS[0] += len(pairs)

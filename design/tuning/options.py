@@ -6,7 +6,8 @@ from dataclasses import asdict, dataclass
 from typing import Any
 
 
-from nniquad.config import GAMMA_MAX, TILT_LIMIT_DEG, TUNING_SCENARIO_SEED, XI0_NORM_M
+from nniquad.config import CONTROL_RATE_HZ, GAMMA_MAX, TILT_LIMIT_DEG, TUNING_SCENARIO_SEED, XI0_NORM_M
+from nniquad.control.gains import NI_LAWS
 from nniquad.errors import GainError, NniquadError, VehicleError
 from nniquad.validate import finite_number
 
@@ -77,6 +78,9 @@ ALTITUDE_CAP_M = 0.5
 #: The robust objective minimises this quantile of the settling times over the tuning scenarios.
 ROBUST_QUANTILE = 0.95
 
+#: The laws :func:`nniquad.tuning.tune` tunes (:attr:`TuneOptions.controller`).
+TUNABLE_CONTROLLERS: tuple[str, ...] = ("nni", "pd_velocity", "pd_filtered", "sni2")
+
 #: The objectives (:attr:`TuneOptions.objective`).
 OBJECTIVES = ("robust", "nominal")
 
@@ -92,7 +96,10 @@ class TuneOptions:
     gamma_max
         γ_max of the sector bound, in (0, 1) (paper: 0.8).
     roa_radius_m
-        Certified reach required [m]; 0 switches the check off (default ‖ξ_h(0)‖).
+        Certified reach of the reduced loop's region-of-attraction LMI required [m]; 0
+        switches the check off.  ``None`` (default): ‖ξ_h(0)‖ for the ``paper`` class,
+        0 for the ``cascade`` class (its proof is the cascade certificate, not the
+        reduced loop) and for the PD laws.
     mass_range
         ``(m_lo, m_hi)`` true masses [kg] the settling time must hold for, or ``None``.
     noise_sigma_m
@@ -114,11 +121,25 @@ class TuneOptions:
     reruns
         Extra seeds for the artefact check; ``None`` takes the budget's.
     controller
-        Horizontal law to tune: ``"nni"`` (the paper's, default), or one of the
+        Horizontal law to tune: ``"nni"`` (the paper's, default), ``"sni2"`` (the NNI
+        structure with a second-order SNI controller, :mod:`nniquad.control.sni`; the same
+        law classes, its DC condition in place of the sector bound), or one of the
         PD comparison laws ``"pd_velocity"`` (true velocity) and ``"pd_filtered"``
         (filtered derivative of the measurement), tuned on the same inner loops,
         scenarios and rules; the PD laws have no sector bound and no certified
         reach (``roa_radius_m`` is set to 0 for them).
+    law_class
+        The class of certified NNI designs searched (:mod:`nniquad.control.law_classes`):
+        ``"paper"`` (the sector bound holds; the default of the NNI law) or ``"cascade"``
+        (the sector bound dropped; the proof is the sampled-data cascade certificate).
+        For ``"pd_filtered"``, a class restricts the search to the filtered PDs whose
+        NNI image lies in that class's box (:mod:`nniquad.tuning.laws`; ``None``, the
+        default, searches them all); ``"pd_velocity"`` takes no class.
+    rate_hz
+        Control rate [Hz] of the ``full`` model's candidates: the position is sampled at
+        it and the law runs in discrete time (``SimOptions(controller_sampling="discrete")``),
+        what the certificate certifies and ``nniquad export`` writes (default
+        :data:`nniquad.config.CONTROL_RATE_HZ`); ``reduced`` runs the paper's continuous loop.
     margin
         ``full`` only: also demand the settling time with the motor time constant
         × :data:`MARGIN_TAU_FACTOR` and position noise :data:`MARGIN_NOISE_M`
@@ -142,7 +163,8 @@ class TuneOptions:
         break points of the linearised cascade (:mod:`nniquad.analysis.fast_margins`),
         and report the phase margins against ``config.REQUIRED_PM_DEG``; a candidate
         that misses a required margin is ranked above every admissible one.  ``None``
-        (default) is on for ``full`` with the NNI law.
+        (default) is on for ``full`` with the NNI law and with a filtered PD tuned in a
+        law class (computed on its NNI image).
     require_pm
         Also rank the phase-margin shortfall (``--require-pm``).  Off by default: PM >= 45°
         at the horizontal break point is out of reach of this law under the sector
@@ -158,7 +180,7 @@ class TuneOptions:
 
     model: str = "reduced"
     gamma_max: float = GAMMA_MAX
-    roa_radius_m: float = DEFAULT_ROA_RADIUS_M
+    roa_radius_m: float | None = None
     mass_range: tuple[float, float] | None = None
     noise_sigma_m: float = 0.0
     tilt_limit_deg: float = TILT_LIMIT_DEG
@@ -175,15 +197,30 @@ class TuneOptions:
     require_pm: bool = False
     controller: str = "nni"
     optimizer: str = DEFAULT_OPTIMIZER
+    law_class: str | None = None
+    rate_hz: float = CONTROL_RATE_HZ
 
     def __post_init__(self) -> None:
-        if self.controller not in ("nni", "pd_velocity", "pd_filtered"):
-            raise NniquadError(f"controller must be 'nni', 'pd_velocity' or 'pd_filtered', got {self.controller!r}")
+        from nniquad.control.law_classes import LAW_CLASSES
+
+        if self.controller not in TUNABLE_CONTROLLERS:
+            raise NniquadError(f"controller must be one of {', '.join(TUNABLE_CONTROLLERS)}, got {self.controller!r}")
+        if self.law_class is None and self.controller in NI_LAWS:
+            object.__setattr__(self, "law_class", "paper")
+        if self.law_class is not None and self.law_class not in LAW_CLASSES:
+            raise NniquadError(f"law class must be one of {', '.join(LAW_CLASSES)}, got {self.law_class!r}")
+        if self.law_class is not None and self.controller == "pd_velocity":
+            raise NniquadError("the PD law with true velocity is no NNI law: it has no law class")
+        # a positive number here; tune() checks it is a period of whole RK4 steps (nniquad.sim.options.check_rate_hz)
+        object.__setattr__(self, "rate_hz", finite_number("rate", self.rate_hz, error=NniquadError, positive=True))
         if self.model not in ("reduced", "full"):
             raise NniquadError(f"tuning model must be 'reduced' or 'full', got {self.model!r}")
         g = _finite("gamma_max", self.gamma_max)
         if not 0.0 < g < 1.0:
             raise GainError(f"gamma_max must lie in (0, 1), got {self.gamma_max!r}")
+        if self.roa_radius_m is None:  # the reduced loop's reach is the paper class's statement
+            object.__setattr__(self, "roa_radius_m", DEFAULT_ROA_RADIUS_M if self.law_class == "paper"
+                               and self.controller in NI_LAWS else 0.0)
         r = _finite("roa radius", self.roa_radius_m)
         if r < 0:
             raise NniquadError(f"roa radius must not be negative, got {self.roa_radius_m!r}")
@@ -216,15 +253,16 @@ class TuneOptions:
         if isinstance(self.scenario_seed, bool) or not isinstance(self.scenario_seed, int) or self.scenario_seed < 0:
             raise NniquadError(f"scenario seed must be a non-negative integer, got {self.scenario_seed!r}")
         if self.require_margins is None:  # the cascade margins are those of the NNI law's split
-            object.__setattr__(self, "require_margins", self.model == "full" and self.controller == "nni")
-        if self.require_margins and self.controller != "nni":
-            raise NniquadError("the margin requirement is computed on the NNI cascade: switch it off for a PD law")
+            object.__setattr__(self, "require_margins", self.model == "full" and self.nni_image)
+        if self.require_margins and not self.nni_image:
+            raise NniquadError("the margin requirement is computed on the NNI cascade: switch it off for a PD law "
+                               "(or tune the filtered PD in a law class: its NNI image is then checked)")
         if self.require_margins and self.model != "full":
             raise NniquadError("the margin requirement applies to the full cascade: use model 'full'")
         object.__setattr__(self, "require_margins", bool(self.require_margins))
         object.__setattr__(self, "gamma_max", g)
         # the PD laws have no sector bound, hence no certified region: the reach check does not apply
-        object.__setattr__(self, "roa_radius_m", r if self.controller == "nni" else 0.0)
+        object.__setattr__(self, "roa_radius_m", r if self.controller in NI_LAWS else 0.0)
 
     @property
     def dims(self) -> int:
@@ -232,6 +270,12 @@ class TuneOptions:
         from nniquad.tuning.coordinates import law_dims
 
         return law_dims(self.controller) + (3 if (self.model == "full" and self.tune_attitude) else 0)
+
+    @property
+    def nni_image(self) -> bool:
+        """Whether the candidates are designs of the NI structure in a class: the NNI or ``sni2`` law, or a filtered
+        PD in a class (its NNI image)."""
+        return self.controller in NI_LAWS or (self.controller == "pd_filtered" and self.law_class is not None)
 
     @property
     def robust(self) -> bool:

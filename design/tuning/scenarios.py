@@ -39,7 +39,7 @@ from typing import Any
 
 import numpy as np
 
-from nniquad.config import XI0_M
+from nniquad.config import CONTROL_RATE_HZ, XI0_M
 from nniquad.control.gains import Gains, InnerLoopGains, wind_equilibrium_m
 from nniquad.model.vehicle import Vehicle
 
@@ -62,7 +62,7 @@ class TuningScenario:
     tau_motor_s
         Motor time constant [s].
     noise_sigma_m, noise_seed
-        Position noise σ [m] (sampled at 100 Hz) and the seed of its sequence.
+        Position noise σ [m] (sampled at the control rate) and the seed of its sequence.
     wind_N
         Constant horizontal wind force (north, east) [N].
     xi0_m
@@ -82,17 +82,21 @@ class TuningScenario:
     extra: dict[str, Any] = field(default_factory=dict, compare=False)
 
     def options(self, horizon_s: float, tilt_limit_deg: float, inner: InnerLoopGains, *,
-                motor_lag: bool = True, output_dt_s: float = 0.005):
-        """The :class:`nniquad.sim.SimOptions` of this scenario for one candidate's inner loops."""
+                motor_lag: bool = True, output_dt_s: float = 0.005, rate_hz: float = CONTROL_RATE_HZ):
+        """The :class:`nniquad.sim.SimOptions` of this scenario for one candidate's inner loops.
+
+        What flies: the position (with this scenario's noise) sampled at ``rate_hz`` and the
+        law in discrete time at that rate (``controller_sampling="discrete"``).
+        """
         from nniquad.sim import SimOptions
 
         return SimOptions(model="full", horizon_s=horizon_s, output_dt_s=output_dt_s, tilt_limit_deg=tilt_limit_deg,
-                          xi0=self.xi0_m, noise_sigma_m=self.noise_sigma_m, noise_rate_hz=100.0,
-                          sample_hold=True if not self.nominal else None, seed=self.noise_seed,
+                          xi0=self.xi0_m, noise_sigma_m=self.noise_sigma_m, noise_rate_hz=float(rate_hz),
+                          controller_sampling="discrete", seed=self.noise_seed,
                           wind_N=self.wind_N, motor_lag=motor_lag, tau_motor_s=self.tau_motor_s, inner=inner)
 
     def params(self, vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, horizon_s: float,
-               tilt_limit_deg: float, *, motor_lag: bool = True):
+               tilt_limit_deg: float, *, motor_lag: bool = True, rate_hz: float = CONTROL_RATE_HZ):
         """``(SimOptions, SimParams)`` of a candidate: its gains and inner loops on this perturbed plant.
 
         The gains and inner-loop fields are the candidate's; the plant (mass,
@@ -102,7 +106,7 @@ class TuningScenario:
         """
         from nniquad.sim import SimParams
 
-        opts = self.options(horizon_s, tilt_limit_deg, inner, motor_lag=motor_lag)
+        opts = self.options(horizon_s, tilt_limit_deg, inner, motor_lag=motor_lag, rate_hz=rate_hz)
         base = SimParams.from_options(vehicle, gains, opts)
         if self.nominal:
             return opts, base

@@ -11,12 +11,13 @@ from typing import Callable
 
 import numpy as np
 
-from nniquad.analysis.linear import ReducedLoop
+from nniquad.analysis.sni_loop import reduced_loop
 from nniquad.analysis.lmi.roa import certified_reach
 from nniquad.analysis.verdicts import Metrics
 from nniquad.model.vehicle import Vehicle
 from nniquad.tuning.coordinates import decode, search_box
-from nniquad.tuning.objective import _scenario_options, evaluate, simulation_options
+from nniquad.tuning.laws import law_of
+from nniquad.tuning.objective import _scenario_options, evaluate, nni_design, simulation_options
 from nniquad.tuning.options import SECTOR_FACE_SHARE, TuneOptions
 
 
@@ -65,10 +66,13 @@ class _Search:
         """Certified reach check (cached); always true with ``roa_radius_m = 0``."""
         if self.options.roa_radius_m <= 0:
             return True
-        key = tuple(np.round(cand.q[:3], 9))
+        law = law_of(self.options.controller, self.options.law_class)
+        key = tuple(np.round(cand.q[:law.dims], 9))
         if key not in self._reach:
-            gains, _ = decode(cand.q, self.vehicle.m, self.options.gamma_max)
-            self._reach[key] = certified_reach(ReducedLoop.from_vehicle(self.vehicle, gains), self.options.tilt_limit_deg)
+            gains, _ = decode(cand.q, self.vehicle.m, self.options.gamma_max, controller=self.options.controller,
+                              law_class=self.options.law_class)
+            gains = nni_design(self.vehicle, gains, self.options)  # a filtered PD in a class: its NNI image
+            self._reach[key] = certified_reach(reduced_loop(self.vehicle, gains), self.options.tilt_limit_deg)
             self.n_lmi += 1
         cand.reach_m = self._reach[key]
         return cand.reach_m >= self.options.roa_radius_m
@@ -102,8 +106,10 @@ def initial_design(n: int, lo: np.ndarray, hi: np.ndarray, seed: int, sector_fac
     seed
         Seed of the scrambling (the face set uses an independent stream of it).
     sector_face
-        Place the share on the face (NNI law); ``False`` for a law without a
-        sector bound (PD): all points are one Sobol set in the box.
+        Place the share on the face (the NNI law's ``paper`` class,
+        :attr:`nniquad.tuning.laws.Law.sector_face`); ``False`` for a law
+        without a sector bound (PD, the ``cascade`` class): all points are one
+        Sobol set in the box.
 
     Returns
     -------
@@ -118,7 +124,8 @@ def initial_design(n: int, lo: np.ndarray, hi: np.ndarray, seed: int, sector_fac
 
 
 def _global(search: _Search, n: int, seed: int, batch: int = 256) -> list[Candidate]:
-    pts = initial_design(n, search.lo, search.hi, seed, sector_face=search.options.controller == "nni")
+    law = law_of(search.options.controller, search.options.law_class)
+    pts = initial_design(n, search.lo, search.hi, seed, sector_face=law.sector_face)
     out: list[Candidate] = []
     for i in range(0, len(pts), batch):
         out += search.evaluate(pts[i : i + batch], screen=True)

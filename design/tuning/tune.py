@@ -113,11 +113,13 @@ from nniquad.analysis.bound import BoundResult, time_optimal_bound
 from nniquad.analysis.linear import ReducedLoop
 from nniquad.analysis.lmi.roa import certified_reach
 from nniquad.analysis.verdicts import Metrics
-from nniquad.control.gains import ControllerGains, Gains, InnerLoopGains
+from nniquad.analysis.sni_loop import reduced_loop
+from nniquad.control.gains import NI_LAWS, ControllerGains, Gains, InnerLoopGains
 from nniquad.config import BAND_FRACTION, XI0_NORM_M
 from nniquad.errors import NniquadError
 from nniquad.model.vehicle import PAPER_VEHICLE, Vehicle
-from nniquad.tuning.coordinates import attitude_accel_headroom, attitude_wn_cap, decode, encode, search_box
+from nniquad.tuning.coordinates import (attitude_accel_headroom, attitude_wn_cap, decode, encode, search_box,
+                                        warm_start_coordinates)
 from nniquad.tuning.objective import (MARGIN_PENALTY_WIDTH_S, _tau_cap, evaluate, evaluate_details, honest_horizon_s, required_hold_s, robust_scenarios,
                                       settling_shown, simulation_options, simulations_run)
 from nniquad.tuning.options import (ROBUST_RETRY_BANDS, SCREEN_KEEP_PER_START, budget_of, ROBUST_QUANTILE, ALTITUDE_CAP_M, BUDGETS, DEFAULT_OPTIMIZER, DEFAULT_ROA_RADIUS_M, OPTIMIZERS, LONGEST_SETTLING_BANDS, SECTOR_FACE_SHARE, TILT_SLACK_DEG, TuneOptions)
@@ -150,6 +152,7 @@ __all__ = [
     "ALTITUDE_CAP_M",
     "ROBUST_QUANTILE",
     "default_horizon_s",
+    "warm_start_coordinates",
 ]
 
 
@@ -242,10 +245,34 @@ class TuneResult:
 
     @property
     def gamma(self) -> float:
-        """Smallest γ the gains satisfy the sector bound with (``nan`` for a PD law: no sector bound)."""
+        """Smallest γ the gains satisfy the sector bound with: the DC loop gain (``nan`` for a PD law: no sector
+        bound)."""
+        from nniquad.control.gains import SNI2Gains
+
+        if isinstance(self.gains, SNI2Gains):
+            return self.gains.dc_loop_gain(self.vehicle.m)
         if not isinstance(self.gains, Gains):
             return math.nan
         return ReducedLoop.from_vehicle(self.vehicle, self.gains).smallest_gamma
+
+    def nni_image(self) -> dict[str, Any] | None:
+        """A filtered PD's NNI image (:func:`nniquad.control.pd_equivalence.nni_from_filtered_pd`) and its sector
+        constant, with the classes it lies in (:mod:`nniquad.tuning.laws`); ``None`` for the other laws."""
+        from nniquad.control.gains import PDFilteredGains
+        from nniquad.control.law_classes import LAW_CLASSES
+        from nniquad.control.pd_equivalence import filtered_pd_gamma, nni_from_filtered_pd
+        from nniquad.tuning.coordinates import gain_limits
+        from nniquad.tuning.laws import law_of
+
+        if not isinstance(self.gains, PDFilteredGains):
+            return None
+        g = nni_from_filtered_pd(self.gains, self.vehicle.m)
+        lim = gain_limits(self.vehicle, self.options.tilt_limit_deg)
+        inside = {c: law_of("pd_filtered", c).image_violation(self.gains, self.vehicle.m, self.options.gamma_max,
+                                                               lim["kp_max"], lim["gamma_delta_max"]) == 0
+                  for c in LAW_CLASSES}
+        return {"kp": g.kp, "Gamma": g.Gamma, "delta": g.delta, "gamma": filtered_pd_gamma(self.gains),
+                "in_class": inside}
 
     def rerun_spread_s(self) -> float:
         """Largest minus smallest best settling time over the seeds [s]."""
@@ -262,8 +289,10 @@ class TuneResult:
             "settling_s": self.settling_s,
             "metrics": self.metrics.to_json(),
             "controller": self.options.controller,
+            "law_class": self.options.law_class,
+            "nni_image": self.nni_image(),
             "sector": ({"gamma": self.gamma, "gamma_max": self.options.gamma_max}
-                       if isinstance(self.gains, Gains) else None),
+                       if math.isfinite(self.gamma) else None),
             "roa_radius_m": self.roa_radius_m,
             "certified_reach_m": self.certified_reach_m if math.isfinite(self.certified_reach_m) else None,
             "start_certified": bool(self.certified_reach_m >= DEFAULT_ROA_RADIUS_M),
@@ -315,7 +344,7 @@ def _one_seed(search: _Search, seed: int, extra: list[Candidate]) -> tuple[Candi
 
 def tune(vehicle: Vehicle = PAPER_VEHICLE, options: TuneOptions | None = None,
          progress: Callable[[str], None] | None = None,
-         warm_starts: Sequence[tuple[Gains, InnerLoopGains]] = ()) -> TuneResult:
+         warm_starts: Sequence[tuple[ControllerGains, InnerLoopGains]] = ()) -> TuneResult:
     """Fastest admissible gain set (module docstring).
 
     Parameters
@@ -328,7 +357,11 @@ def tune(vehicle: Vehicle = PAPER_VEHICLE, options: TuneOptions | None = None,
         Called with a one-line status message now and then.
     warm_starts
         Gain sets (with their inner loops) to refine from as well, e.g. the
-        optimum of a less constrained run; used only where admissible.
+        optimum of a less constrained run or a filtered PD (mapped into the NNI
+        law, :func:`warm_start_coordinates`); used only inside the search box
+        and where admissible.  Each is evaluated on the full objective and
+        competes with the sweep's best points for the optimiser's starts, so a
+        result is never worse than the best admissible warm start.
 
     Returns
     -------
@@ -340,6 +373,9 @@ def tune(vehicle: Vehicle = PAPER_VEHICLE, options: TuneOptions | None = None,
         Bad options, or no admissible gain set found.
     """
     options = TuneOptions() if options is None else options
+    from nniquad.sim.options import check_rate_hz
+
+    check_rate_hz(options.rate_hz, option="rate", error=NniquadError)  # a period of whole RK4 steps
     t0 = time.perf_counter()
     say = progress or (lambda msg: None)
     bound = time_optimal_bound(vehicle, tilt_limit_deg=options.tilt_limit_deg)
@@ -356,9 +392,11 @@ def tune(vehicle: Vehicle = PAPER_VEHICLE, options: TuneOptions | None = None,
         search = _Search(vehicle, options, horizon, lambda msg: say(f"seed {seed}: {msg}"))
         extra: list[Candidate] = []
         if warm_starts:
-            qs = [encode(g, vehicle.m, options.gamma_max, inn if options.dims > 3 else None, alpha)
-                  for g, inn in warm_starts]
-            inside = [q for q in qs if np.all(q >= search.lo - 1e-12) and np.all(q <= search.hi + 1e-12)]
+            qs = warm_start_coordinates(vehicle, options, warm_starts, alpha)
+            inside = [q for q in qs if q is not None and np.all(q >= search.lo - 1e-12) and np.all(q <= search.hi + 1e-12)]
+            if attempt == 0:
+                say(f"{len(inside)} of {len(qs)} warm starts lie in the {options.controller} search box"
+                    + (f" of the {options.law_class} class" if options.law_class else ""))
             if inside:
                 extra = search.evaluate(np.array(inside))
         results: list[tuple[int, Candidate]] = []
@@ -371,7 +409,8 @@ def tune(vehicle: Vehicle = PAPER_VEHICLE, options: TuneOptions | None = None,
         say(f"no gain set passed every robust scenario within the {horizon:g} s horizon; searching again "
             f"on {horizons[attempt + 1]:g} s")
     gains, inner = decode(best.q, vehicle.m, options.gamma_max, alpha_avail=alpha,
-                          tau_motor_s=_tau_cap(vehicle, options), controller=options.controller)
+                          tau_motor_s=_tau_cap(vehicle, options), controller=options.controller,
+                          law_class=options.law_class)
     details = evaluate_details(vehicle, best.q[None], options, horizon, full_report=True)[0]
     margins_met: bool | None = None
     if options.require_margins:
@@ -399,16 +438,16 @@ def tune(vehicle: Vehicle = PAPER_VEHICLE, options: TuneOptions | None = None,
         say(f"the design misses GM >= 6 dB / PM >= 45 deg at a break point (PM {pms} deg; "
             + ("smallest shortfall kept)" if options.require_pm else "gain margins enforced, PM reported)"))
     robust_info = _robust_summary(vehicle, options, details)
-    if options.controller != "nni":
-        reach = math.nan  # no sector bound, no certified region
+    if options.controller not in NI_LAWS:
+        reach = math.nan  # not a design of the NI structure: no certified region
     elif best.reach_m is not None:
         reach = best.reach_m
     else:
-        reach = certified_reach(ReducedLoop.from_vehicle(vehicle, gains), options.tilt_limit_deg)
+        reach = certified_reach(reduced_loop(vehicle, gains), options.tilt_limit_deg)
     reruns = []
     for seed, cand in results:
         g, inn = decode(cand.q, vehicle.m, options.gamma_max, alpha_avail=alpha, tau_motor_s=_tau_cap(vehicle, options),
-                        controller=options.controller)
+                        controller=options.controller, law_class=options.law_class)
         reruns.append({"seed": seed, "settling_s": cand.cost, "gains": g.as_dict(), "inner_loop": inn.as_dict()})
     settling = details["cost_without_margins"]
     return TuneResult(vehicle=vehicle, options=options, gains=gains, inner=inner, settling_s=settling,

@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from nniquad.config import CONTROL_RATE_HZ, MC_STALL_TIMEOUT_S
+from nniquad.control.gains import gains_text
 from nniquad.errors import EXIT_INTERRUPTED, EXIT_TERMINATED
 from nniquad.io import atomic_write_json
 from nniquad.resources import usable_cpu_count
@@ -324,7 +325,7 @@ def run(args: argparse.Namespace) -> int:
     if result.summary is not None:
         print(f"certificate: {args.certificate}  {setup.label}")
         g = setup.base.gains
-        print(f"gains: kp={g.kp:g} kpy={g.kp_y:g} Gamma={g.Gamma:g} delta={g.delta:g}   horizon {setup.horizon_s:g} s, "
+        print(f"gains: {gains_text(g)}   horizon {setup.horizon_s:g} s, "
               f"displacement up to {setup.region_m:.3g} m, settling band {setup.band_m:.3g} m")
         print(result.table(rerun_hint=hint))
         print(f"{study.executor}, {study.workers} worker(s), batches of {study.batch_size}: "

@@ -49,6 +49,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--nominal", action="store_true",
                         help="tune on the nominal scenario only (default for --model full: the robust objective, "
                              "p95 settling over the fixed tuning scenario set)")
+    from nniquad.control.law_classes import DEFAULT_LAW_CLASS, LAW_CLASSES
+
+    parser.add_argument("--law-class", choices=tuple(LAW_CLASSES), default=DEFAULT_LAW_CLASS,
+                        help=f"class of the certified design: paper (the sector bound holds; Theorem main_result) or "
+                             f"cascade (no sector bound; the sampled-data cascade certificate alone; its reduced-loop "
+                             f"reach is then not demanded unless --roa-radius is given) (default {DEFAULT_LAW_CLASS})")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -64,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
     progress = Progress("report")
     data = report(out, vehicle, model=args.model, gamma_max=args.gamma_max, roa_radius_m=args.roa_radius,
                   budget=args.budget, reruns=args.reruns, objective="nominal" if args.nominal else None,
-                  progress=progress.stage).data
+                  law_class=args.law_class, progress=progress.stage).data
     progress.close()
     print(f"report written to {out.resolve()} in {data['wall_time_s']:.1f} s:")
     for name in data["files"]:

@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 from nniquad.config import ALTITUDE_LIMIT_M, CONTROL_RATE_HZ, DIVERGENCE_FACTOR, XI0_M
+from nniquad.control.gains import gains_text
 from nniquad.errors import GainError, NniquadError
 from nniquad.format import fmt
 from nniquad.progress import Progress
@@ -197,7 +198,9 @@ def run(args: argparse.Namespace) -> int:
         raise NniquadError(f"--trajectory must end in .npz or .csv, got {traj_path}")
     # the runner's step check, before the estimate, naming this command's options
     check_step(SimParams.from_options(vehicle, gains, options), options.model,
-               hint={"NNI controller (Gamma*delta)": "--Gamma, --delta or --dt", "attitude": "--attitude-wn or --dt",
+               hint={"NNI controller (Gamma*delta)": "--Gamma, --delta or --dt",
+                     "SNI controller (omega, zeta)": "the certificate's omega or zeta, or --dt",
+                     "attitude": "--attitude-wn or --dt",
                      "yaw": "--dt", "altitude": "--dt", "motor lag": "--tau-motor or --dt"})
     check_estimate(simulation_estimate(options.model, options.horizon_s, options.dt_s, options.output_dt_s),
                    option=f"--horizon {options.horizon_s:g}", error=SimulationError)
@@ -209,7 +212,7 @@ def run(args: argparse.Namespace) -> int:
     m = traj.metrics()
 
     print(f"vehicle: {vehicle.name}")
-    print(f"model: {args.model}   gains: kp={gains.kp:g} kpy={gains.kp_y:g} Gamma={gains.Gamma:g} delta={gains.delta:g}")
+    print(f"model: {args.model}   gains: {gains_text(gains)}")
     rows = [
         ("settling time (2 % band)", fmt(m.settling_s, "s"), "not settled" if m.settling_s is None else ""),
         ("overshoot along xi0", fmt(m.overshoot_pct, "%"), ""),
