@@ -62,12 +62,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from functools import lru_cache
 from typing import Literal
 
 import casadi as ca
 import numpy as np
 
+from nniquad.codecache import cached_casadi_function
 from nniquad.config import TILT_LIMIT_DEG
 from nniquad.control import inner_loops as IL
 from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, InnerLoopGains
@@ -150,7 +150,7 @@ class Linearisation:
         return [self.state_names.index(n) for n in names]
 
 
-@lru_cache(maxsize=8)
+@cached_casadi_function
 def _jacobian_function(model: str) -> ca.Function:
     n = len(STATE_NAMES[model])
     X = ca.SX.sym("x", n)

@@ -57,13 +57,38 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from nniquad import codecache
 from nniquad.control.gains import PAPER_GAINS, Gains, positive_gain
 from nniquad.errors import GainError
 from nniquad.model.vehicle import PAPER_VEHICLE, Vehicle
 
-from nniquad.analysis.linear_symbolic import (SYMBOLS, characteristic_polynomial, closed_loop_matrix_sym,
-                                             controller_matrices_sym, dc_loop_gain_sym, lambdified,
-                                             plant_matrices_sym, routh_array, routh_stability_region)
+#: The symbolic layer's names re-exported here; :mod:`nniquad.analysis.linear_symbolic` (sympy) is imported on
+#: first use of one of them (PEP 562), so the numeric layer runs without sympy when its code is cached.
+_SYMBOLIC_NAMES = ("SYMBOLS", "plant_matrices_sym", "controller_matrices_sym", "closed_loop_matrix_sym",
+                   "characteristic_polynomial", "routh_array", "routh_stability_region", "dc_loop_gain_sym")
+
+
+def __getattr__(name: str):
+    if name in _SYMBOLIC_NAMES:
+        from nniquad.analysis import linear_symbolic
+
+        return getattr(linear_symbolic, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def lambdified() -> dict:
+    """The numeric functions lambdified from the symbolic layer (:func:`nniquad.analysis.linear_symbolic.lambdified`).
+
+    Their generated source is kept by :mod:`nniquad.codecache`; a process that
+    finds it there does not import sympy.
+    """
+    def build() -> dict:
+        from nniquad.analysis import linear_symbolic
+
+        return linear_symbolic.lambdified()
+
+    return codecache.cached_numpy_functions("nniquad.analysis.linear_symbolic.lambdified", build)
+
 
 __all__ = [
     "SYMBOLS",

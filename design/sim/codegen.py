@@ -2,8 +2,8 @@
 
 A function is generated to C, compiled with ``$CC`` (default gcc) and loaded
 with ``casadi.external``; the shared object is cached in :func:`cache_dir`
-under a name that holds the hash of the source, the compiler, its flags and
-the CasADi version, so a changed model (or parameter layout) compiles anew
+(:mod:`nniquad.codecache`) under a name that holds the hash of the source, the
+compiler, its flags and the CasADi version, so a changed model (or parameter layout) compiles anew
 and an unchanged one loads in milliseconds.  Without a compiler, or with
 ``NNIQUAD_NO_JIT=1``, the CasADi VM runs the same function, with a warning.
 """
@@ -19,16 +19,14 @@ from pathlib import Path
 
 import casadi as ca
 
+from nniquad import codecache
+
 __all__ = ["cache_dir", "compile_function", "compile_status"]
 
 
 def cache_dir() -> Path:
-    """Folder of compiled simulation functions: ``$NNIQUAD_CACHE_DIR``, else ``~/.cache/nniquad``."""
-    env = os.environ.get("NNIQUAD_CACHE_DIR")
-    if env:
-        return Path(env)
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "nniquad"
+    """Folder of compiled simulation functions: :func:`nniquad.codecache.cache_dir` (``$NNIQUAD_CACHE_DIR``)."""
+    return codecache.cache_dir()
 
 
 _CFLAGS = ("-O2", "-fPIC", "-shared", "-fno-math-errno")
@@ -46,14 +44,7 @@ def compile_function(fn: ca.Function) -> ca.Function:
         src = cg.dump()
         compiler = os.environ.get("CC", "gcc")
         key = hashlib.sha256((src + compiler + " ".join(_CFLAGS) + ca.__version__).encode()).hexdigest()[:16]
-        folder = cache_dir()
-        try:
-            folder.mkdir(parents=True, exist_ok=True)
-            if not os.access(folder, os.W_OK):
-                raise PermissionError(str(folder))
-        except OSError:  # read-only home (CI sandboxes): a private temp folder instead
-            folder = Path(tempfile.gettempdir()) / f"nniquad-cache-{os.getuid() if hasattr(os, 'getuid') else 0}"
-            folder.mkdir(parents=True, exist_ok=True)
+        folder = codecache.writable_cache_dir()
         so = folder / f"{fn.name()}_{key}.so"
         if not so.exists():
             with tempfile.TemporaryDirectory(dir=folder) as tmp:
