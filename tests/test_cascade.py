@@ -163,3 +163,22 @@ def test_a_mass_error_is_not_an_equilibrium():
     p = _params(True).with_(plant={"m": 1.1 * PAPER_VEHICLE.m})
     with pytest.raises(CascadeError, match="not an equilibrium"):
         linearise("full", p)
+
+
+@pytest.mark.parametrize("delay", [0.005, 0.0025, 0.3])
+@pytest.mark.parametrize("order", [1, 2, 3, 4])
+def test_pade_delay_is_python_controls_realisation(delay, order):
+    """pade_delay against python-control's pade + tf -> ss, and the approximant against e^{-jωτ} at low ω."""
+    import control as ct
+
+    from nniquad.analysis.loops import pade_delay
+
+    A, B, C, D = pade_delay(delay, order)
+    ref = ct.ss(ct.tf(*ct.pade(delay, order)))
+    for got, want in ((A, ref.A), (B, ref.B), (C, ref.C), (D, ref.D)):
+        np.testing.assert_allclose(got, np.asarray(want), rtol=1e-13, atol=1e-13 * np.max(np.abs(want)))
+    w = 0.05 / delay  # well inside the approximant's band: error O((ωτ)^(2n+1))
+    resp = (C @ np.linalg.solve(1j * w * np.eye(order) - A, B) + D)[0, 0]
+    assert abs(resp - np.exp(-1j * w * delay)) < 1e-3 ** order
+    assert abs(abs(resp) - 1.0) < 1e-12  # all-pass
+

@@ -177,3 +177,18 @@ def test_reduced_loop_rejects_bad_input():
         ReducedLoop(0.5, (5.0, 160.0, 0.6))
     with pytest.raises(GainError, match="axis"):
         ReducedLoop(0.5, PAPER_GAINS).plant_matrices("z")
+
+
+@pytest.mark.parametrize("m, gains", [(0.5, Gains(5.0, 160.0, 0.6)), (1.3, Gains(2.0, 12.0, 0.9, kpy=3.5)),
+                                      (0.8, Gains(0.5, 3.0, 0.3))])
+def test_poles_and_damping_match_python_control_damp(m, gains):
+    """numpy's poles, natural frequencies and damping equal python-control's damp of the same closed loop."""
+    import control as ct
+
+    loop = ReducedLoop(m, gains)
+    pd = loop.poles_and_damping()
+    wn, zeta, poles = ct.ss(loop.closed_loop_A(), np.zeros((6, 1)), np.zeros((1, 6)), 0).damp()
+    order = np.argsort(poles.real)[::-1]
+    np.testing.assert_allclose(pd.poles, poles[order], rtol=1e-12)
+    np.testing.assert_allclose(pd.wn, np.asarray(wn)[order], rtol=1e-12)
+    np.testing.assert_allclose(pd.zeta, np.asarray(zeta)[order], rtol=1e-12, atol=1e-15)

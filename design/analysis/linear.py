@@ -58,6 +58,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from nniquad import codecache
+from nniquad.analysis.loops import LinearSystem
 from nniquad.control.gains import PAPER_GAINS, Gains, positive_gain
 from nniquad.errors import GainError
 from nniquad.model.vehicle import PAPER_VEHICLE, Vehicle
@@ -88,7 +89,6 @@ def lambdified() -> dict:
         return linear_symbolic.lambdified()
 
     return codecache.cached_numpy_functions("nniquad.analysis.linear_symbolic.lambdified", build)
-
 
 __all__ = [
     "SYMBOLS",
@@ -287,6 +287,20 @@ class ReducedLoop:
         """Numeric ``(Ac, Bc, Cc, Dc)`` of :func:`controller_matrices_sym` (the same on both axes)."""
         return tuple(_f(M) for M in lambdified()["controller"](1.0, 1.0, self.gains.Gamma, self.gains.delta))  # type: ignore[return-value]
 
+    def plant_system(self, axis: str = "x") -> LinearSystem:
+        """The reshaped plant of one axis as a :class:`nniquad.analysis.loops.LinearSystem` (F in N -> xi in m).
+
+        Parameters
+        ----------
+        axis
+            ``'x'`` or ``'y'``.
+        """
+        return LinearSystem(*self.plant_matrices(axis))
+
+    def controller_system(self) -> LinearSystem:
+        """The integral resonant controller as a :class:`nniquad.analysis.loops.LinearSystem` (xi -> u_c)."""
+        return LinearSystem(*self.controller_matrices())
+
     def plant_ss(self, axis: str = "x"):
         """The reshaped plant of one axis as a :class:`control.StateSpace` (input F in N, output xi in m).
 
@@ -430,12 +444,16 @@ class ReducedLoop:
         return float(lambdified()["delta_min"](self.m, kp, g))
 
     def poles_and_damping(self) -> PolesDamping:
-        """Poles, natural frequencies and damping of the closed loop of both axes (python-control ``damp``)."""
-        import control as ct
+        """Poles, natural frequencies and damping of the closed loop of both axes.
 
-        A = self.closed_loop_A()
-        sys = ct.ss(A, np.zeros((6, 1)), np.zeros((1, 6)), 0)
-        wn, zeta, poles = sys.damp()
+        The definitions of python-control's ``damp`` (the tests compare the two):
+        the poles are the eigenvalues of :meth:`closed_loop_A`, ``wn = |p|`` and
+        ``zeta = -Re(p)/|p|``.  numpy computes them, so a cold ``nniquad verify``
+        does not import python-control for them.
+        """
+        poles = np.linalg.eigvals(self.closed_loop_A()).astype(complex)
+        wn = np.abs(poles)
+        zeta = -poles.real / wn
         order = np.argsort(poles.real)[::-1]
         max_re = float(np.max(poles.real))
         return PolesDamping(
