@@ -82,16 +82,16 @@ import math
 import time
 import warnings
 from dataclasses import dataclass, field, fields, replace
-from functools import cached_property, lru_cache
+from functools import cached_property
 from typing import Any, Mapping, Sequence
 
-import casadi as ca
 import numpy as np
 import scipy.linalg as sla
 
 from nniquad.analysis.cascade import (SPLIT_TOL, EQUILIBRIUM_TOL, LINEARISATION_OFFSET_M, LinearCascade, Linearisation,
                                       _hover_params, _jacobian_function, allocation_jacobian)
 from nniquad.analysis.lmi import checks as lmi_checks
+from nniquad.analysis.mapped import evaluate_map
 from nniquad.analysis.sampled import _conditioning_transform, _period, best_decay, solve_with_clarabel
 from nniquad.config import (CASCADE_GRID_POINTS_PER_AXIS, CASCADE_LYAPUNOV_RTOL, CASCADE_REACH_DECAY_FRACTION,
                             CASCADE_ROA_DECAY_FRACTION,
@@ -310,11 +310,6 @@ class CascadeFamily:
             M_alloc=ctx["M_alloc"])
 
 
-@lru_cache(maxsize=16)
-def _mapped_jacobian(n: int) -> ca.Function:
-    return _jacobian_function("full").map(n, "serial")
-
-
 def _batched_expm(M: np.ndarray) -> np.ndarray:
     return sla.expm(M)  # scipy >= 1.9 exponentiates a stack (..., n, n)
 
@@ -373,21 +368,18 @@ def sampled_family(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, points
     w_hover = np.sqrt(m_true * nom.g / (4.0 * nom.b))
     for k in range(1, 5):
         x_eq[:, si[f"w{k}"]] = w_hover
-    fn = _mapped_jacobian(2 * N)
+    jac = _jacobian_function("full")
     d = np.zeros(len(snames))
     d[si["held_x"]] = LINEARISATION_OFFSET_M
     X = np.vstack([x_eq + d, x_eq - d]).T
     Pm = np.vstack([pv, pv]).T
-    f0, Jm, Ym = fn(X, Pm)
-    nx = len(snames)
+    _, Jm, Ym = evaluate_map(jac, 2 * N, X, Pm)  # (2N, nx, nx), (2N, 2, nx)
     # residual at the equilibrium itself (the ±ε points differ from it only in the held measurement)
-    f_eq = np.asarray(_mapped_jacobian(N)(x_eq.T, pv.T)[0], float).T
+    f_eq = evaluate_map(jac, N, x_eq.T, pv.T)[0][:, :, 0]
     residual = np.max(np.abs(f_eq), axis=1)
     if not np.all(residual <= EQUILIBRIUM_TOL * max(1.0, float(np.max(w_hover)) / 100.0)):
         i = int(np.argmax(residual))
         raise CascadeError(f"hover is not an equilibrium at point {pts[i].tolist()} (|f| = {residual[i]:.3g})")
-    Jm = np.asarray(Jm, float).reshape(nx, 2 * N, nx).transpose(1, 0, 2)
-    Ym = np.asarray(Ym, float).reshape(2, 2 * N, nx).transpose(1, 0, 2)
     J = 0.5 * (Jm[:N] + Jm[N:])
     Y = 0.5 * (Ym[:N] + Ym[N:])
     if not (np.all(np.isfinite(J)) and np.all(np.isfinite(Y))):
