@@ -66,7 +66,7 @@ class Audit:
         return audit_to_json(list(self.claims))
 
 
-def audit(only: Iterable[str] | None = None, section: str | None = None) -> Audit:
+def audit(only: Iterable[str] | None = None, section: str | None = None, *, workers: int = 1) -> Audit:
     """Audit the claims of Ghallab & Petersen's paper, one check per claim.
 
     Parameters
@@ -76,6 +76,9 @@ def audit(only: Iterable[str] | None = None, section: str | None = None) -> Audi
     section
         Run only the claims of this paper section (``"ni_preliminaries"``,
         ``"quadrotor_model"``, ``"control_design"``, ``"simulation"``).
+    workers
+        Processes to run the claims in, one paper section per task
+        (:func:`nniquad.proofs.claims.run_audit`); the results do not depend on it.
 
     Returns
     -------
@@ -103,4 +106,6 @@ def audit(only: Iterable[str] | None = None, section: str | None = None) -> Audi
             raise NniquadError(f"unknown claim id {bad[0]!r} (known: {', '.join(known)})")
         if not ids:
             raise NniquadError("give at least one claim id")
-    return Audit(tuple(run_audit(ids)))
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise NniquadError(f"workers must be a positive integer, got {workers!r}")
+    return Audit(tuple(run_audit(ids, workers=workers)))
