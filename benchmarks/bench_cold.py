@@ -2,14 +2,14 @@
 
 Each command runs as a user runs it, a new interpreter (``python -m nniquad
 ...``), on the committed certificate ``notebooks/data/full_model_certificate.json``
-(override with ``NNIQUAD_BENCH_COLD_CERT``; ``CERT`` in the rows).  The code cache
-(:mod:`nniquad.codecache`) lives in a temporary folder of this run: one untimed
-run of each command fills it (as a user's first run after an install or an
-edit does), then the command is timed ``NNIQUAD_BENCH_COLD_REPEAT`` times
-(default 5) and the row is the median wall time against the issue's target (every run's
-time is in the JSON, ``runs_s``).
-One more row times ``verify`` with an empty cache (every CasADi function built
-from sympy again), for information.
+(override with ``NNIQUAD_BENCH_COLD_CERT``; ``CERT`` in the rows).  The code
+cache (:mod:`nniquad.codecache`) lives in a temporary folder of this run: one
+untimed run of each command fills it (as a user's first run after an install or
+an edit does), then the command is timed ``NNIQUAD_BENCH_COLD_REPEAT`` times
+(default 5; 1 with ``--quick``) and the row is the median wall time against the
+issue's target (every run's time is in the JSON, ``runs_s``).  One more row
+(not with ``--quick``) times ``verify`` with an empty cache (every CasADi
+function built from sympy again, the simulator compiled), for information.
 
 A ``verify`` that finds a failed check (exit status 1) has done all its work
 and is timed like a passing one; any other exit status is an error.
@@ -46,10 +46,11 @@ def _time_once(args: list[str], env: dict[str, str], ok_codes: tuple[int, ...]) 
     return wall
 
 
-def run() -> list[dict]:
-    """Rows ``{name, value, unit, target, ok}`` for ``benchmarks/run.py``."""
+def run(quick: bool = False) -> list[dict]:
+    """Rows ``{name, value, unit, target, ok}`` for ``benchmarks/run.py``; ``quick``: one timed run each, no
+    empty-cache row."""
     cert = Path(os.environ.get("NNIQUAD_BENCH_COLD_CERT", CERT))
-    repeat = int(os.environ.get("NNIQUAD_BENCH_COLD_REPEAT", REPEAT))
+    repeat = int(os.environ.get("NNIQUAD_BENCH_COLD_REPEAT", 1 if quick else REPEAT))
     if repeat <= 0:
         raise ValueError(f"NNIQUAD_BENCH_COLD_REPEAT must be a positive integer, got {repeat}")
     commands = {"--help": (["--help"], (0,)), "lmi": (["lmi"], (0,)), "prove": (["prove"], (0,)),
@@ -58,7 +59,7 @@ def run() -> list[dict]:
     load_before = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     with tempfile.TemporaryDirectory(prefix="nniquad-bench-cold-") as folder:
         env = {**os.environ, "NNIQUAD_CACHE_DIR": folder}
-        empty = _time_once(commands["verify"][0], env, commands["verify"][1])  # the first run fills the cache
+        empty = None if quick else _time_once(commands["verify"][0], env, commands["verify"][1])  # fills the cache
         for name, (args, ok_codes) in commands.items():
             _time_once(args, env, ok_codes)  # untimed: the cache holds every function this command needs
             walls = [_time_once(args, env, ok_codes) for _ in range(repeat)]
@@ -66,7 +67,8 @@ def run() -> list[dict]:
             label = "nniquad verify CERT" if name == "verify" else f"nniquad {name}"
             rows.append({"name": f"{label}, cold (median of {repeat})", "value": wall, "unit": "s",
                          "target": TARGETS_S[name], "ok": wall < TARGETS_S[name], "runs_s": walls})
-    rows.append({"name": "nniquad verify CERT, empty code cache (first run)", "value": empty, "unit": "s"})
+    if empty is not None:
+        rows.append({"name": "nniquad verify CERT, empty code cache (first run)", "value": empty, "unit": "s"})
     # wall times on a shared machine depend on its load: the 1-minute load average before and after, for reading them
     load_after = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     rows.append({"name": f"1-min load average before the runs ({os.cpu_count()} CPUs)", "value": load_before,
