@@ -3,10 +3,41 @@
 from __future__ import annotations
 
 import os
+import shutil
+import tempfile
 
 import pytest
 
 os.environ.setdefault("MPLBACKEND", "Agg")
+
+#: Set by the controlling process for this session (before xdist starts its workers, which inherit it).
+_SESSION_CACHE = "NNIQUAD_TEST_SESSION_CACHE"
+
+
+def pytest_configure(config):
+    """One code cache for the whole session, in a temporary folder: never the user's cache.
+
+    The controlling process creates it and points ``NNIQUAD_CACHE_DIR`` at it; xdist workers
+    and the subprocesses the tests start inherit the variable, so the suite still builds,
+    writes and loads generated code (the first test that needs a function builds it, the
+    others load it), without writing to ``~/.cache/nniquad``.  ``NNIQUAD_TEST_CACHE_DIR`` names
+    a folder to use instead, kept between sessions (a CI cache: the compiled simulator
+    functions are then not recompiled by every session).
+    """
+    if hasattr(config, "workerinput") or os.environ.get(_SESSION_CACHE):
+        return  # a worker: the controller's folder is already in the environment
+    kept = os.environ.get("NNIQUAD_TEST_CACHE_DIR")
+    folder = kept or tempfile.mkdtemp(prefix="nniquad-test-cache-")
+    os.environ[_SESSION_CACHE] = folder
+    os.environ["NNIQUAD_CACHE_DIR"] = folder
+    if not kept:
+        config._nniquad_session_cache = folder
+
+
+def pytest_unconfigure(config):
+    folder = getattr(config, "_nniquad_session_cache", None)
+    if folder:
+        shutil.rmtree(folder, ignore_errors=True)
 
 
 @pytest.fixture

@@ -224,3 +224,18 @@ def test_routh_array_by_hand(coeffs, table):
     first = [float(r[0]) for r in rows]
     changes = sum(1 for a, b in zip(first, first[1:]) if a * b < 0)
     assert changes == int(np.sum(np.roots(coeffs).real > 0))  # independent: the roots themselves
+
+
+@pytest.mark.parametrize("m, gains", [(0.5, Gains(5.0, 160.0, 0.6)), (1.3, Gains(2.0, 12.0, 0.9, kpy=3.5)),
+                                      (0.8, Gains(0.5, 3.0, 0.3))])
+def test_poles_and_damping_match_python_control_damp(m, gains):
+    """numpy's poles, natural frequencies and damping equal python-control's damp of the same closed loop."""
+    import control as ct
+
+    loop = ReducedLoop(m, gains)
+    pd = loop.poles_and_damping()
+    wn, zeta, poles = ct.ss(loop.closed_loop_A(), np.zeros((6, 1)), np.zeros((1, 6)), 0).damp()
+    order = np.argsort(poles.real)[::-1]
+    np.testing.assert_allclose(pd.poles, poles[order], rtol=1e-12)
+    np.testing.assert_allclose(pd.wn, np.asarray(wn)[order], rtol=1e-12)
+    np.testing.assert_allclose(pd.zeta, np.asarray(zeta)[order], rtol=1e-12, atol=1e-15)

@@ -55,19 +55,22 @@ on the measurement, and for the NNI controller run in discrete time (its exact
 ZOH equivalent, :mod:`nniquad.analysis.sampled`) another ``T/2`` on the path
 through the controller state (the ZOH equivalent of ``C(s)`` behaves as
 ``C(s) e^{-sT/2}``).  The exact discrete-time treatment is in
-:mod:`nniquad.analysis.sampled`; the tests compare both.
+:mod:`nniquad.analysis.sampled`; the tests compare both.  The closed loop with
+its break points (:class:`ClosedLoop`) and the Padé realisation are plain
+matrix algebra, in :mod:`nniquad.analysis.loops`.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
-from functools import lru_cache
+from dataclasses import dataclass
 from typing import Literal
 
 import casadi as ca
 import numpy as np
 
+from nniquad.analysis.loops import ClosedLoop, pade_delay
+from nniquad.codecache import cached_casadi_function
 from nniquad.config import TILT_LIMIT_DEG
 from nniquad.control import inner_loops as IL
 from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, NI_LAWS, Gains, InnerLoopGains
@@ -151,7 +154,7 @@ class Linearisation:
         return [self.state_names.index(n) for n in names]
 
 
-@lru_cache(maxsize=8)
+@cached_casadi_function
 def _jacobian_function(model: str, controller: str = "nni") -> ca.Function:
     n = len(state_names(model, controller))
     X = ca.SX.sym("x", n)
@@ -221,61 +224,6 @@ def linearise(model: str, params: SimParams, *, offset: float = LINEARISATION_OF
 def _split_residual(M: np.ndarray, approx: np.ndarray) -> float:
     scale = max(float(np.max(np.abs(M))), 1.0)
     return float(np.max(np.abs(M - approx))) / scale if M.size else 0.0
-
-
-def _pade_ss(delay: float, order: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """State-space realisation of the Padé approximant of ``e^{-s delay}`` (python-control)."""
-    import control as ct
-
-    num, den = ct.pade(delay, order)
-    sys = ct.ss(ct.tf(num, den))
-    return (np.asarray(sys.A, float), np.asarray(sys.B, float), np.asarray(sys.C, float), np.asarray(sys.D, float))
-
-
-@dataclass(frozen=True)
-class ClosedLoop:
-    """A continuous-time closed loop with its break-point signals.
-
-    ``x' = A x``; a break point is a scalar signal ``v = c x`` the loop feeds
-    back into itself through ``b`` (``A = A_0 + b c``).  The loop transfer
-    function in the negative-feedback convention is
-    ``L(s) = -c (sI - A_0)^{-1} b`` (the closed loop is ``1 + L = 0``).
-
-    Attributes
-    ----------
-    A : ndarray (n, n)
-        Closed-loop matrix [1/s].
-    state_names
-        Names of the states.
-    breaks : dict
-        ``name -> (b, c)`` of each break point.
-    """
-
-    A: np.ndarray
-    state_names: tuple[str, ...]
-    breaks: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
-
-    @property
-    def poles(self) -> np.ndarray:
-        """Eigenvalues of ``A`` [1/s], slowest (largest real part) first."""
-        ev = np.linalg.eigvals(self.A)
-        return ev[np.argsort(-ev.real, kind="stable")]
-
-    def loop(self, name: str):
-        """The loop transfer function at a break point, as a python-control ``StateSpace``.
-
-        Parameters
-        ----------
-        name
-            One of :attr:`breaks` (``"horizontal"``, ``"attitude"``).
-        """
-        import control as ct
-
-        if name not in self.breaks:
-            raise CascadeError(f"unknown break point {name!r} (choose one of {', '.join(self.breaks)})")
-        b, c = self.breaks[name]
-        A0 = self.A - np.outer(b, c)
-        return ct.ss(A0, b.reshape(-1, 1), -c.reshape(1, -1), 0.0)
 
 
 @dataclass(frozen=True)
@@ -392,7 +340,7 @@ class LinearCascade:
             if not (isinstance(rate_hz, (int, float)) and math.isfinite(rate_hz) and rate_hz > 0):
                 raise CascadeError(f"sample rate must be a finite positive number of Hz, got {rate_hz!r}")
             T = 1.0 / float(rate_hz)
-            d = _pade_ss(T / 2, int(pade_order))
+            d = pade_delay(T / 2, int(pade_order))
             # one Padé block per axis
             blk = tuple(np.kron(np.eye(n_y), M) for M in d)
             delays = [blk] if controller == "held" else [blk, blk]

@@ -57,13 +57,38 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from nniquad import codecache
+from nniquad.analysis.loops import LinearSystem
 from nniquad.control.gains import PAPER_GAINS, Gains, positive_gain
 from nniquad.errors import GainError
 from nniquad.model.vehicle import PAPER_VEHICLE, Vehicle
 
-from nniquad.analysis.linear_symbolic import (SYMBOLS, characteristic_polynomial, closed_loop_matrix_sym,
-                                             controller_matrices_sym, dc_loop_gain_sym, lambdified,
-                                             plant_matrices_sym, routh_array, routh_stability_region)
+#: The symbolic layer's names re-exported here; :mod:`nniquad.analysis.linear_symbolic` (sympy) is imported on
+#: first use of one of them (PEP 562), so the numeric layer runs without sympy when its code is cached.
+_SYMBOLIC_NAMES = ("SYMBOLS", "plant_matrices_sym", "controller_matrices_sym", "closed_loop_matrix_sym",
+                   "characteristic_polynomial", "routh_array", "routh_stability_region", "dc_loop_gain_sym")
+
+
+def __getattr__(name: str):
+    if name in _SYMBOLIC_NAMES:
+        from nniquad.analysis import linear_symbolic
+
+        return getattr(linear_symbolic, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def lambdified() -> dict:
+    """The numeric functions lambdified from the symbolic layer (:func:`nniquad.analysis.linear_symbolic.lambdified`).
+
+    Their generated source is kept by :mod:`nniquad.codecache`; a process that
+    finds it there does not import sympy.
+    """
+    def build() -> dict:
+        from nniquad.analysis import linear_symbolic
+
+        return linear_symbolic.lambdified()
+
+    return codecache.cached_numpy_functions("nniquad.analysis.linear_symbolic.lambdified", build)
 
 __all__ = [
     "SYMBOLS",
@@ -262,6 +287,20 @@ class ReducedLoop:
         """Numeric ``(Ac, Bc, Cc, Dc)`` of :func:`controller_matrices_sym` (the same on both axes)."""
         return tuple(_f(M) for M in lambdified()["controller"](1.0, 1.0, self.gains.Gamma, self.gains.delta))  # type: ignore[return-value]
 
+    def plant_system(self, axis: str = "x") -> LinearSystem:
+        """The reshaped plant of one axis as a :class:`nniquad.analysis.loops.LinearSystem` (F in N -> xi in m).
+
+        Parameters
+        ----------
+        axis
+            ``'x'`` or ``'y'``.
+        """
+        return LinearSystem(*self.plant_matrices(axis))
+
+    def controller_system(self) -> LinearSystem:
+        """The integral resonant controller as a :class:`nniquad.analysis.loops.LinearSystem` (xi -> u_c)."""
+        return LinearSystem(*self.controller_matrices())
+
     def plant_ss(self, axis: str = "x"):
         """The reshaped plant of one axis as a :class:`control.StateSpace` (input F in N, output xi in m).
 
@@ -438,17 +477,21 @@ class ReducedLoop:
         return self.margin_product - 1.0
 
     def poles_and_damping(self) -> PolesDamping:
-        """Poles, natural frequencies and damping of the closed loop of both axes (python-control ``damp``)."""
+        """Poles, natural frequencies and damping of the closed loop of both axes."""
         return self._damp(self.closed_loop_A())
 
     @staticmethod
     def _damp(A: np.ndarray) -> PolesDamping:
-        """:class:`PolesDamping` of a closed-loop matrix (python-control ``damp``)."""
-        import control as ct
+        """:class:`PolesDamping` of a closed-loop matrix.
 
-        n = A.shape[0]
-        sys = ct.ss(A, np.zeros((n, 1)), np.zeros((1, n)), 0)
-        wn, zeta, poles = sys.damp()
+        The definitions of python-control's ``damp`` (the tests compare the two):
+        the poles are the eigenvalues of ``A``, ``wn = |p|`` and
+        ``zeta = -Re(p)/|p|``.  numpy computes them, so a cold ``nniquad verify``
+        does not import python-control for them.
+        """
+        poles = np.linalg.eigvals(A).astype(complex)
+        wn = np.abs(poles)
+        zeta = -poles.real / wn
         order = np.argsort(poles.real)[::-1]
         max_re = float(np.max(poles.real))
         return PolesDamping(

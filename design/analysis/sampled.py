@@ -49,6 +49,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from nniquad.analysis.cascade import CONTROLLER_VARIANTS, LinearCascade
+from nniquad.analysis.loops import LinearSystem
 from nniquad.config import CONTROL_RATE_HZ
 from nniquad.errors import CascadeError, SolverError
 
@@ -146,15 +147,17 @@ class SampledLoop:
         """``-ln(spectral radius)/T`` [1/s]: the continuous-time equivalent of the slowest mode's decay."""
         return -math.log(self.spectral_radius) / self.T
 
-    def loop(self, name: str):
-        """Discrete loop transfer function ``L(z) = -c (zI - A_0)^{-1} b`` (python-control, ``dt = T``)."""
-        import control as ct
-
+    def loop_system(self, name: str) -> LinearSystem:
+        """Discrete loop transfer function ``L(z) = -c (zI - A_0)^{-1} b`` (``dt = T``) as a :class:`LinearSystem`."""
         if name not in self.breaks:
             raise CascadeError(f"unknown break point {name!r} of the sampled loop "
                                f"(choose one of {', '.join(self.breaks)})")
         b, c = self.breaks[name]
-        return ct.ss(self.A_d - np.outer(b, c), b.reshape(-1, 1), -c.reshape(1, -1), 0.0, self.T)
+        return LinearSystem(self.A_d - np.outer(b, c), b.reshape(-1, 1), -c.reshape(1, -1), np.zeros((1, 1)), self.T)
+
+    def loop(self, name: str):
+        """:meth:`loop_system` as a python-control ``StateSpace`` (``dt = T``)."""
+        return self.loop_system(name).to_control()
 
     def lyapunov(self, **kwargs: Any) -> "DiscreteDecay":
         """:func:`discrete_lyapunov_decay` of this loop."""

@@ -83,7 +83,10 @@ CasADi ``SX`` function of (state, per-step exogenous input
 steps (one output sample) and is compiled to C (:mod:`nniquad.sim.codegen`).
 Two things keep the full model cheap: the vehicle dynamics are evaluated in
 factored form (:func:`vehicle_dynamics`) and ``casadi.cse`` merges the sin/cos
-that the separately generated pieces recompute.
+that the separately generated pieces recompute.  The ``SX`` functions
+(:func:`vehicle_dynamics`, :func:`rhs_function`, :func:`output_function`,
+:func:`step_function`) are kept between processes by :mod:`nniquad.codecache`:
+a new process loads them instead of deriving them from sympy again.
 """
 
 from __future__ import annotations
@@ -92,6 +95,7 @@ from functools import lru_cache
 
 import casadi as ca
 
+from nniquad.codecache import cached_casadi_function
 from nniquad.control import inner_loops as IL
 from nniquad.control import sni as SNI
 from nniquad.model.numeric import PARAM_NAMES, mixer_function, reaction_torque_function, rotation_function
@@ -102,7 +106,7 @@ from nniquad.sim.params import CONTROLLER_STATES, EXO_FIELDS, check_controller, 
 __all__ = ["vehicle_dynamics", "rhs_function", "output_function", "step_function", "chunk_function"]
 
 
-@lru_cache(maxsize=None)
+@cached_casadi_function
 def vehicle_dynamics() -> ca.Function:
     """The ``"exact"`` 12-state model, ``f(x, u, Omega_r, p) -> xdot``, in factored form for speed.
 
@@ -228,7 +232,7 @@ def _suffix(controller: str) -> str:
     return "" if check_controller(controller) == "nni" else f"_{controller}"
 
 
-@lru_cache(maxsize=None)
+@cached_casadi_function
 def rhs_function(model: str, controller: str = "nni") -> ca.Function:
     """Continuous closed loop ``f(x, e, p) -> xdot`` (held measurement and exogenous input constant).
 
@@ -241,7 +245,7 @@ def rhs_function(model: str, controller: str = "nni") -> ca.Function:
     return ca.Function(f"rhs_{model}{_suffix(controller)}", [X, e, p], [ca.cse(Xdot)], ["x", "e", "p"], ["xdot"])
 
 
-@lru_cache(maxsize=None)
+@cached_casadi_function
 def output_function(model: str, controller: str = "nni") -> ca.Function:
     """``out(x, e, p) -> y`` (:data:`OUTPUT_NAMES`): commanded acceleration and tilt, rotor speeds, ..."""
     X, e, p = _symbols(model, controller)
@@ -251,7 +255,7 @@ def output_function(model: str, controller: str = "nni") -> ca.Function:
 
 
 
-@lru_cache(maxsize=None)
+@cached_casadi_function
 def step_function(model: str, controller: str = "nni") -> ca.Function:
     """One RK4 step ``step(x, e, p) -> x_next`` of length ``p[dt]``.
 

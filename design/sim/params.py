@@ -38,7 +38,7 @@ import numpy as np
 from nniquad.control.gains import (CONTROLLER_GAINS, ControllerGains, Gains, InnerLoopGains, PDFilteredGains,
                                    PDGains, SNI2Gains, field_unit)
 from nniquad.errors import GainError, SimulationError
-from nniquad.model.symbolic import STATE_ORDER
+from nniquad.model.layout import STATE_ORDER
 from nniquad.model.vehicle import DESCRIPTIONS, UNITS, Vehicle
 
 __all__ = [

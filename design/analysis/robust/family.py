@@ -11,15 +11,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields
-from functools import cached_property, lru_cache
+from functools import cached_property
 from typing import Any, Mapping, Sequence
 
-import casadi as ca
 import numpy as np
 import scipy.linalg as sla
 
 from nniquad.analysis.cascade import (SPLIT_TOL, EQUILIBRIUM_TOL, LINEARISATION_OFFSET_M, LinearCascade, Linearisation,
                                       _hover_params, _jacobian_function, allocation_jacobian)
+from nniquad.analysis.mapped import evaluate_map
 from nniquad.analysis.robust.box import POINT_NAMES, ParameterBox
 from nniquad.analysis.sampled import _period
 from nniquad.config import CONTROL_RATE_HZ, TILT_LIMIT_DEG
@@ -116,11 +116,6 @@ class CascadeFamily:
             M_alloc=ctx["M_alloc"])
 
 
-@lru_cache(maxsize=16)
-def _mapped_jacobian(n: int, controller: str = "nni") -> ca.Function:
-    return _jacobian_function("full", controller).map(n, "serial")
-
-
 def _batched_expm(M: np.ndarray) -> np.ndarray:
     return sla.expm(M)  # scipy >= 1.9 exponentiates a stack (..., n, n)
 
@@ -180,21 +175,18 @@ def sampled_family(vehicle: Vehicle, gains: Gains | SNI2Gains, inner: InnerLoopG
     w_hover = np.sqrt(m_true * nom.g / (4.0 * nom.b))
     for k in range(1, 5):
         x_eq[:, si[f"w{k}"]] = w_hover
-    fn = _mapped_jacobian(2 * N, law)
+    jac = _jacobian_function("full", law)
     d = np.zeros(len(snames))
     d[si["held_x"]] = LINEARISATION_OFFSET_M
     X = np.vstack([x_eq + d, x_eq - d]).T
     Pm = np.vstack([pv, pv]).T
-    f0, Jm, Ym = fn(X, Pm)
-    nx = len(snames)
+    _, Jm, Ym = evaluate_map(jac, 2 * N, X, Pm)  # (2N, nx, nx), (2N, 2, nx)
     # residual at the equilibrium itself (the ±ε points differ from it only in the held measurement)
-    f_eq = np.asarray(_mapped_jacobian(N, law)(x_eq.T, pv.T)[0], float).T
+    f_eq = evaluate_map(jac, N, x_eq.T, pv.T)[0][:, :, 0]
     residual = np.max(np.abs(f_eq), axis=1)
     if not np.all(residual <= EQUILIBRIUM_TOL * max(1.0, float(np.max(w_hover)) / 100.0)):
         i = int(np.argmax(residual))
         raise CascadeError(f"hover is not an equilibrium at point {pts[i].tolist()} (|f| = {residual[i]:.3g})")
-    Jm = np.asarray(Jm, float).reshape(nx, 2 * N, nx).transpose(1, 0, 2)
-    Ym = np.asarray(Ym, float).reshape(2, 2 * N, nx).transpose(1, 0, 2)
     J = 0.5 * (Jm[:N] + Jm[N:])
     Y = 0.5 * (Ym[:N] + Ym[N:])
     if not (np.all(np.isfinite(J)) and np.all(np.isfinite(Y))):
