@@ -91,3 +91,16 @@ def shared_json(tmp_path_factory, worker_id):
         return json.loads(json.dumps(doc))
 
     return get
+
+
+def pytest_collection_modifyitems(config, items):
+    """Tests grouped onto one xdist worker (``pytest.mark.xdist_group``, ``--dist loadgroup``) run first.
+
+    A group is a unit of work as long as its expensive module fixture and all its tests; scheduled last, it
+    would leave the other worker idle at the end of the session.  The order is the same in every worker
+    (xdist requires it): grouped tests first, in collection order, then the others.
+    """
+    grouped = [item for item in items if item.get_closest_marker("xdist_group")]
+    if grouped:
+        rest = [item for item in items if not item.get_closest_marker("xdist_group")]
+        items[:] = grouped + rest

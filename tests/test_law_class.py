@@ -182,9 +182,9 @@ def test_the_paper_class_refuses_a_design_outside_the_sector_bound(run_cli, tmp_
 
 
 @pytest.fixture(scope="module")
-def cascade_doc() -> dict:
-    return build_certificate(V, IMAGE, inner=PD_INNER, model="full", box=SMALL_BOX, grid_points_per_axis=3,
-                             law_class="cascade").to_json()
+def cascade_doc(shared_json) -> dict:
+    return shared_json("law-class-cascade", lambda: build_certificate(
+        V, IMAGE, inner=PD_INNER, model="full", box=SMALL_BOX, grid_points_per_axis=3, law_class="cascade").to_json())
 
 
 def _verify_edited(doc: dict, edit) -> tuple[bool, str | None]:

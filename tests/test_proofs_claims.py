@@ -8,6 +8,9 @@ import pytest
 
 from nniquad.proofs import claims as CL
 
+#: One xdist worker runs this module (its module fixture runs the whole audit of the paper: built once, not once per worker).
+pytestmark = pytest.mark.xdist_group("test_proofs_claims")
+
 REQUIRED = [
     "rotation-matrix", "angular-velocity-map", "lagrangian-decoupling", "thrust-vector", "translational-dynamics",
     "rotational-rows", "horizontal-subsystem", "compact-form", "nni-storage", "ni-lemma-plant", "ni-frequency-plant",
@@ -83,7 +86,8 @@ def test_unknown_id_raises_key_error():
 
 def test_claims_run_in_worker_processes_give_the_serial_results(audit):
     """One claim of every section run in two forked workers: the same records as the serial audit."""
-    ids = ["sni-ws-nni-equivalence", "angular-velocity-map", "delta-min", "steady-state", "simulation-claim"]
+    ids = ["sni-ws-nni-equivalence", "angular-velocity-map", "delta-min", "steady-state", "simulation-claim",
+           "filtered-pd-is-nni"]
     reg = CL.registry()
     assert len({reg[i].section for i in ids}) == len(CL.SECTIONS)  # every section: several tasks
     parallel = CL.run_audit(ids, workers=2)

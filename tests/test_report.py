@@ -7,13 +7,19 @@ import os
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
 
-from nniquad.certificates import load_certificate, verify_certificate
+from nniquad.certificates import load_certificate, read_certificate, verify_certificate
 from nniquad.reporting.folder import MANIFEST, MANIFEST_MARKER, file_digest
 from nniquad.reporting.report import fmt
 
+#: One xdist worker runs this module: its module fixture runs a whole report (audit, two tunes, a full-model
+#: certificate), built once, not once per worker.
+pytestmark = pytest.mark.xdist_group("test_report")
+
+COMMITTED = Path(__file__).resolve().parents[1] / "notebooks" / "data" / "full_model_certificate.json"
 QUICK = ["--budget", "quick", "--reruns", "0", "--roa-radius", "0", "--nominal"]  # the robust default is tested in test_robust_objective
 
 
@@ -129,27 +135,36 @@ def test_bad_options(run_cli, tmp_path):
 def test_a_failed_own_verification_leaves_no_files(run_cli, tmp_path, monkeypatch, earlier_report):
     """Issue 14, 9b: ``report`` whose issued certificate fails its own verification (here the check the issue
     names, ``lmi.region_of_attraction``) exits 1 with one line and writes nothing: no new folder, an earlier
-    report untouched, no build folder or lock file left.  The tuner is replaced by the committed certificate's
-    gains (the rest of the report, the certificate and its verification, runs for real)."""
-    from pathlib import Path
+    report untouched, no build folder or lock file left.  The tuner and the certificate builder are replaced by
+    the committed certificate, and the audit by three of its claims (what they would compute is thrown away
+    when the verification fails; the whole report runs for real in ``report_dir``); the report's own
+    verification of that certificate runs for real, with the forced failure."""
     from types import SimpleNamespace
 
     import nniquad.tuning.tune as tune_module
     from nniquad.certificates import certificate_gains, certificate_inner_loop, verify
     from nniquad.reporting.folder import ReportFolder
 
-    committed = load_certificate(Path(__file__).resolve().parents[1] / "notebooks" / "data" /
-                                 "full_model_certificate.json")
+    committed = load_certificate(COMMITTED)
     stub = SimpleNamespace(gains=certificate_gains(committed), inner=certificate_inner_loop(committed), roa_radius_m=0.0,
                            to_json=lambda: {"stub": True})
     monkeypatch.setattr(tune_module, "tune", lambda *args, **kwargs: stub)
+    import nniquad.certificates as certificates_module
+    import nniquad.proofs.claims as claims_module
+
+    built = []
+    monkeypatch.setattr(certificates_module, "build_certificate",
+                        lambda *args, **kwargs: built.append(1) or read_certificate(COMMITTED))
+    real_audit = claims_module.run_audit
+    monkeypatch.setattr(claims_module, "run_audit",
+                        lambda *args, **kwargs: real_audit(["rotation-matrix", "steady-state", "sector-bound"]))
     calls = []
 
     def failing_roa_check(cert, *_):
         calls.append(1)
         return verify.Check("lmi.region_of_attraction", False, "forced failure")
 
-    monkeypatch.setattr(verify, "_roa_check", failing_roa_check)
+    monkeypatch.setattr(verify, "roa_check", failing_roa_check)
     out = tmp_path / "r"
     (tmp_path / "unrelated.txt").write_text("the user's\n")
     before = {}
@@ -160,7 +175,7 @@ def test_a_failed_own_verification_leaves_no_files(run_cli, tmp_path, monkeypatc
             folder.commit(["report.md", "report.json"])
         before = {p.name: p.read_bytes() for p in out.iterdir()}
     code, _, err = run_cli("report", "--out", str(out), *QUICK)
-    assert calls, "the report never ran its own verification"
+    assert calls and built, "the report never built or verified its certificate"
     assert code == 1, err
     last = err.strip().splitlines()[-1]
     assert "does not verify" in last and "lmi.region_of_attraction" in last and "Traceback" not in err

@@ -34,9 +34,10 @@ def _ok(results):
 
 
 @pytest.fixture(scope="module")
-def section():
-    sec = RC.cascade_section(V, GAINS, INNER, tilt_limit_deg=TILT, rate_hz=RATE, box=BOX, grid_points_per_axis=2)
-    return json.loads(json.dumps(sec))  # what a certificate file holds
+def section(shared_json):
+    # what a certificate file holds (JSON), built once per session
+    return shared_json("robust-cascade-section", lambda: RC.cascade_section(
+        V, GAINS, INNER, tilt_limit_deg=TILT, rate_hz=RATE, box=BOX, grid_points_per_axis=2))
 
 
 @pytest.fixture(scope="module")

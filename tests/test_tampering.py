@@ -146,7 +146,7 @@ def _setup(doc: dict) -> dict:
 
 
 @pytest.fixture(scope="module", params=["nni", "sni2"])
-def doc(request) -> dict:
+def doc(request, shared_json) -> dict:
     """A certificate of test_certificate's gains (the NNI law) or of test_sni2_certificate's (the ``sni2`` law: its
     gains section names the law, its controller NI storage is 2x2), with the committed certificate's tuning record
     (so every record leaf of a real ``tuning`` section is edited too)."""
@@ -157,9 +157,10 @@ def doc(request) -> dict:
     committed = Path(__file__).resolve().parents[1] / "notebooks" / "data" / "full_model_certificate.json"
     tuning = json.loads(committed.read_text())["tuning"]
     gains = GAINS if request.param == "nni" else SNI2_GAINS
-    # a grid of 3 per parameter (729 points, not the default 4096): each cascade edit re-runs the grid check
-    return build_certificate(V, gains, inner=INNER, model="full", tuning=tuning, box=SMALL_BOX,
-                             grid_points_per_axis=3).to_json()
+    # a grid of 3 per parameter (729 points, not the default 4096): each cascade edit re-runs the grid check;
+    # built once per session, whichever worker runs a part first (the parts spread over the workers)
+    return shared_json(f"tamper-{request.param}", lambda: build_certificate(
+        V, gains, inner=INNER, model="full", tuning=tuning, box=SMALL_BOX, grid_points_per_axis=3).to_json())
 
 
 def _verify_passes(c: dict, fail_fast: bool):

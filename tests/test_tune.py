@@ -17,6 +17,9 @@ from nniquad.tuning.tune import (BUDGETS, SECTOR_FACE_SHARE, TuneOptions, attitu
                                 initial_design, search_box, tune)
 from nniquad.model.vehicle import PAPER_VEHICLE as V
 
+#: One xdist worker runs this module (its module fixture runs a quick tune: built once, not once per worker).
+pytestmark = pytest.mark.xdist_group("test_tune")
+
 
 @pytest.fixture(scope="module")
 def quick_reduced():

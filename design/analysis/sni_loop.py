@@ -20,8 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from nniquad.analysis.linear import PolesDamping, ReducedLoop
-from nniquad.analysis.linear_symbolic import lambdified
+from nniquad.analysis.linear import PolesDamping, ReducedLoop, lambdified
 from nniquad.control.gains import Gains, SNI2Gains, positive_gain
 from nniquad.control.sni import controller_matrices as _controller_matrices
 from nniquad.control.sni import dc_loop_gain, start_direction

@@ -51,13 +51,16 @@ file as a plain mapping (what the Monte Carlo study and ``simulate
 recomputes every matrix condition with numpy from the certificate's own vehicle
 and gains (never from stored system matrices), re-runs both simulations and
 checks the digest.  It needs neither cvxpy nor the tuner.
+
+The envelope (schema, version, digest, reading and writing) lives in
+:mod:`nniquad.certificates.document`, the typed accessors of a mapping's
+gains, vehicle and inner loops in :mod:`nniquad.certificates.sections`; every
+name is re-exported here.
 """
 
 
 from __future__ import annotations
 
-import hashlib
-import json
 import math
 from dataclasses import dataclass, fields, replace
 from pathlib import Path
@@ -68,9 +71,13 @@ from nniquad.analysis.linear import ReducedLoop
 
 if TYPE_CHECKING:
     from nniquad.analysis.sni_loop import SNI2Loop
-from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, InnerLoopGains, SNI2Gains
-from nniquad.errors import CertificateCheckError, CertificateError, GainError, NniquadError, VehicleError
-from nniquad.io import atomic_write_text
+from nniquad.certificates.document import (CASCADE_SCHEMA_VERSION, DIGEST_ALGORITHM, SCHEMA, SCHEMA_VERSION,
+                                           SCHEMA_VERSIONS, canonical_digest, canonical_json, check_form,
+                                           load_certificate, write_certificate)
+from nniquad.certificates.sections import (GAINS_LAW_KEY, _get, certificate_gains, certificate_inner_loop,
+                                           certificate_vehicle, gains_json)
+from nniquad.control.gains import Gains, InnerLoopGains, SNI2Gains
+from nniquad.errors import CertificateError
 from nniquad.model.vehicle import Vehicle
 
 __all__ = [
@@ -97,15 +104,6 @@ __all__ = [
     "certificate_vehicle",
     "certificate_inner_loop",
 ]
-
-SCHEMA = "nniquad-certificate"
-#: Version of a certificate without a ``cascade`` section (every certificate before issue 15).
-SCHEMA_VERSION = 1
-#: Version of a certificate with a ``cascade`` section (the sampled-data cascade over a parameter box).
-CASCADE_SCHEMA_VERSION = 2
-#: The versions :func:`check_form` reads.
-SCHEMA_VERSIONS: tuple[int, ...] = (SCHEMA_VERSION, CASCADE_SCHEMA_VERSION)
-DIGEST_ALGORITHM = "sha256"
 
 #: Tolerances of :func:`nniquad.certificates.verify.verify_certificate` (stored in every certificate for the record).
 TOLERANCES: dict[str, float] = {
@@ -176,96 +174,6 @@ def reference_run_options(model: str, inner: InnerLoopGains, *, tilt_limit_deg: 
     return opts
 
 
-# ----------------------------------------------------------------------------- digest and form
-
-
-def canonical_digest(cert: Mapping[str, Any]) -> str:
-    """SHA-256 (hex) of the canonical JSON of the certificate without its ``digest``.
-
-    Every other top-level field is covered, whatever its name: the canonical JSON
-    has sorted keys, no whitespace, UTF-8 and no NaN.
-
-    Parameters
-    ----------
-    cert
-        The certificate as a JSON mapping.
-    """
-    body = {k: v for k, v in cert.items() if k != "digest"}
-    text = json.dumps(body, sort_keys=True, separators=(",", ":"), ensure_ascii=False, allow_nan=False)
-    return hashlib.sha256(text.encode("utf-8")).hexdigest()
-
-
-def check_form(cert: Any, where: str = "certificate") -> None:
-    """Check a certificate mapping's form: a JSON object, schema, version, digest algorithm and value.
-
-    Parameters
-    ----------
-    cert
-        The decoded JSON document.
-    where
-        Name of the document in the messages (e.g. its path).
-
-    Raises
-    ------
-    CertificateError
-        One line naming the problem.
-    """
-    if not isinstance(cert, dict):
-        raise CertificateError(f"{where}: top level must be a JSON object")
-    if cert.get("schema") != SCHEMA:
-        raise CertificateError(f"{where}: schema is {cert.get('schema')!r}, expected {SCHEMA!r}")
-    version = cert.get("schema_version")
-    if version not in SCHEMA_VERSIONS or isinstance(version, bool) or not isinstance(version, int):
-        raise CertificateError(f"{where}: schema version {version!r} is not supported "
-                               f"(expected one of {', '.join(map(str, SCHEMA_VERSIONS))})")
-    # the version states the layout: 2 has the sampled-data cascade section, 1 has none
-    has_cascade = "cascade" in cert
-    if version == CASCADE_SCHEMA_VERSION and not isinstance(cert.get("cascade"), dict):
-        raise CertificateError(f"{where}: schema version {version} needs a 'cascade' object")
-    if version == SCHEMA_VERSION and has_cascade:
-        raise CertificateError(f"{where}: schema version {version} has no 'cascade' section "
-                               f"(a cascade certificate is version {CASCADE_SCHEMA_VERSION})")
-    digest = cert.get("digest")
-    if not isinstance(digest, dict) or not isinstance(digest.get("value"), str):
-        raise CertificateError(f"{where}: no digest")
-    if digest.get("algorithm") != DIGEST_ALGORITHM or set(digest) != {"algorithm", "value"}:
-        raise CertificateError(f"{where}: digest must be {{'algorithm': {DIGEST_ALGORITHM!r}, 'value': ...}}, "
-                               f"got algorithm {digest.get('algorithm')!r}")
-    try:
-        actual = canonical_digest(cert)
-    except (TypeError, ValueError) as exc:
-        raise CertificateError(f"{where}: content cannot be canonicalised ({exc})") from None
-    if actual != digest["value"]:
-        raise CertificateCheckError(f"{where}: digest mismatch (content changed after signing)")
-
-
-def load_certificate(path: str | Path) -> dict[str, Any]:
-    """Read a certificate file as a plain mapping and check its form: JSON, schema, version, digest.
-
-    Only the form is checked (what ``simulate --certificate`` and the Monte Carlo
-    study need); :func:`read_certificate` also types every field.
-
-    Parameters
-    ----------
-    path
-        The certificate file.
-
-    Raises
-    ------
-    CertificateError
-        One line naming the problem (unreadable, not JSON, wrong schema or
-        version, digest mismatch).
-    """
-    from nniquad.io import parse_data, read_text_file
-
-    p = Path(path)
-    # the shared reader: a regular file of bounded size, UTF-8, no duplicate keys, bounded nesting and integers
-    cert = parse_data(read_text_file(p, what="certificate", error=CertificateError), "json",
-                      where=f"certificate {p}", error=CertificateError)
-    check_form(cert, str(p))
-    return cert
-
-
 def read_certificate(path: str | Path) -> "Certificate":
     """Read a certificate file as a :class:`Certificate` (form and every field checked).
 
@@ -275,99 +183,6 @@ def read_certificate(path: str | Path) -> "Certificate":
         The certificate file.
     """
     return Certificate.from_json(load_certificate(path), where=str(path))
-
-
-# ----------------------------------------------------------------------------- accessors (mapping or Certificate)
-
-
-def _get(cert: Mapping[str, Any], key: str, kind: type = dict) -> Any:
-    value = cert.get(key) if isinstance(cert, Mapping) else None
-    if not isinstance(value, kind):
-        raise CertificateError(f"certificate has no valid '{key}' ({kind.__name__} expected)")
-    return value
-
-
-#: The ``controller`` entry of the ``gains`` section of a law other than the NNI law (whose section has none).
-GAINS_LAW_KEY = "controller"
-
-
-def gains_json(gains: Gains | SNI2Gains) -> dict[str, Any]:
-    """The ``gains`` section of a gain set: ``kp, Gamma, delta`` (NNI), ``controller, kp, k, omega, zeta`` (``sni2``)."""
-    if isinstance(gains, SNI2Gains):
-        return {GAINS_LAW_KEY: gains.controller, **gains.values()}
-    return {"kp": gains.kp, "Gamma": gains.Gamma, "delta": gains.delta}
-
-
-def certificate_gains(cert: "Mapping[str, Any] | Certificate") -> Gains | SNI2Gains:
-    """The certified gain set, of a :class:`Certificate` or of a form-checked mapping.
-
-    Parameters
-    ----------
-    cert
-        The certificate.
-    """
-    if isinstance(cert, Certificate):
-        return cert.gains
-    g = _get(cert, "gains")
-    law = g.get(GAINS_LAW_KEY, "nni")
-    if law == SNI2Gains.controller:
-        names = [f.name for f in fields(SNI2Gains)]
-        missing = [k for k in names if k not in g]
-        if missing:
-            raise CertificateError(f"certificate 'gains' lacks '{missing[0]}'")
-        try:
-            return SNI2Gains(**{k: g[k] for k in names})
-        except (GainError, TypeError) as exc:
-            raise CertificateError(f"certificate gains: {exc}") from None
-    if GAINS_LAW_KEY in g:  # the NNI law's section names no law: any other value is not a certified law
-        raise CertificateError(f"certificate 'gains' names an unknown law {law!r} (known: nni without the key, "
-                               f"{SNI2Gains.controller})")
-    missing = [k for k in ("kp", "Gamma", "delta") if k not in g]
-    if missing:
-        raise CertificateError(f"certificate 'gains' lacks '{missing[0]}'")
-    try:
-        return Gains(kp=g["kp"], Gamma=g["Gamma"], delta=g["delta"])
-    except (GainError, TypeError) as exc:
-        raise CertificateError(f"certificate gains: {exc}") from None
-
-
-def certificate_vehicle(cert: "Mapping[str, Any] | Certificate") -> Vehicle:
-    """The certified vehicle (validated as any vehicle file is).
-
-    Parameters
-    ----------
-    cert
-        The certificate.
-    """
-    from nniquad.model.vehicle import vehicle_from_mapping
-
-    if isinstance(cert, Certificate):
-        return cert.vehicle
-    try:
-        return vehicle_from_mapping(_get(cert, "vehicle"), source="certificate")
-    except VehicleError as exc:
-        raise CertificateError(f"certificate vehicle: {exc}") from None
-
-
-def certificate_inner_loop(cert: "Mapping[str, Any] | Certificate") -> InnerLoopGains:
-    """The inner-loop gains the ``full`` performance was measured with.
-
-    Parameters
-    ----------
-    cert
-        The certificate (a mapping without ``inner_loop`` gets the defaults).
-    """
-    if isinstance(cert, Certificate):
-        return cert.inner_loop
-    data = cert.get("inner_loop", DEFAULT_INNER_LOOP_GAINS.as_dict())
-    if not isinstance(data, Mapping):
-        raise CertificateError("certificate 'inner_loop' must be an object")
-    try:
-        return InnerLoopGains(**data)
-    except TypeError as exc:
-        raise CertificateError(f"certificate inner_loop: {exc}") from None
-    except NniquadError as exc:
-        raise CertificateError(f"certificate inner_loop: {exc}") from None
 
 
 # ----------------------------------------------------------------------------- the typed certificate
@@ -389,10 +204,6 @@ def _thaw(value: Any) -> Any:
     if isinstance(value, tuple):
         return [_thaw(v) for v in value]
     return value
-
-
-def _canonical(value: Any) -> str:
-    return json.dumps(value, sort_keys=True, separators=(",", ":"), ensure_ascii=False, allow_nan=False)
 
 
 @dataclass(frozen=True)
@@ -591,7 +402,7 @@ class Certificate:
         # the typed fields must serialise back to exactly what was signed
         body = cert.body()
         for key, value in body.items():
-            if _canonical(value) != _canonical(data[key]):
+            if canonical_json(value) != canonical_json(data[key]):
                 raise CertificateError(f"{where}: field '{key}' does not read back as it was signed "
                                        "(unexpected type or extra entries)")
         return cert
@@ -655,21 +466,6 @@ _OPTIONAL_FIELDS = ("schema", "schema_version", "digest", "margins", "cascade", 
 
 def _is_number(v: Any) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
-
-
-def write_certificate(cert: "Certificate | Mapping[str, Any]", path: str | Path) -> Path:
-    """Write atomically (temporary file, then rename); the certificate's form is checked first.
-
-    Parameters
-    ----------
-    cert
-        A :class:`Certificate` or its JSON mapping.
-    path
-        Destination file.
-    """
-    data = cert.to_json() if isinstance(cert, Certificate) else dict(cert)
-    check_form(data)
-    return atomic_write_text(Path(path), json.dumps(data, indent=2, allow_nan=False) + "\n")
 
 
 def __getattr__(name: str) -> Any:

@@ -17,8 +17,8 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 import scipy.linalg as sla
 
-from nniquad.analysis.cascade import (SPLIT_TOL, EQUILIBRIUM_TOL, LINEARISATION_OFFSET_M, LinearCascade, Linearisation,
-                                      _hover_params, _jacobian_function, allocation_jacobian)
+from nniquad.analysis.cascade import SPLIT_TOL, LinearCascade, _hover_params, allocation_jacobian
+from nniquad.analysis.hover_jacobian import EQUILIBRIUM_TOL, LINEARISATION_OFFSET_M, Linearisation, _jacobian_function
 from nniquad.analysis.mapped import evaluate_map
 from nniquad.analysis.robust.box import POINT_NAMES, ParameterBox
 from nniquad.analysis.sampled import _period
