@@ -124,7 +124,19 @@ def tune_options_from_args(args: argparse.Namespace):
 
 
 def warm_starts_from_args(args: argparse.Namespace) -> list:
-    """The ``(gains, inner loops)`` of every ``--warm-start`` file: a ``tune --json`` file or a certificate.
+    """The ``(gains, inner loops)`` of every ``--warm-start`` file (:func:`designs_from_files`)."""
+    return designs_from_files(getattr(args, "warm_start", None) or [], "--warm-start")
+
+
+def designs_from_files(paths, option: str) -> list:
+    """The ``(gains, inner loops)`` of ``tune --json`` files or certificates (the law is the file's).
+
+    Parameters
+    ----------
+    paths
+        The files.
+    option
+        The option that named them, for the messages.
 
     Raises
     ------
@@ -137,8 +149,8 @@ def warm_starts_from_args(args: argparse.Namespace) -> list:
     from nniquad.io import parse_data, read_text_file
 
     out = []
-    for path in getattr(args, "warm_start", None) or []:
-        data = parse_data(read_text_file(Path(path), what="warm start"), "json", where=f"warm start {path}")
+    for path in paths:
+        data = parse_data(read_text_file(Path(path), what=option), "json", where=f"{option} {path}")
         try:
             if isinstance(data, dict) and data.get("schema") is not None:  # a certificate (digest checked)
                 check_form(data, str(path))
@@ -149,7 +161,7 @@ def warm_starts_from_args(args: argparse.Namespace) -> list:
                 if law == "nni" else CONTROLLER_GAINS[law](**data["gains"])
             out.append((gains, InnerLoopGains(**data["inner_loop"])))
         except (KeyError, TypeError, CertificateError, NniquadError) as exc:
-            raise NniquadError(f"--warm-start {path}: not a 'tune --json' file or a certificate ({exc})") from None
+            raise NniquadError(f"{option} {path}: not a 'tune --json' file or a certificate ({exc})") from None
     return out
 
 
