@@ -1,13 +1,14 @@
 # Two commands do all set-up on a fresh machine (see README):
 #   make demo   creates .venv, installs, runs `nniquad report` on the paper's vehicle into out/
 #   make test   installs if needed, runs the whole test suite (notebooks included)
+# make mutation [MODULE=metrics]: mutation score of the verdict modules (tests/mutation/, mutmut)
 PYTHON ?= python3
 VENV   ?= .venv
 PY      = $(VENV)/bin/python
 STAMP   = $(VENV)/.installed-stamp
 JOBS   ?= 2
 
-.PHONY: install demo test bench notebooks clean
+.PHONY: install demo test bench bench-quick notebooks mutation clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -25,6 +26,12 @@ test: $(STAMP)
 
 bench: $(STAMP)
 	MPLBACKEND=Agg $(PY) benchmarks/run.py --json benchmarks/results/latest.json
+
+mutation: $(STAMP)
+	MPLBACKEND=Agg $(PY) tests/mutation/run.py --jobs $(JOBS) $(if $(MODULE),--module $(MODULE))
+
+bench-quick: $(STAMP)
+	MPLBACKEND=Agg $(PY) benchmarks/run.py --quick --json benchmarks/results/quick.json
 
 notebooks: $(STAMP)
 	$(VENV)/bin/jupytext --to ipynb notebooks/*.py

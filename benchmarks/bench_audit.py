@@ -31,7 +31,7 @@ print(json.dumps({"wall": time.perf_counter() - t0,
 """
 
 
-def run() -> list[dict]:
+def run(quick: bool = False) -> list[dict]:
     """Rows ``{name, value, unit, target?, ok?}`` for ``benchmarks/run.py``."""
     t0 = time.perf_counter()
     proc = subprocess.run([sys.executable, "-c", _SCRIPT], cwd=ROOT, capture_output=True, text=True, check=True)

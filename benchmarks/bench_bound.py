@@ -19,7 +19,7 @@ TIME_TARGET_S = 1.0
 REL_ERROR_TARGET = 1e-3
 
 
-def run() -> list[dict]:
+def run(quick: bool = False) -> list[dict]:
     """Rows ``{name, value, unit, target?, ok?}`` for ``benchmarks/run.py``."""
     time_optimal_bound()  # warm-up: imports casadi, loads IPOPT
     best = float("inf")

@@ -61,10 +61,14 @@ def _setup() -> mc.StudySetup:
         return mc.study_setup(load_certificate(path), horizon_s=HORIZON_S)
 
 
-def run() -> list[dict]:
+#: ``quick``: the study and the scaling runs at these sizes (the target scales with the count).
+QUICK_SAMPLES, QUICK_SCALING = 100, 40
+
+
+def run(quick: bool = False) -> list[dict]:
     """Rows ``{name, value, unit, target?, ok?}`` for ``benchmarks/run.py``."""
-    samples = _count("NNIQUAD_BENCH_MC_SAMPLES", SAMPLES)
-    scaling = _count("NNIQUAD_BENCH_MC_SCALING", SCALING)
+    samples = _count("NNIQUAD_BENCH_MC_SAMPLES", QUICK_SAMPLES if quick else SAMPLES)
+    scaling = _count("NNIQUAD_BENCH_MC_SCALING", QUICK_SCALING if quick else SCALING)
     setup = _setup()
     mc.run_scenarios(mc.draw_scenarios(1, SEED, cert=setup, horizon_s=0.1))  # build/load the model here
     rows: list[dict] = []

@@ -10,12 +10,13 @@ NOTEBOOKS = sorted((HERE.parent / "notebooks").glob("*.py"))
 TARGET_S = 120.0
 
 
-def run() -> list[dict]:
+def run(quick: bool = False) -> list[dict]:
+    """Rows for ``benchmarks/run.py``; ``quick``: the first notebook only."""
     import jupytext
     import nbclient
 
     rows = []
-    for path in NOTEBOOKS:
+    for path in NOTEBOOKS[:1] if quick else NOTEBOOKS:
         nb = jupytext.read(path)
         nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
         client = nbclient.NotebookClient(nb, timeout=600, kernel_name="python3",

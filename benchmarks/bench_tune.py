@@ -21,17 +21,19 @@ if str(ROOT) not in sys.path:
 TIME_TARGET_S = 120.0
 
 
-def run() -> list[dict]:
+def run(quick: bool = False) -> list[dict]:
+    """Rows for ``benchmarks/run.py``; ``quick``: the ``reduced`` tune without the reach only."""
     from nniquad.tuning.tune import DEFAULT_ROA_RADIUS_M, TILT_SLACK_DEG, TuneOptions, tune
     from nniquad.model.vehicle import PAPER_VEHICLE
 
     rows: list[dict] = []
     results = {}
-    for label, opts in (
+    cases = (
         ("reduced, reach off", TuneOptions(model="reduced", roa_radius_m=0.0)),
         (f"reduced, reach {DEFAULT_ROA_RADIUS_M:g} m", TuneOptions(model="reduced")),
         ("full, reach off", TuneOptions(model="full", roa_radius_m=0.0)),
-    ):
+    )
+    for label, opts in cases[:1] if quick else cases:
         t0 = time.perf_counter()
         res = tune(PAPER_VEHICLE, opts)
         wall = time.perf_counter() - t0
@@ -52,6 +54,8 @@ def run() -> list[dict]:
                          "unit": "deg", "target": f"<= {cap:g}", "ok": res.metrics.peak_tilt_deg <= cap})
             rows.append({"name": f"tune {label}: certified reach", "value": res.certified_reach_m, "unit": "m",
                          "target": "", "ok": True})
+    if quick:
+        return rows
     off, on = results["reduced, reach off"], results[f"reduced, reach {DEFAULT_ROA_RADIUS_M:g} m"]
     rows.append({"name": "reduced: settling the reach guarantee costs", "value": on.settling_s - off.settling_s,
                  "unit": "s", "target": "", "ok": True})

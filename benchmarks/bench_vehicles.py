@@ -27,11 +27,18 @@ WORKERS = 2
 SUCCESS_TARGET = 0.99
 
 
-def run() -> list[dict]:
+#: ``quick``: this vehicle only, and a study of this many scenarios.
+QUICK_VEHICLE, QUICK_SAMPLES = "iris", 50
+
+
+def run(quick: bool = False) -> list[dict]:
     """Rows ``{name, value, unit, target?, ok?}`` for ``benchmarks/run.py``."""
     rows: list[dict] = []
     chosen = os.environ.get("NNIQUAD_BENCH_VEHICLES")
     names = chosen.split(",") if chosen else sorted(p.stem for p in VEHICLES.glob("*.toml"))
+    if quick and not chosen:
+        names = [QUICK_VEHICLE]
+    samples = QUICK_SAMPLES if quick else SAMPLES
     for name in names:
         vehicle = nq.load_vehicle(VEHICLES / f"{name}.toml")
         t0 = time.perf_counter()
@@ -47,11 +54,11 @@ def run() -> list[dict]:
         rows.append({"name": f"vehicles: {name}: full reference settling (kp {cert.gains.kp:.4g})",
                      "value": perf["full"]["settling_s"], "unit": "s"})
         t0 = time.perf_counter()
-        study = nq.montecarlo(cert, samples=SAMPLES, seed=SEED, workers=WORKERS)
+        study = nq.montecarlo(cert, samples=samples, seed=SEED, workers=WORKERS)
         s = study.summary
         lo, hi = s.success_ci
         fails = ", ".join(f"{k} {v}" for k, v in sorted(s.failures.items())) or "none"
-        rows.append({"name": f"vehicles: {name}: MC {SAMPLES} seed {SEED}: success [{100 * lo:.1f}, {100 * hi:.1f}] %",
+        rows.append({"name": f"vehicles: {name}: MC {samples} seed {SEED}: success [{100 * lo:.1f}, {100 * hi:.1f}] %",
                      "value": 100 * s.success_rate, "unit": "%", "target": 100 * SUCCESS_TARGET,
                      "ok": s.success_rate >= SUCCESS_TARGET})
         rows.append({"name": f"vehicles: {name}: MC failures: {fails}"[:56 + 40], "value": s.n - s.n_success,

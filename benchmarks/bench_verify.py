@@ -1,4 +1,4 @@
-"""``nniquad verify`` of a schema-2 certificate, from a cold start (issue 15's target: under 10 s).
+"""``nniquad verify`` of a schema-2 certificate, from a cold start (issue 25's target: under 3 s).
 
 The command runs as a user runs it: a fresh interpreter (``python -m nniquad
 verify CERT``), so the time includes the imports, building the symbolic model,
@@ -22,10 +22,11 @@ __all__ = ["run"]
 
 ROOT = Path(__file__).resolve().parents[1]
 CERT = ROOT / "notebooks" / "data" / "full_model_certificate.json"
-TARGET_S = 10.0
+#: Issue 25: a cold ``nniquad verify`` of the committed certificate in under 3 s (issue 15 asked for 10 s).
+TARGET_S = 3.0
 
 
-def run() -> list[dict]:
+def run(quick: bool = False) -> list[dict]:
     """Rows ``{name, value, unit, target?, ok?}`` for ``benchmarks/run.py``."""
     cert = Path(os.environ.get("NNIQUAD_BENCH_VERIFY_CERT", CERT))
     t0 = time.perf_counter()

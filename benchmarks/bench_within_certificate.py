@@ -29,10 +29,14 @@ SAMPLES = 1000
 SEED = 0
 
 
-def run() -> list[dict]:
+#: ``quick``: this many scenarios.
+QUICK_SAMPLES = 100
+
+
+def run(quick: bool = False) -> list[dict]:
     """Rows ``{name, value, unit, target?, ok?}`` for ``benchmarks/run.py``."""
     cert = Path(os.environ.get("NNIQUAD_BENCH_WITHIN_CERT", CERT))
-    samples = int(os.environ.get("NNIQUAD_BENCH_WITHIN_SAMPLES", SAMPLES))
+    samples = int(os.environ.get("NNIQUAD_BENCH_WITHIN_SAMPLES", QUICK_SAMPLES if quick else SAMPLES))
     if samples <= 0:
         raise ValueError(f"NNIQUAD_BENCH_WITHIN_SAMPLES must be a positive integer, got {samples}")
     doc = json.loads(cert.read_text())

@@ -39,6 +39,10 @@ __all__ = [
     "RUN_TIME_LIMIT_S",
     "CASCADE_GRID_POINTS_PER_AXIS",
     "CASCADE_ROA_DECAY_FRACTION",
+    "CASCADE_LURE_LEVELS",
+    "CASCADE_LURE_MARGIN",
+    "CASCADE_LURE_CUT_ROUNDS",
+    "CASCADE_LURE_CUT_POINTS",
     "CASCADE_WIDEST_SCALE_MAX",
     "CASCADE_WIDEST_STEPS",
     "CASCADE_SMALLEST_SCALE",
@@ -118,10 +122,25 @@ MC_STARTUP_GRACE_S: float = 60.0
 #: Points per coordinate of the numpy grid check inside a cascade certificate's parameter box
 #: (nniquad.analysis.robust_cascade.grid_check; six coordinates, so 4 gives 4096 points).
 CASCADE_GRID_POINTS_PER_AXIS: int = 4
-#: The cascade's generalised-sector region of attraction is certified with a decay rate of at least this
-#: fraction of the robust linear decay rate (a strict decrease, so the trajectories converge; 0 would only
-#: make them bounded). 0.1 left the LMI 5 times further from feasible between its points than 0.01.
+#: The cascade's saturated region of attraction (nniquad.analysis.robust.roa) is certified with a decrease
+#: ``V(x+) - V(x) <= -(1 - rho^2) x'Px``, rho = exp(-fraction * the horizontal blocks' linear decay * T):
+#: a strict decrease, so the trajectories converge. 0.1 left the LMI 5 times further from feasible between
+#: its points than 0.01.
 CASCADE_ROA_DECAY_FRACTION: float = 0.01
+#: Levels ``c`` of the region {V <= c} tried on the centre point (the sector multiplier is 1); the best one and
+#: its neighbours at half steps are then tried at every LMI point, best first. Paper's design: about 570-800
+#: is best (3.4 m at the centre, 2.8-3.0 m over the box; 2.7 m at 500 and at 1000).
+CASCADE_LURE_LEVELS: tuple[float, ...] = (25.0, 50.0, 100.0, 200.0, 400.0, 800.0, 1600.0, 3200.0, 6400.0)
+#: Margin of the region LMI's decrease, ``F <= -margin (diag(P) + I)`` (the metric in which verify judges the
+#: decrease: each state in the units of V, each dead-zone input in those of the limit), so that the grid points
+#: between the LMI points pass too. Paper's design: 1e-4 reaches 2.82 m after one cutting-plane round of 24
+#: points; 3e-4 2.76 m; 1e-3 2.17 m.
+CASCADE_LURE_MARGIN: float = 1e-4
+#: Cutting-plane rounds of the region LMI: the grid points where the numpy check fails join the LMI points.
+#: Paper's design: one round of 24 points, then all 4096 grid points pass.
+CASCADE_LURE_CUT_ROUNDS: int = 3
+#: Failing grid points added per axis and round (the worst ones).
+CASCADE_LURE_CUT_POINTS: int = 24
 #: Largest scale (log space, about nominal) of the Monte Carlo default box the widest-box search tries.
 CASCADE_WIDEST_SCALE_MAX: float = 2.0
 #: Bisection steps of the widest-box search (``certify --widest-box``), after its halving steps.

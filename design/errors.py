@@ -32,6 +32,8 @@ __all__ = [
     "EXIT_USER_ERROR",
     "EXIT_INTERNAL_ERROR",
     "EXIT_INTERRUPTED",
+    "EXIT_TERMINATED",
+    "Terminated",
     "StudyFailedError",
     "EXIT_STUDY_FAILED",
 ]
@@ -46,6 +48,8 @@ EXIT_USER_ERROR = 2
 EXIT_INTERNAL_ERROR = 3
 #: Interrupted by Ctrl-C / SIGINT (128 + 2, the shell convention).
 EXIT_INTERRUPTED = 130
+#: Terminated by SIGTERM (128 + 15, the shell convention); handled like SIGINT.
+EXIT_TERMINATED = 143
 
 #: Exit status of a Monte Carlo study stopped by a fault of where it ran (a worker or the scheduler
 #: died, the cluster stopped making progress); its finished scenarios are saved.
@@ -142,3 +146,13 @@ class StudyFailedError(MonteCarloError):
         self.kind = kind
         self.run = None
         self.result = None
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised where Ctrl-C raises ``KeyboardInterrupt`` (:func:`nniquad.cli.main.main` installs it).
+
+    A subclass of ``KeyboardInterrupt``, so that everything that cleans up
+    after Ctrl-C -- temporary files, a report's build folder, a Monte Carlo
+    study's pending batches -- does the same for SIGTERM; the command then
+    exits with :data:`EXIT_TERMINATED`.
+    """

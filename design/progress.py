@@ -15,6 +15,10 @@ the callback conventions of the jobs are adapters of the same object:
     finished units of work (:func:`nniquad.montecarlo`);
 ``progress.stage(stage, fraction, detail="")``
     a stage of a pipeline (:func:`nniquad.report`).
+
+Every report is also a checkpoint of the command line's SIGTERM request
+(:func:`nniquad.termination.raise_if_terminated`): a request that a C
+extension swallowed is raised again here, at the next report.
 """
 
 from __future__ import annotations
@@ -22,6 +26,8 @@ from __future__ import annotations
 import sys
 import time
 from typing import IO, Callable, Optional
+
+from nniquad.termination import raise_if_terminated
 
 __all__ = ["Progress", "ProgressCallback", "silent"]
 
@@ -79,6 +85,7 @@ class Progress:
 
     def __call__(self, fraction: Optional[float] = None, message: str = "") -> None:
         """Report progress: the completed ``fraction`` (or ``None``) and a short status ``message``."""
+        raise_if_terminated()
         if not self.enabled:
             return
         changed_message = bool(message) and message != self._message
@@ -156,6 +163,7 @@ class Progress:
         message
             The line to print.
         """
+        raise_if_terminated()
         if not self.enabled:
             return
         line = f"[{self.label} {self.elapsed_s:7.1f} s] {message}"

@@ -119,24 +119,31 @@ def check_rk4_step(poles: Mapping[str, float], dt_s: float, *, error: type[Nniqu
     The stability region of classical RK4 contains every left-half-plane
     ``z = lambda dt`` with ``|z| <= 2.61`` (2.785 on the negative real axis,
     2.83 on the imaginary axis), so ``|lambda| dt <=``
-    :data:`nniquad.config.RK4_STEP_LIMIT` (2.5, the bound of the existing
-    ``Gamma*delta*dt`` check) is sufficient for any stable pole.
+    :data:`nniquad.config.RK4_STEP_LIMIT` (2.5) is sufficient for any stable
+    pole.  The simulator applies it to every pole of a run
+    (:func:`nniquad.sim.step.check_step`); a non-finite pole is refused too.
 
     Parameters
     ----------
     poles
-        Name -> ``|lambda|`` [1/s] (:func:`inner_loop_poles`).
+        Name -> ``|lambda|`` [1/s] (:func:`inner_loop_poles`, :func:`nniquad.sim.step.run_poles`).
     dt_s
         The RK4 step [s].
     hint
         The option to change, for the message ("--attitude-wn"), or one per pole name.
     """
-    name, fastest = max(poles.items(), key=lambda kv: kv[1])
+    if not poles:  # e.g. a PD law with the true velocity on a point-mass model: nothing but the plant
+        return
+    # a non-finite pole first: max() over a nan compares False both ways and could pass it over
+    name, fastest = next(((n, v) for n, v in poles.items() if not math.isfinite(v)), None) or max(
+        poles.items(), key=lambda kv: kv[1])
     if not isinstance(hint, str):
         hint = hint.get(name, "")
-    if not (math.isfinite(fastest) and fastest * dt_s <= RK4_STEP_LIMIT):
+    change = f"; change {hint}" if hint else ""
+    if not math.isfinite(fastest):
+        raise error(f"the {name} pole is not finite (|lambda| = {fastest}): no time step can integrate it{change}")
+    if not fastest * dt_s <= RK4_STEP_LIMIT:
         raise error(
             f"time step {dt_s:g} s too large for the {name} pole |lambda| = {fastest:.4g} 1/s "
-            f"(RK4 needs |lambda| dt <= {RK4_STEP_LIMIT:g}, so at most {RK4_STEP_LIMIT / fastest:.3g} s)"
-            + (f"; change {hint}" if hint else "")
+            f"(RK4 needs |lambda| dt <= {RK4_STEP_LIMIT:g}, so at most {RK4_STEP_LIMIT / fastest:.3g} s){change}"
         )

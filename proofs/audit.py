@@ -66,7 +66,7 @@ class Audit:
         return audit_to_json(list(self.claims))
 
 
-def audit(only: Iterable[str] | None = None, section: str | None = None) -> Audit:
+def audit(only: Iterable[str] | None = None, section: str | None = None, *, workers: int = 1) -> Audit:
     """Audit the claims of Ghallab & Petersen's paper, one check per claim.
 
     Parameters
@@ -77,6 +77,9 @@ def audit(only: Iterable[str] | None = None, section: str | None = None) -> Audi
         Run only the claims of this paper section (``"ni_preliminaries"``,
         ``"quadrotor_model"``, ``"control_design"``, ``"simulation"``), or the project's
         extensions (``"extensions"``: not claims of the paper).
+    workers
+        Processes to run the claims in, one paper section per task
+        (:func:`nniquad.proofs.claims.run_audit`); the results do not depend on it.
 
     Returns
     -------
@@ -104,4 +107,6 @@ def audit(only: Iterable[str] | None = None, section: str | None = None) -> Audi
             raise NniquadError(f"unknown claim id {bad[0]!r} (known: {', '.join(known)})")
         if not ids:
             raise NniquadError("give at least one claim id")
-    return Audit(tuple(run_audit(ids)))
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise NniquadError(f"workers must be a positive integer, got {workers!r}")
+    return Audit(tuple(run_audit(ids, workers=workers)))

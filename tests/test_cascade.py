@@ -163,3 +163,44 @@ def test_a_mass_error_is_not_an_equilibrium():
     p = _params(True).with_(plant={"m": 1.1 * PAPER_VEHICLE.m})
     with pytest.raises(CascadeError, match="not an equilibrium"):
         linearise("full", p)
+
+
+@pytest.mark.parametrize("delay", [0.005, 0.0025, 0.3])
+@pytest.mark.parametrize("order", [1, 2, 3, 4])
+def test_pade_delay_is_python_controls_realisation(delay, order):
+    """pade_delay against python-control's pade + tf -> ss, and the approximant against e^{-jωτ} at low ω."""
+    import control as ct
+
+    from nniquad.analysis.loops import pade_delay
+
+    A, B, C, D = pade_delay(delay, order)
+    ref = ct.ss(ct.tf(*ct.pade(delay, order)))
+    for got, want in ((A, ref.A), (B, ref.B), (C, ref.C), (D, ref.D)):
+        np.testing.assert_allclose(got, np.asarray(want), rtol=1e-13, atol=1e-13 * np.max(np.abs(want)))
+    w = 0.05 / delay  # well inside the approximant's band: error O((ωτ)^(2n+1))
+    resp = (C @ np.linalg.solve(1j * w * np.eye(order) - A, B) + D)[0, 0]
+    assert abs(resp - np.exp(-1j * w * delay)) < 1e-3 ** order
+    assert abs(abs(resp) - 1.0) < 1e-12  # all-pass
+
+
+@pytest.mark.parametrize("n", [1, 7, 256, 2 * 256 + 3])
+def test_evaluate_map_equals_casadis_own_map(n):
+    """evaluate_map (buffers, blocks of points) against fn.map(n) called on numpy and converted by CasADi."""
+    import casadi as ca
+
+    from nniquad.analysis.mapped import evaluate_map
+
+    x, p = ca.SX.sym("x", 3), ca.SX.sym("p", 2)
+    f = ca.vertcat(x[0] * p[0], ca.sin(x[2]) + p[1] * x[1] ** 2, x[0])
+    fn = ca.Function("f", [x, p], [f, ca.jacobian(f, x), ca.jacobian(f, p)[:2, :]])
+    rng = np.random.default_rng(n)
+    X, P = rng.standard_normal((3, n)), rng.standard_normal((2, n))
+    got = evaluate_map(fn, n, X, P)
+    want = [np.asarray(o, float) for o in fn.map(n)(X, P)]
+    for g, w, j in zip(got, want, range(3)):
+        rows, cols = fn.size_out(j)
+        assert g.shape == (n, rows, cols)
+        # fn.map's output holds the points' blocks side by side: (rows, n * cols)
+        np.testing.assert_array_equal(g, w.reshape(rows, n, cols).transpose(1, 0, 2))
+    with pytest.raises(ValueError, match="shape"):
+        evaluate_map(fn, n, X[:, :-1] if n > 1 else X[:2], P)

@@ -26,9 +26,14 @@ INNER = InnerLoopGains(attitude_wn_rad_s=101.56, attitude_zeta=1.132, attitude_a
 SMALL_BOX = ParameterBox.monte_carlo_default().scaled(0.1)
 
 
+def build_small_certificate() -> dict:
+    """The test design's certificate over :data:`SMALL_BOX` (JSON), as every test module that needs one builds it."""
+    return build_certificate(V, GAINS, inner=INNER, model="full", box=SMALL_BOX).to_json()
+
+
 @pytest.fixture(scope="module")
-def certificate() -> Certificate:
-    return build_certificate(V, GAINS, inner=INNER, model="full", box=SMALL_BOX)
+def certificate(shared_json) -> Certificate:
+    return Certificate.from_json(shared_json("small-certificate", build_small_certificate))
 
 
 @pytest.fixture(scope="module")

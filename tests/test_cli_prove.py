@@ -34,3 +34,10 @@ def test_prove_unknown_id_is_a_one_line_error(run_cli):
 def test_prove_list(run_cli):
     code, out, _ = run_cli("prove", "--list")
     assert code == 0 and "simulation-claim" in out.split()
+
+
+def test_prove_workers(run_cli):
+    code, out, _ = run_cli("prove", "--only", "delta-min,simulation-claim", "--workers", "2")
+    assert code == 0 and "delta-min" in out and "simulation-claim" in out
+    code, _, err = run_cli("prove", "--workers", "0")
+    assert code == 2 and "--workers" in err and len(err.strip().splitlines()) == 1

@@ -102,3 +102,30 @@ def test_bad_options_exit_2_with_one_line(run_cli, args, message):
     assert message in err
     assert "Traceback" not in err
     assert len([line for line in err.strip().splitlines() if not line.startswith("[simulate]")]) == 1
+
+
+def test_a_lost_vehicle_is_diverged_beside_its_loss_verdict(run_cli, tmp_path):
+    """kp = 1e308 overflows the command, the rotors stop and the vehicle falls: diverged true, verdict altitude lost.
+
+    Compared against a hand derivation: with no thrust from t = 0 the altitude is free fall, z = g t^2 / 2 (NED).
+    """
+    from nniquad.config import ALTITUDE_LIMIT_M
+    from nniquad.model.vehicle import PAPER_VEHICLE
+
+    js = tmp_path / "kp.json"
+    code, out, err = run_cli("simulate", "--kp", "1e308", "--model", "full", "--horizon", "5", "--json", str(js))
+    assert code == 0, err
+    data = json.loads(js.read_text())
+    assert data["failure"] == "altitude lost"  # the cause: it fell, it did not fly off
+    assert data["diverged"] is True and data["metrics"]["diverged"] is True  # ... and the vehicle is lost
+    assert data["altitude_lost"] is True and data["metrics"]["blew_up"] is False
+    assert data["settling_s"] is None
+    with np.load(data["trajectory"]) as tr:
+        names = list(tr["state_names"])
+        t, z = tr["t"], tr["state"][:, names.index("z")]
+        xy = tr["state"][:, [names.index("x"), names.index("y")]]
+    np.testing.assert_allclose(z, 0.5 * PAPER_VEHICLE.g * t**2, rtol=1e-9, atol=1e-9)
+    assert np.max(np.abs(z)) > ALTITUDE_LIMIT_M and np.all(np.isfinite(xy))  # lost by altitude, horizontally finite
+    rows = {line[:26].strip(): line[26:].split() for line in out.splitlines() if len(line) > 26}
+    assert rows["diverged"][0] == "yes" and rows["altitude lost"][0] == "yes"
+    assert " ".join(rows["verdict"]) == "altitude lost"

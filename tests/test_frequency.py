@@ -65,3 +65,53 @@ def test_interconnection_matches_routh():
     assert ok.dc_loop_gain == pytest.approx(1 / (0.5 * 5.0 * 0.6)) and ok.predicted_stable and ok.poles_stable
     bad = ni_interconnection_check(ReducedLoop(0.5, Gains(5.0, 160.0, 0.3)).plant_ss(), ReducedLoop(0.5, Gains(5.0, 160.0, 0.3)).controller_ss())
     assert bad.dc_loop_gain > 1 and not bad.predicted_stable and not bad.poles_stable
+
+
+def _systems():
+    """State-space systems of several shapes: the reduced loop's plant and controller, a 3-state SISO with a
+    direct term, a 2x2 MIMO, and a discrete one."""
+    loop = ReducedLoop(0.7, Gains(4.0, 30.0, 0.8))
+    mimo = ct.ss([[-1.0, 2.0], [-3.0, -0.5]], [[1.0, 0.0], [0.5, 1.0]], [[1.0, 0.2], [0.0, 1.0]],
+                 [[0.1, 0.0], [0.0, 0.0]])
+    return [loop.plant_ss(), loop.controller_ss(), ct.ss(ct.tf([2.0, 1.0, 3.0], [1.0, 3.0, 2.0, 1.0])), mimo,
+            ct.c2d(ct.ss(ct.tf([1.0], [1.0, 0.4, 4.0])), 0.05)]
+
+
+@pytest.mark.parametrize("index", range(5))
+def test_linear_system_evaluates_as_python_control(index):
+    """Frequency response and DC gain of LinearSystem (numpy) against python-control's on the same matrices."""
+    from nniquad.analysis.loops import as_linear_system
+
+    sys = _systems()[index]
+    mine = as_linear_system(sys)
+    w = np.geomspace(0.01, 50.0, 37)
+    np.testing.assert_allclose(mine.frequency_response(w), ct.frequency_response(sys, w, squeeze=False).complex,
+                               rtol=1e-13, atol=1e-15)
+    np.testing.assert_allclose(np.atleast_2d(mine.dc_gain()), np.atleast_2d(ct.dcgain(sys)), rtol=1e-13)
+    np.testing.assert_allclose(np.sort_complex(mine.poles()), np.sort_complex(sys.poles()), rtol=1e-13)
+
+
+@pytest.mark.parametrize("sign", [+1, -1])
+def test_feedback_matrix_has_python_controls_poles(sign):
+    """feedback_matrix against python-control's feedback, with and without direct terms (an algebraic loop)."""
+    from nniquad.analysis.loops import as_linear_system, feedback_matrix
+
+    loop = ReducedLoop(0.5, Gains(5.0, 160.0, 0.6))
+    pairs = [(loop.plant_ss(), loop.controller_ss()),
+             (ct.ss(ct.tf([1.0, 2.0], [1.0, 1.0, 3.0])), ct.ss(ct.tf([0.5, 1.0], [1.0, 4.0])))]  # D_K != 0
+    for G, K in pairs:
+        A = feedback_matrix(as_linear_system(G), as_linear_system(K), sign=sign)
+        np.testing.assert_allclose(np.sort_complex(np.linalg.eigvals(A)),
+                                   np.sort_complex(ct.feedback(G, K, sign=sign).poles()), rtol=1e-12, atol=1e-12)
+
+
+def test_interconnection_check_is_the_same_for_python_control_and_numpy_systems():
+    loop = ReducedLoop(0.5, Gains(5.0, 160.0, 0.6))
+    a = ni_interconnection_check(loop.plant_ss(), loop.controller_ss())
+    b = ni_interconnection_check(loop.plant_system(), loop.controller_system())
+    assert (a.predicted_stable, a.poles_stable, a.plant.is_ni, a.controller.is_sni) == \
+        (b.predicted_stable, b.poles_stable, b.plant.is_ni, b.controller.is_sni) == (True, True, True, True)
+    assert a.dc_loop_gain == pytest.approx(b.dc_loop_gain, rel=1e-15)
+    np.testing.assert_allclose(np.sort_complex(a.poles), np.sort_complex(b.poles), rtol=1e-13)
+    np.testing.assert_allclose(np.sort_complex(b.poles), np.sort_complex(
+        ct.feedback(loop.plant_ss(), loop.controller_ss(), sign=+1).poles()), rtol=1e-12)

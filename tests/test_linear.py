@@ -177,3 +177,65 @@ def test_reduced_loop_rejects_bad_input():
         ReducedLoop(0.5, (5.0, 160.0, 0.6))
     with pytest.raises(GainError, match="axis"):
         ReducedLoop(0.5, PAPER_GAINS).plant_matrices("z")
+
+
+# ------------------------------------------------------------------ edges found by mutation testing
+# (survivors of `make mutation MODULE=sector` / `MODULE=sector_symbolic`)
+
+
+def test_axes_and_per_axis_gains_with_different_kp():
+    loop = ReducedLoop(0.5, Gains(5.0, 160.0, 0.6, kpy=3.0))
+    assert loop.kp() == 5.0 and loop.kp("x") == 5.0 and loop.kp("y") == 3.0  # the default axis is x
+    assert loop.axes == [("x", 5.0), ("y", 3.0)]
+    assert ReducedLoop(0.5, Gains(5.0, 160.0, 0.6)).axes == [("x", 5.0)]  # one axis when both share kp
+    # the DC loop gain of each axis is 1/(m kp delta), x by default
+    assert loop.dc_loop_gain() == pytest.approx(1 / (0.5 * 5.0 * 0.6), rel=1e-15)
+    assert loop.dc_loop_gain("y") == pytest.approx(1 / (0.5 * 3.0 * 0.6), rel=1e-15)
+    with pytest.raises(GainError, match="axis must be 'x' or 'y'"):
+        loop.kp("z")
+
+
+def test_sector_delta_min_refuses_a_non_positive_gamma_by_name():
+    with pytest.raises(GainError, match="^gamma must be positive, got 0"):
+        ReducedLoop(0.5, PAPER_GAINS).sector_delta_min(0.0)
+
+
+def test_reduced_routh_condition_is_exactly_m_kp_delta_minus_one_above_zero():
+    reduced = L.routh_stability_region()["reduced"]
+    assert isinstance(reduced, sp.StrictGreaterThan) and reduced.rhs == 0
+    assert sp.expand(reduced.lhs - (m_ * kp_ * d_ - 1)) == 0
+
+
+@pytest.mark.parametrize("coeffs, table", [
+    # s^4 + 2 s^3 + 3 s^2 + 4 s + 5, by hand: row 2 = [(2*3 - 1*4)/2, (2*5 - 1*0)/2] = [1, 5],
+    # row 3 = [(1*4 - 2*5)/1] = [-6], row 4 = [(-6*5 - 1*0)/-6] = [5]
+    ([1, 2, 3, 4, 5], [[1, 3, 5], [2, 4, 0], [1, 5, 0], [-6, 0, 0], [5, 0, 0]]),
+    # s^5 + 2 s^4 + 3 s^3 + 4 s^2 + 5 s + 7: row 2 = [(2*3 - 1*4)/2, (2*5 - 1*7)/2] = [1, 3/2],
+    # row 3 = [(1*4 - 2*3/2)/1, (1*7 - 2*0)/1] = [1, 7], row 4 = [(1*3/2 - 1*7)/1] = [-11/2], row 5 = [7]
+    ([1, 2, 3, 4, 5, 7], [[1, 3, 5], [2, 4, 7], [1, sp.Rational(3, 2), 0], [1, 7, 0], [sp.Rational(-11, 2), 0, 0],
+                          [7, 0, 0]]),
+    # s^3 + 2 s^2 + 3 s + 4: row 2 = [(2*3 - 1*4)/2] = [1], row 3 = [(1*4 - 2*0)/1] = [4]
+    ([1, 2, 3, 4], [[1, 3], [2, 4], [1, 0], [4, 0]]),
+])
+def test_routh_array_by_hand(coeffs, table):
+    poly = sp.Poly(coeffs, s)
+    rows = L.routh_array(poly)
+    assert [[sp.nsimplify(v) for v in r] for r in rows] == table
+    first = [float(r[0]) for r in rows]
+    changes = sum(1 for a, b in zip(first, first[1:]) if a * b < 0)
+    assert changes == int(np.sum(np.roots(coeffs).real > 0))  # independent: the roots themselves
+
+
+@pytest.mark.parametrize("m, gains", [(0.5, Gains(5.0, 160.0, 0.6)), (1.3, Gains(2.0, 12.0, 0.9, kpy=3.5)),
+                                      (0.8, Gains(0.5, 3.0, 0.3))])
+def test_poles_and_damping_match_python_control_damp(m, gains):
+    """numpy's poles, natural frequencies and damping equal python-control's damp of the same closed loop."""
+    import control as ct
+
+    loop = ReducedLoop(m, gains)
+    pd = loop.poles_and_damping()
+    wn, zeta, poles = ct.ss(loop.closed_loop_A(), np.zeros((6, 1)), np.zeros((1, 6)), 0).damp()
+    order = np.argsort(poles.real)[::-1]
+    np.testing.assert_allclose(pd.poles, poles[order], rtol=1e-12)
+    np.testing.assert_allclose(pd.wn, np.asarray(wn)[order], rtol=1e-12)
+    np.testing.assert_allclose(pd.zeta, np.asarray(zeta)[order], rtol=1e-12, atol=1e-15)

@@ -103,3 +103,68 @@ def test_requirement_and_json(cascade):
         assert d["meets_requirement"] is expect
     # the committed design's attitude loop has a few degrees of phase margin: it fails
     assert m["attitude"].pm_deg < REQUIRED_PM_DEG and not m["attitude"].meets_requirement
+
+
+def _control_crossings(resp, w, dt):
+    gm, pm, _, wpc, wgc, _ = ct.stability_margins(ct.frd(resp, w, dt=dt), returnall=True)
+    return [np.atleast_1d(np.asarray(v, float)) for v in (gm, pm, wpc, wgc)]
+
+
+@pytest.mark.parametrize("rate", [None, 100.0, 400.0])
+def test_frd_crossings_reproduce_python_control_on_every_loop(cascade, rate):
+    """frd_crossings (scipy) against python-control's stability_margins on the same frequency-response data.
+
+    Every loop of the margins section: both Padé break points (continuous) and the exact
+    discrete-time loop; the crossings must be the same ones, at the same frequencies.
+    """
+    from nniquad.analysis.margins import frd_crossings
+    from nniquad.analysis.sampled import sampled_cascade
+
+    cl = cascade.closed_loop(rate)
+    loops = [cl.loop_system(bp) for bp in ("horizontal", "attitude")]
+    if rate is not None:
+        loops.append(sampled_cascade(cascade, rate).loop_system("horizontal"))
+    crossings = 0
+    for L in loops:
+        w = frequency_grid(L)
+        resp = frequency_response(L, w)
+        mine = frd_crossings(resp, w)
+        ref = _control_crossings(resp, w, L.dt or 0)
+        for got, want in zip(mine, ref):
+            assert got.shape == want.shape
+            np.testing.assert_allclose(got, want, rtol=1e-12, atol=0)
+        crossings += mine[0].size + mine[1].size
+    assert crossings >= 2 * len(loops) - 1  # the loops do cross (not a comparison of empty arrays)
+
+
+def test_frd_crossings_on_closed_forms():
+    """L = k/(s (s+1)(s+2)): one phase crossover at sqrt(2) with GM = 6/k; no crossing on a loop below 0 dB."""
+    from nniquad.analysis.margins import frd_crossings
+
+    k = 2.0
+    L = ct.ss(ct.tf([k], [1, 3, 2, 0]))
+    w = frequency_grid(L)
+    gm, pm, wpc, wgc = frd_crossings(frequency_response(L, w), w)
+    assert wpc == pytest.approx([math.sqrt(2)], rel=1e-6) and gm == pytest.approx([6 / k], rel=1e-6)
+    assert wgc.size == 1 and pm.size == 1
+    small = ct.ss(ct.tf([0.01], [1, 1]))  # |L| < 1 everywhere, phase above -90 deg: no crossover at all
+    w = frequency_grid(small)
+    gm, pm, wpc, wgc = frd_crossings(frequency_response(small, w), w)
+    assert gm.size == pm.size == wpc.size == wgc.size == 0
+    m = loop_margins(small, "test", "continuous", None)
+    assert m.gm_db == math.inf and m.pm_deg == math.inf
+
+
+def test_loop_system_is_the_python_control_loop(cascade):
+    """The matrices handed to the margins are python-control's loop (same A, B, C, D, dt and poles)."""
+    from nniquad.analysis.sampled import sampled_cascade
+
+    cl = cascade.closed_loop(100.0)
+    sd = sampled_cascade(cascade, 100.0)
+    for mine, theirs in ((cl.loop_system("attitude"), cl.loop("attitude")),
+                         (sd.loop_system("horizontal"), sd.loop("horizontal"))):
+        assert isinstance(theirs, ct.StateSpace)
+        for a, b in ((mine.A, theirs.A), (mine.B, theirs.B), (mine.C, theirs.C), (mine.D, theirs.D)):
+            np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
+        assert (mine.dt or 0) == theirs.dt
+        np.testing.assert_allclose(np.sort_complex(mine.poles()), np.sort_complex(theirs.poles()), rtol=1e-12)

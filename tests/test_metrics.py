@@ -285,10 +285,182 @@ def test_altitude_loss_and_the_one_failure_verdict():
     assert failure_reason(False, True, True) == "altitude lost"
     assert failure_reason(False, False, False) == "not settled"
     assert failure_reason(False, None, True) is None
-    # compute_metrics: a run that settles horizontally but falls 10 m is a failure, not a success
+    # compute_metrics: a run that settles horizontally but falls 10 m is a failure, not a success: the vehicle
+    # is lost (diverged, issue 22), the verdict names the cause, and a lost run has no settling time
     t = np.linspace(0.0, 10.0, 1001)
     m = compute_metrics(t, along(2.5 * np.exp(-t)), z=0.5 * t**2 / 5.0)
-    assert m.settling_s is not None and not m.diverged
+    level = compute_metrics(t, along(2.5 * np.exp(-t)))
+    assert level.settling_s is not None and not level.diverged and level.failure is None  # without the fall
+    assert m.settling_s is None and m.diverged and m.blew_up is False
     assert m.altitude_lost is True and m.failure == "altitude lost"
-    assert compute_metrics(t, along(2.5 * np.exp(-t))).altitude_lost is None
+    assert level.altitude_lost is None
     assert Metrics.from_json(m.to_json()) == m
+
+
+# ------------------------------------------------------------------ edges found by mutation testing
+# (tests/mutation: each survivor of `make mutation MODULE=metrics` that was not equivalent got a case here;
+# the expected values are hand derivations from the definitions in the module docstring)
+
+R = np.array([1.0, 0.0])  # a start direction whose components are exact in every float width
+
+
+def test_time_vector_rules_one_sample_repeated_instants_and_clear_messages():
+    # one sample is a valid (zero-length) run: the fraction of samples at the limit, inside the band
+    assert time_on_limit_fraction([0.0], [30.0], 30.0) == 1.0
+    assert settling_time([0.0], [[0.01, 0.0]], reference_norm=1.0) == 0.0
+    # repeated instants are non-decreasing, so allowed (an integrator's output can repeat a time)
+    assert time_on_limit_fraction([0.0, 1.0, 1.0, 2.0], [30.0] * 4, 30.0) == 1.0
+    with pytest.raises(ValueError, match="1-D and non-empty"):
+        time_on_limit_fraction(np.zeros((2, 2)), np.zeros((2, 2)), 1.0)
+    with pytest.raises(ValueError, match="1-D and non-empty"):
+        time_on_limit_fraction([], [], 1.0)
+    with pytest.raises(ValueError, match="^time vector must be non-decreasing$"):
+        time_on_limit_fraction([1.0, 0.0], [0.0, 0.0], 1.0)  # two samples, backwards
+
+
+def test_position_shape_messages_name_the_expected_shape():
+    t = np.linspace(0.0, 1.0, 5)
+    with pytest.raises(ValueError, match=r"must have shape \(N, 2\), got \(5, 3\)"):
+        settling_time(t, np.zeros((5, 3)))
+    with pytest.raises(ValueError, match=r"must have shape \(B, N, 2\), got \(5, 2\)"):
+        settling_time_batch(t, np.ones((5, 2)))
+    with pytest.raises(ValueError, match="positions have 4 samples but the time vector has 5"):
+        settling_time(t, np.ones((4, 2)))
+    with pytest.raises(ValueError, match="signal has shape"):
+        time_on_limit_fraction(t, np.ones(4), 1.0)
+    with pytest.raises(ValueError, match="signal has shape"):
+        rms_after(t, np.ones(4), 0.0)
+
+
+def test_settling_edge_cases_by_hand():
+    t = np.arange(3.0)
+    # a sample exactly on the band edge is inside (outside means beyond the band): 0.5 m band, 1 m start
+    assert settling_time(t, np.outer([1.0, 0.75, 0.5], R), band_fraction=0.5) == 2.0
+    # last sample inside, the one before outside: crossing at 1 + (0.1 - 0.05)/(0.1 - 0.01) s
+    assert settling_time(t, from_distances([2.5, 0.1, 0.01])) == pytest.approx(1.0 + 0.05 / 0.09, abs=1e-12)
+    # last sample outside, the one before inside: not settled
+    assert settling_time(t, from_distances([2.5, 0.01, 0.1])) is None
+    # in a batch, a run that never leaves its band settles at 0 whatever the others do
+    runs = np.stack([from_distances([2.5, 0.1, 0.01]), from_distances([0.01, 0.02, 0.0])])
+    out = settling_time_batch(t, runs, reference_norm=[2.5, 2.5])
+    assert out[0] == pytest.approx(1.0 + 0.05 / 0.09, abs=1e-12) and out[1] == 0.0
+
+
+def test_metrics_are_silent_on_the_runs_they_mark_nan():
+    """A run ending outside, an infinite sample, a run from the origin: nan or None, and no RuntimeWarning."""
+    import warnings
+
+    t = np.arange(4.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert settling_time(t, from_distances([2.5, 0.01, 0.01, 0.1])) is None  # ends outside
+        assert settling_time(t, from_distances([2.5, np.inf, 0.01, 0.0])) == 2.0  # inf outside, then inside
+        assert math.isnan(overshoot_pct_batch(t, np.zeros((1, 4, 2)))[0])  # starts at the origin
+
+
+def test_overshoot_of_a_short_start_and_of_an_infinite_sample():
+    t = np.arange(3.0)
+    # 0.3 m start, 0.03 m past the origin: 10 % (a start below 1 m is as valid as any)
+    assert overshoot_pct(t, np.outer([0.3, -0.03, 0.0], R)) == pytest.approx(10.0, abs=1e-12)
+    assert overshoot_pct_batch(t, np.outer([0.3, -0.03, 0.0], R)[None])[0] == pytest.approx(10.0, abs=1e-12)
+    # an infinite sample far along the start direction: a non-finite run has no overshoot (nan)
+    assert math.isnan(overshoot_pct(t, np.array([[2.5, 0.0], [np.inf, 0.0], [-0.25, 0.0]])))
+    with pytest.raises(SimulationError, match="^overshoot is undefined for a run starting at the origin$"):
+        overshoot_pct(t, np.zeros((3, 2)))
+
+
+def test_time_on_limit_fraction_by_hand():
+    # the threshold itself counts (|value| >= limit (1 - rel_tol)), here with rel_tol 0
+    assert time_on_limit_fraction([0.0, 1.0], [30.0, 30.0], 30.0, rel_tol=0.0) == 1.0
+    # a run starting at t = 5 s: indicator [1, 1, 0] on [5, 6, 7] -> (1 + 0.5) / 2
+    assert time_on_limit_fraction([5.0, 6.0, 7.0], [30.0, 30.0, 0.0], 30.0) == pytest.approx(0.75, abs=1e-15)
+    # a run shorter than 1 s, uneven steps: (0.1 * 1 + 0.4 * 0.5) / 0.5, not the sample mean 2/3
+    assert time_on_limit_fraction([0.0, 0.1, 0.5], [30.0, 30.0, 0.0], 30.0) == pytest.approx(0.6, abs=1e-15)
+    # all samples at one instant: the fraction of samples
+    assert time_on_limit_fraction([1.0, 1.0, 1.0], [30.0, 0.0, -30.0], 30.0) == pytest.approx(2.0 / 3.0, abs=1e-15)
+
+
+def test_rms_after_by_hand():
+    # the default keeps the mean: a constant 2 has RMS 2
+    assert rms_after([0.0, 1.0, 2.0], [2.0, 2.0, 2.0], 0.0) == pytest.approx(2.0, abs=1e-15)
+    # a window of one instant holding two samples [3, -1]: RMS sqrt((9 + 1)/2), about the mean 1: 2
+    assert rms_after([0.0, 1.0, 1.0], [9.0, 3.0, -1.0], 1.0) == pytest.approx(math.sqrt(5.0), abs=1e-15)
+    assert rms_after([0.0, 1.0, 1.0], [9.0, 3.0, -1.0], 1.0, remove_mean=True) == pytest.approx(2.0, abs=1e-15)
+    # a single sample in the window: its magnitude
+    assert rms_after([0.0, 1.0], [5.0, -4.0], 1.0) == 4.0
+    # a window shorter than 1 s, uneven steps: trapezoid of s^2 = 0.1 * 1 + 0.4 * 5 = 2.1 over 0.5 s
+    assert rms_after([0.0, 0.1, 0.5], [1.0, 1.0, 3.0], 0.0) == pytest.approx(math.sqrt(4.2), abs=1e-14)
+
+
+def test_float32_inputs_give_the_float64_answer():
+    """Logged data often comes as float32; the metrics must still compute in float64.
+
+    Every value below is exact in float32, so the hand answer holds to float64 rounding; a computation
+    in float32 would be off by ~1e-8 relative.
+    """
+    f32 = np.float32
+    t = np.arange(4.0)
+    d = np.array([1.0, 0.5, 0.03125, 0.0078125])  # 1, 1/2, 2^-5, 2^-7: exact in float32
+    # 2 % band of 1 m: crossing between t = 2 and 3 at 2 + (2^-5 - 0.02) / (2^-5 - 2^-7) = 2.48 s
+    assert settling_time(t, np.outer(d, R).astype(f32)) == pytest.approx(2.48, abs=1e-12)
+    assert settling_time(t, np.outer(d, R), reference_norm=f32(1.0)) == pytest.approx(2.48, abs=1e-12)
+    # start (3, 4) m, sample (-0.375, -0.5) m: 0.625 m past the origin along e0 = (0.6, 0.8): 12.5 %
+    xy = np.array([[3.0, 4.0], [-0.375, -0.5], [0.0, 0.0]], dtype=f32)
+    assert overshoot_pct(t[:3], xy) == pytest.approx(12.5, abs=1e-12)
+    # a pure roll or pitch of 0.3 rad (as a float32) is that angle
+    a = f32(0.3)
+    assert tilt_deg(a, 0.0) == pytest.approx(math.degrees(float(a)), rel=1e-14)
+    assert tilt_deg(0.0, a) == pytest.approx(math.degrees(float(a)), rel=1e-14)
+    # RMS of a constant c is |c|: the float32 square of c = 0.1f is rounded, the float64 one is not
+    c = float(f32(0.1))
+    assert rms_after(t, np.full(4, c, dtype=f32), 0.0) == pytest.approx(c, rel=1e-14)
+    # float32 sample times: linear interpolation between t = 0.1f and 0.7f at (0.5 - 0.02) / (0.5 - 2^-7)
+    t1, t2 = float(f32(0.1)), float(f32(0.7))
+    got = settling_time(np.array([0.0, t1, t2], dtype=f32), np.outer([1.0, 0.5, 0.0078125], R))
+    assert got == pytest.approx(t1 + 0.48 / 0.4921875 * (t2 - t1), rel=1e-14)
+    # a float32 limit of 3 with rel_tol 0.1: the threshold is 3 x 0.9 = 2.7 (float32 would round it to 2.6999998)
+    assert time_on_limit_fraction([0.0, 1.0], [2.6999999, 2.6999999], f32(3.0), rel_tol=0.1) == 0.0
+
+
+def test_raw_int16_counts_at_their_most_negative_value():
+    """Raw logger counts are often int16; -32768 has magnitude 32768, which int16 cannot hold (abs overflows)."""
+    counts = np.array([-32768, 100], dtype=np.int16)
+    assert peak_abs(counts) == 32768.0
+    assert time_on_limit_fraction([0.0, 1.0], np.array([-32768, -32768], dtype=np.int16), 32768.0) == 1.0
+
+def test_diverged_means_lost_and_the_verdict_names_the_cause():
+    """Hand-built runs with known answers: blown up (nan, far), fallen, fine -- flags, verdict and settling."""
+    from nniquad.analysis.verdicts import altitude_lost_batch, blew_up_batch
+    from nniquad.config import ALTITUDE_LIMIT_M, DIVERGENCE_FACTOR
+
+    t = np.linspace(0.0, 10.0, 1001)
+    decay = along(2.5 * np.exp(-t))
+    level = np.zeros_like(t)
+    fall = level.copy()
+    fall[500:] = 1.01 * ALTITUDE_LIMIT_M  # beyond the limit for the second half only
+    nan_xy = decay.copy()
+    nan_xy[700] = np.nan
+    far = decay.copy()
+    far[300] = [1.01 * DIVERGENCE_FACTOR * 2.5, 0.0]
+    cases = {  # name: (xy, z, diverged, blew_up, altitude_lost, failure)
+        "fine": (decay, level, False, False, False, None),
+        "fallen": (decay, fall, True, False, True, "altitude lost"),
+        "nan": (nan_xy, level, True, True, False, "diverged"),
+        "far and fallen": (far, fall, True, True, True, "diverged"),
+        "nan altitude": (decay, np.where(t > 5, np.nan, 0.0), True, True, True, "diverged"),
+    }
+    xy_b = np.stack([c[0] for c in cases.values()])
+    z_b = np.stack([c[1] for c in cases.values()])
+    assert diverged_batch(xy_b, z_batch=z_b).tolist() == [c[2] for c in cases.values()]
+    assert blew_up_batch(xy_b, z_batch=z_b).tolist() == [c[3] for c in cases.values()]
+    assert altitude_lost_batch(z_b).tolist() == [c[4] for c in cases.values()]
+    for name, (xy, z, div, blew, lost, failure) in cases.items():
+        m = compute_metrics(t, xy, z=z)
+        assert (m.diverged, m.blew_up, m.altitude_lost, m.failure) == (div, blew, lost, failure), name
+        assert (m.settling_s is None) == div, name  # a lost vehicle never counts as settled
+        assert diverged(xy, z=z) is div, name
+    # without an altitude signal (linear, reduced models) only a blow-up can lose the run
+    assert diverged(decay) is False and diverged(far) is True
+    # the caller's altitude limit (a Monte Carlo --altitude-limit) is the one applied
+    assert diverged(decay, z=fall, altitude_limit_m=1.1 * ALTITUDE_LIMIT_M) is False
+

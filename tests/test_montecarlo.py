@@ -44,15 +44,20 @@ BENIGN = mc.ScenarioRanges(mass_factor=(0.9, 1.1), inertia_factor=(0.9, 1.1), at
 MIXED = ["--mass-range", "1.0", "2.4", "--tau-motor-range", "0.005", "0.03", "--noise-range", "0", "0.002"]
 
 
-@pytest.fixture(scope="session")
-def cert_path(tmp_path_factory):
-    """A real certificate of the tuned gains (about 4 s: LMIs and two reference runs)."""
-    from nniquad.certificates.certificate import build_certificate, write_certificate
+def build_mc_certificate() -> dict:
+    """A real certificate of the tuned gains over :data:`SMALL_BOX` (JSON)."""
+    from nniquad.certificates.certificate import build_certificate
 
-    path = tmp_path_factory.mktemp("mc") / "cert.json"
-    cert = build_certificate(PAPER_VEHICLE, GAINS, inner=INNER, model="full", box=SMALL_BOX)
-    write_certificate(cert, path)
-    return path
+    return build_certificate(PAPER_VEHICLE, GAINS, inner=INNER, model="full", box=SMALL_BOX).to_json()
+
+
+@pytest.fixture(scope="session")
+def cert_path(tmp_path_factory, shared_json):
+    """A real certificate of the tuned gains, built once per test session (:func:`build_mc_certificate`)."""
+    from nniquad.certificates.certificate import write_certificate
+
+    return write_certificate(shared_json("mc-certificate", build_mc_certificate),
+                             tmp_path_factory.mktemp("mc") / "cert.json")
 
 
 @pytest.fixture(scope="module")

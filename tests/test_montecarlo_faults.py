@@ -28,20 +28,18 @@ import pytest
 import nniquad.study as mc
 from nniquad.errors import EXIT_STUDY_FAILED
 from nniquad.progress import Progress
-from test_montecarlo import GAINS, INNER, SMALL_BOX
+from test_montecarlo import build_mc_certificate
 
 HORIZON = "2"
 
 
 @pytest.fixture(scope="module")
-def cert_path(tmp_path_factory):
-    """A real certificate of the tuned gains of test_montecarlo (about 4 s)."""
-    from nniquad.certificates.certificate import build_certificate, write_certificate
-    from nniquad.model.vehicle import PAPER_VEHICLE
+def cert_path(tmp_path_factory, shared_json):
+    """test_montecarlo's certificate of its tuned gains, built once per test session."""
+    from nniquad.certificates.certificate import write_certificate
 
-    path = tmp_path_factory.mktemp("mcfaults") / "cert.json"
-    write_certificate(build_certificate(PAPER_VEHICLE, GAINS, inner=INNER, model="full", box=SMALL_BOX), path)
-    return path
+    return write_certificate(shared_json("mc-certificate", build_mc_certificate),
+                             tmp_path_factory.mktemp("mcfaults") / "cert.json")
 
 
 def _study(cert_path, seed, samples, *extra):
@@ -100,6 +98,42 @@ def _pool_children():
     return [p for p in multiprocessing.active_children() if p.is_alive()]
 
 
+def signal_when_ready(cmd, cwd, ready, send, start_new_session=False):
+    """Run ``cmd``; once a stderr line satisfies ``ready`` (an event, never a fixed sleep) call ``send(proc)``.
+
+    Returns ``(returncode, stdout, stderr lines)``; the process is killed if it outlives the test.
+    """
+    proc = subprocess.Popen(cmd, cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env={**os.environ, "PYTHONUNBUFFERED": "1"}, start_new_session=start_new_session)
+    lines: list[str] = []
+    event = threading.Event()
+
+    def read_stderr():
+        for line in proc.stderr:
+            lines.append(line)
+            if ready(line):
+                event.set()
+
+    reader = threading.Thread(target=read_stderr, daemon=True)
+    reader.start()
+    try:
+        assert event.wait(120), "".join(lines)
+        send(proc)
+        proc.wait(timeout=60)
+        out = proc.stdout.read()  # a few lines: they fit in the pipe while the process runs
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL) if start_new_session else proc.kill()
+            proc.wait()
+    reader.join(10)
+    return proc.returncode, out, lines
+
+
+def _finished_scenarios(line, samples):
+    m = re.search(r"(\d+)/%d\s*$" % samples, line)
+    return int(m.group(1)) if m else 0
+
+
 # ----------------------------------------------------------------------------- signals
 
 
@@ -128,39 +162,68 @@ def test_double_sigint_on_a_real_process_keeps_every_finished_scenario(cert_path
     js = tmp_path / "study.json"
     cmd = [sys.executable, "-m", "nniquad", *_study(cert_path, seed, samples, "--workers", "2", "--batch-size", "10",
                                                     "--json", str(js))]
-    proc = subprocess.Popen(cmd, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            env={**os.environ, "PYTHONUNBUFFERED": "1"})
-    lines: list[str] = []
-    first_batch = threading.Event()
 
-    def read_stderr():
-        for line in proc.stderr:
-            lines.append(line)
-            m = re.search(r"(\d+)/%d\s*$" % samples, line)
-            if m and int(m.group(1)) > 0:
-                first_batch.set()
-
-    reader = threading.Thread(target=read_stderr, daemon=True)
-    reader.start()
-    try:
-        assert first_batch.wait(120), "".join(lines)
+    def twice(proc):
         proc.send_signal(signal.SIGINT)
         time.sleep(0.3)
         proc.send_signal(signal.SIGINT)
-        proc.wait(timeout=60)
-        out = proc.stdout.read()  # a few lines: they fit in the pipe while the process runs
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
-    reader.join(10)
+
+    code, out, lines = signal_when_ready(cmd, tmp_path, lambda line: _finished_scenarios(line, samples) > 0, twice)
     err = "".join(lines)
-    assert proc.returncode == 130, err
+    assert code == 130, err
     assert "Traceback" not in err, err
     assert not js.exists()
     data = _check_saved(tmp_path / "study.partial.json", cert_path, seed, samples, "interrupted")
     assert data["completed"] % 10 == 0  # whole batches of 10 (a pool's unit of work), none half-kept
     assert "PARTIAL" in out and "interrupted" in err
+
+
+def test_catch_interrupts_takes_sigterm_only_when_asked():
+    """The library default leaves SIGTERM alone; the command line's set turns it into a 'terminated' request."""
+    inherited = signal.getsignal(signal.SIGTERM)
+    seen = []
+    signal.signal(signal.SIGTERM, lambda signum, frame: seen.append(signum))  # stands for whatever was there
+    try:
+        before = signal.getsignal(signal.SIGTERM)
+        with mc.catch_interrupts(repeat_message="") as stop:
+            assert signal.getsignal(signal.SIGTERM) is before
+        with mc.catch_interrupts(repeat_message="", signals=mc.STOP_SIGNALS) as stop:
+            os.kill(os.getpid(), signal.SIGTERM)
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.05)
+        assert stop.requested and stop.signals == 2 and not seen
+        assert stop.kind == "terminated" and "SIGTERM" in stop.reason  # the first signal names the stop
+        assert signal.getsignal(signal.SIGTERM) is before
+    finally:
+        signal.signal(signal.SIGTERM, inherited)
+
+
+@pytest.mark.parametrize("whom", ["process", "process group"])
+def test_sigterm_on_a_real_process_keeps_every_finished_scenario(cert_path, tmp_path, whom):
+    """SIGTERM after the first batch (to the process, as kill does, or to its whole group, as timeout and
+    service managers do, killing the pool's workers too): exit 143, every finished scenario saved, marked."""
+    samples, seed = 2000, 9
+    js = tmp_path / "study.json"
+    cmd = [sys.executable, "-m", "nniquad", *_study(cert_path, seed, samples, "--workers", "2", "--batch-size", "10",
+                                                    "--json", str(js))]
+
+    def send(proc):
+        if whom == "process":
+            proc.send_signal(signal.SIGTERM)
+        else:
+            os.killpg(proc.pid, signal.SIGTERM)
+
+    code, out, lines = signal_when_ready(cmd, tmp_path, lambda line: _finished_scenarios(line, samples) > 0, send,
+                                         start_new_session=True)
+    err = "".join(lines)
+    assert code == 143, err
+    assert "Traceback" not in err, err
+    assert not js.exists()  # not complete: no study file, only the partial one
+    data = _check_saved(tmp_path / "study.partial.json", cert_path, seed, samples, "terminated")
+    assert data["stopped"]["reason"] == "terminated (SIGTERM)"
+    assert data["completed"] % 10 == 0  # whole batches of 10, none half-kept
+    assert data["completed"] >= max(_finished_scenarios(ln, samples) for ln in lines)  # nothing reported is lost
+    assert "PARTIAL" in out and "nniquad montecarlo: terminated;" in err
 
 
 def test_second_sigint_while_writing_the_partial_file(run_cli, cert_path, tmp_path, monkeypatch):

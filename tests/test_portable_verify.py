@@ -29,10 +29,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nniquad.certificates import build_certificate, canonical_digest, write_certificate
+from nniquad.certificates import canonical_digest, write_certificate
 from nniquad.certificates.certificate import read_certificate
 
-from tests.test_certificate import GAINS, INNER, SMALL_BOX, V
+from tests.test_certificate import build_small_certificate
 
 ROOT = Path(__file__).resolve().parents[1]
 COMMITTED = ROOT / "notebooks" / "data" / "full_model_certificate.json"
@@ -125,10 +125,10 @@ def _moved_past_tolerance(doc: dict) -> dict:
 
 
 @pytest.fixture(scope="module")
-def variants(tmp_path_factory) -> dict[str, Path]:
+def variants(tmp_path_factory, shared_json) -> dict[str, Path]:
     """The committed and a freshly built certificate, each as is, jittered and moved past a tolerance."""
     d = tmp_path_factory.mktemp("portable")
-    fresh = build_certificate(V, GAINS, inner=INNER, model="full", box=SMALL_BOX).to_json()
+    fresh = shared_json("small-certificate", build_small_certificate)
     committed = read_certificate(COMMITTED).to_json()
     files = {"committed": d / "committed.json"}
     shutil.copyfile(COMMITTED, files["committed"])

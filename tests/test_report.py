@@ -83,6 +83,13 @@ def _consistent(folder) -> None:
     assert cert["digest"]["value"] in (folder / "report.md").read_text()
 
 
+def _holds_pid(lock, pid: int) -> bool:
+    try:
+        return lock.read_text(encoding="ascii").strip() == str(pid)
+    except (FileNotFoundError, UnicodeDecodeError):
+        return False
+
+
 def test_second_run_replaces_cleanly_and_a_concurrent_run_is_refused(report_dir, run_cli):
     before = json.loads((report_dir / "report.json").read_text())["files"]
     env = {**os.environ, "MPLBACKEND": "Agg"}
@@ -91,9 +98,10 @@ def test_second_run_replaces_cleanly_and_a_concurrent_run_is_refused(report_dir,
     try:
         lock = report_dir.parent / f".{report_dir.name}.nniquad-lock"
         deadline = time.monotonic() + 120
-        while not lock.exists() and proc.poll() is None and time.monotonic() < deadline:
+        # the lock is taken when its file holds the holder's pid (created, locked, then the pid written)
+        while not _holds_pid(lock, proc.pid) and proc.poll() is None and time.monotonic() < deadline:
             time.sleep(0.05)
-        assert lock.exists() and proc.poll() is None, "the first run never took the lock"
+        assert _holds_pid(lock, proc.pid) and proc.poll() is None, "the first run never took the lock"
         t0 = time.perf_counter()
         code, _, err = run_cli("report", "--out", str(report_dir), *QUICK)
         assert code == 2 and "another 'nniquad report'" in err and f"pid {proc.pid}" in err, err
@@ -137,7 +145,7 @@ def test_a_failed_own_verification_leaves_no_files(run_cli, tmp_path, monkeypatc
     monkeypatch.setattr(tune_module, "tune", lambda *args, **kwargs: stub)
     calls = []
 
-    def failing_roa_check(cert, tol):
+    def failing_roa_check(cert, *_):
         calls.append(1)
         return verify.Check("lmi.region_of_attraction", False, "forced failure")
 

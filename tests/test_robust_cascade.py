@@ -11,10 +11,11 @@ import numpy as np
 import pytest
 
 from nniquad.analysis import robust_cascade as RC
+from nniquad.analysis.robust import family as RF, lyapunov as RL, section as RS
 from nniquad.analysis.cascade import linearise_cascade
 from nniquad.analysis.sampled import contraction, sampled_cascade, sampled_loop_from_blocks
 from nniquad.control.gains import Gains, InnerLoopGains
-from nniquad.errors import CascadeError
+from nniquad.errors import CascadeError, SolverError
 from nniquad.model.vehicle import PAPER_VEHICLE as V
 from nniquad.study.scenarios import DEFAULT_RANGES
 
@@ -142,7 +143,7 @@ def test_dropped_couplings_vanish():
     fam = RC.sampled_family(V, GAINS, INNER, BOX.vertices(), tilt_limit_deg=TILT, rate_hz=RATE)
     assert RC.coupling(fam) < RC.COUPLING_TOL
     # and the coupling measure sees a coupling when there is one: mix a state of y into x
-    bad = RC._take(fam, np.arange(len(fam)))
+    bad = RF._take(fam, np.arange(len(fam)))
     Tm, names = RC.mode_transform(fam.state_names)
     A = bad.A_d.copy()
     A[:, fam.state_names.index("x"), fam.state_names.index("phi")] += 1e-3
@@ -175,7 +176,7 @@ def test_grid_numbers_vs_direct_rebuild(section):
                                  spectral_radius=0, T=0.01, decay_rate_1_s=0, min_eig_P=0, status="", ok=True)
             for n in RC.SUBSYSTEMS}
     fam = RC.sampled_family(V, GAINS, INNER, pts, tilt_limit_deg=TILT, rate_hz=RATE)
-    P = RC._assemble_P(lyap, dims, BOX, pts, fam.state_names)
+    P = RL._assemble_P(lyap, dims, BOX, pts, fam.state_names)
     ours = RC.contraction_batch(fam.A_d, P)
     for i, p in enumerate(pts):
         cas = linearise_cascade(V, GAINS, replace(INNER, attitude_gain_scale=p[4]), tilt_limit_deg=TILT,
@@ -265,18 +266,18 @@ def test_reach_nonlinear_spot_check(section):
 
 
 def _fake_search(monkeypatch, edge: float):
-    """Replace the certification inside :func:`RC.widest_box` by 'the scale certifies iff s <= edge' (the box's
+    """Replace the certification inside :func:`RS.widest_box` by 'the scale certifies iff s <= edge' (the box's
     upper mass factor is 1.2**s, so s is read back from the box): the search logic is then checked by hand."""
     hi = RC.ParameterBox.monte_carlo_default().mass_factor[1]
 
     def fake_certify(vehicle, gains, inner, box, **kwargs):
         s = math.log(box.mass_factor[1]) / math.log(hi)
         if s > edge * (1 + 1e-12):
-            raise RC.SolverError(f"fake: scale {s:g} fails")
+            raise SolverError(f"fake: scale {s:g} fails")
         return ("parts at", s)
 
-    monkeypatch.setattr(RC, "_certify_box", fake_certify)
-    monkeypatch.setattr(RC, "relevant_coordinates", lambda *a, **k: {"x": (0,)})
+    monkeypatch.setattr(RS, "_certify_box", fake_certify)
+    monkeypatch.setattr(RS, "relevant_coordinates", lambda *a, **k: {"x": (0,)})
 
 
 def test_box_search_halves_to_the_first_certified_scale(monkeypatch):
@@ -301,7 +302,7 @@ def test_widest_search_bisects_between_the_halving_steps(monkeypatch):
 
 def test_box_search_refuses_below_its_smallest_scale(monkeypatch):
     _fake_search(monkeypatch, edge=0.01)
-    with pytest.raises(RC.SolverError, match="scaled by 0.03"):
+    with pytest.raises(SolverError, match="scaled by 0.03"):
         RC.widest_box(V, GAINS, INNER, RC.ParameterBox.monte_carlo_default(), tilt_limit_deg=TILT, rate_hz=RATE,
                       s_min=0.03)
 
@@ -313,7 +314,7 @@ def test_reach_lyapunov_gives_the_closed_form_reach_of_a_scalar_loop():
     A_v = a.reshape(2, 1, 1)
     theta = np.array([[-1.0], [1.0]])
     got = RC.reach_lyapunov(A_v, 0.01, np.array([[k]]), lim, 0.7, theta=theta)
-    P = RC._affine(got.P, theta)
+    P = RL._affine(got.P, theta)
     assert P[:, 0, 0] == pytest.approx([k * k / lim ** 2] * 2, rel=1e-5)
     assert got.rho == pytest.approx(0.6, rel=1e-9) and got.ok  # the numpy contraction, not the 0.7 asked for
     assert RC.reach_lyapunov(A_v, 0.01, np.array([[k]]), lim, 0.55, theta=theta) is None  # 0.6 > 0.55: infeasible
@@ -326,15 +327,15 @@ def test_mirrored_y_block_is_found_and_rechecked_on_its_own_loops():
     th = rng.uniform(-1, 1, size=(5, 2))
     d = np.array([1.0, -1.0, -1.0, 1.0])
     A_y, K_y = d[:, None] * A_x * d[None, :], K_x * d
-    assert np.array_equal(RC._mirror((A_x, K_x, th), (A_y, K_y, th)), d)
-    assert RC._mirror((A_x, K_x, th), (A_y + 1e-3, K_y, th)) is None  # not a mirror image
-    assert RC._mirror((A_x, K_x, th), (A_y, K_y, th + 0.1)) is None   # other points
+    assert np.array_equal(RL._mirror((A_x, K_x, th), (A_y, K_y, th)), d)
+    assert RL._mirror((A_x, K_x, th), (A_y + 1e-3, K_y, th)) is None  # not a mirror image
+    assert RL._mirror((A_x, K_x, th), (A_y, K_y, th + 0.1)) is None   # other points
     P = np.stack([np.eye(4) * 2.0, 0.1 * np.eye(4), np.zeros((4, 4))])
     lx = RC.RobustLyapunov(P=P, rho=0.0, rho_vertices=np.array([]), spectral_radius=0.0, T=0.01, decay_rate_1_s=0.0,
                            min_eig_P=0.0, status="test", ok=True)
-    ly = RC._mirrored(lx, d, A_y, th)
-    assert ly.rho == pytest.approx(float(np.max(RC.contraction_batch(A_x, RC._affine(P, th)))), rel=1e-12)
+    ly = RL._mirrored(lx, d, A_y, th)
+    assert ly.rho == pytest.approx(float(np.max(RC.contraction_batch(A_x, RL._affine(P, th)))), rel=1e-12)
     assert np.allclose(ly.P[0], d[:, None] * P[0] * d[None, :]) and "mirrored" in ly.status
     big = 10.0 * A_y  # a loop the mirrored P does not contract: refused
-    assert float(np.max(RC.contraction_batch(big, RC._affine(ly.P, th)))) >= 1.0
-    assert RC._mirrored(lx, d, big, th) is None
+    assert float(np.max(RC.contraction_batch(big, RL._affine(ly.P, th)))) >= 1.0
+    assert RL._mirrored(lx, d, big, th) is None

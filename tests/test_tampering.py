@@ -145,16 +145,20 @@ def _setup(doc: dict) -> dict:
     return s | {"base_params": list(study_setup(doc).base_params)}
 
 
-@pytest.fixture(scope="module")
-def doc() -> dict:
-    """A certificate of test_certificate's gains, with the committed certificate's tuning record (so every record
-    leaf of a real ``tuning`` section is edited too)."""
+@pytest.fixture(scope="module", params=["nni", "sni2"])
+def doc(request) -> dict:
+    """A certificate of test_certificate's gains (the NNI law) or of test_sni2_certificate's (the ``sni2`` law: its
+    gains section names the law, its controller NI storage is 2x2), with the committed certificate's tuning record
+    (so every record leaf of a real ``tuning`` section is edited too)."""
     from pathlib import Path
+
+    from tests.test_sni2_certificate import SNI2_GAINS
 
     committed = Path(__file__).resolve().parents[1] / "notebooks" / "data" / "full_model_certificate.json"
     tuning = json.loads(committed.read_text())["tuning"]
+    gains = GAINS if request.param == "nni" else SNI2_GAINS
     # a grid of 3 per parameter (729 points, not the default 4096): each cascade edit re-runs the grid check
-    return build_certificate(V, GAINS, inner=INNER, model="full", tuning=tuning, box=SMALL_BOX,
+    return build_certificate(V, gains, inner=INNER, model="full", tuning=tuning, box=SMALL_BOX,
                              grid_points_per_axis=3).to_json()
 
 

@@ -181,6 +181,35 @@ def test_margin_scenario_and_altitude_penalty():
     assert _cost(lost, xy, 2.5, 7.0, 31.0) == pytest.approx(1.2 + 7.0 * 2.0)
 
 
+def test_objective_ranks_every_lost_run_above_every_run_that_is_not():
+    """Costs from real verdicts (compute_metrics on hand-built runs), in the order a designer would rank them."""
+    from nniquad.analysis.verdicts import compute_metrics
+    from nniquad.config import ALTITUDE_LIMIT_M
+    from nniquad.tuning.objective import _cost
+
+    H, t = 20.0, np.linspace(0.0, 20.0, 2001)
+    e0 = np.array([0.8, -0.6])
+    settle = 2.5 * np.exp(-t)[:, None] * e0
+    stuck = np.full_like(settle, 0.0) + 30.0 * e0  # ends 30 m out: not settled, 12 x its start
+    nan_run = settle.copy()
+    nan_run[1500:] = np.nan
+
+    def cost(xy, z):
+        return _cost(compute_metrics(t, xy, z=z), xy[-1], 2.5, H, None)
+
+    level, sag = np.zeros_like(t), np.full_like(t, 0.95 * ALTITUDE_LIMIT_M)
+    ranked = [
+        cost(settle, level),  # settled
+        cost(stuck, level),  # not settled, far
+        cost(stuck, sag),  # not settled, far, sagging just inside the altitude limit: the worst run not lost
+        cost(nan_run, level),  # lost: blew up
+        cost(settle, np.full_like(t, 1.05 * ALTITUDE_LIMIT_M)),  # lost: fell just beyond the limit
+        cost(settle, 0.5 * 9.81 * t**2),  # lost: free fall for 20 s
+    ]
+    assert ranked[0] < H <= ranked[1]
+    assert all(a < b for a, b in zip(ranked, ranked[1:])), ranked
+
+
 def test_settling_counts_only_when_the_run_is_seen_to_stay_in_the_band():
     """A last exit at s counts only with max(5 s, 2 s) of horizon after it."""
     from nniquad.analysis.verdicts import Metrics

@@ -55,34 +55,38 @@ on the measurement, and for the NNI controller run in discrete time (its exact
 ZOH equivalent, :mod:`nniquad.analysis.sampled`) another ``T/2`` on the path
 through the controller state (the ZOH equivalent of ``C(s)`` behaves as
 ``C(s) e^{-sT/2}``).  The exact discrete-time treatment is in
-:mod:`nniquad.analysis.sampled`; the tests compare both.
+:mod:`nniquad.analysis.sampled`; the tests compare both.  The closed loop with
+its break points (:class:`ClosedLoop`) and the Padé realisation are plain
+matrix algebra, in :mod:`nniquad.analysis.loops`.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
-from functools import lru_cache
+from dataclasses import dataclass
 from typing import Literal
 
 import casadi as ca
 import numpy as np
 
+from nniquad.analysis.loops import ClosedLoop, pade_delay
+from nniquad.codecache import cached_casadi_function
 from nniquad.config import TILT_LIMIT_DEG
 from nniquad.control import inner_loops as IL
-from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, InnerLoopGains
+from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, NI_LAWS, Gains, InnerLoopGains
 from nniquad.errors import CascadeError
 from nniquad.model.vehicle import Vehicle
 from nniquad.sim import (
+    CONTROLLER_STATES,
     EXO_FIELDS,
     OUTPUT_NAMES,
-    STATE_NAMES,
     SimOptions,
     SimParams,
     initial_state,
     n_params,
     output_function,
     rhs_function,
+    state_names,
 )
 
 __all__ = [
@@ -124,7 +128,7 @@ class Linearisation:
     model
         Simulator model (``"linear"`` or ``"full"``).
     state_names
-        Names of the simulator states (:data:`nniquad.sim.STATE_NAMES`).
+        Names of the simulator states (:func:`nniquad.sim.state_names`).
     x_eq : ndarray
         The hover state (position 0, at rest, rotors at the nominal hover speed).
     residual
@@ -150,16 +154,17 @@ class Linearisation:
         return [self.state_names.index(n) for n in names]
 
 
-@lru_cache(maxsize=8)
-def _jacobian_function(model: str) -> ca.Function:
-    n = len(STATE_NAMES[model])
+@cached_casadi_function
+def _jacobian_function(model: str, controller: str = "nni") -> ca.Function:
+    n = len(state_names(model, controller))
     X = ca.SX.sym("x", n)
-    p = ca.SX.sym("p", n_params("nni"))
+    p = ca.SX.sym("p", n_params(controller))
     e = ca.DM.zeros(len(EXO_FIELDS))
-    f = rhs_function(model)(X, e, p)
+    f = rhs_function(model, controller)(X, e, p)
     out = OUTPUT_NAMES[model]
-    y = output_function(model)(X, e, p)[[out.index("a_x"), out.index("a_y")]]
-    return ca.Function(f"cascade_jac_{model}", [X, p], [f, ca.jacobian(f, X), ca.jacobian(y, X)])
+    y = output_function(model, controller)(X, e, p)[[out.index("a_x"), out.index("a_y")]]
+    sfx = "" if controller == "nni" else f"_{controller}"
+    return ca.Function(f"cascade_jac_{model}{sfx}", [X, p], [f, ca.jacobian(f, X), ca.jacobian(y, X)])
 
 
 def linearise(model: str, params: SimParams, *, offset: float = LINEARISATION_OFFSET_M) -> Linearisation:
@@ -170,8 +175,9 @@ def linearise(model: str, params: SimParams, *, offset: float = LINEARISATION_OF
     model
         ``"linear"`` or ``"full"`` (``"reduced"`` equals ``"linear"`` near hover).
     params
-        Parameter set (:class:`nniquad.sim.SimParams`, NNI gains); its
-        ``run.sample_hold`` is set to 1 and ``run.discrete`` to 0 here.
+        Parameter set (:class:`nniquad.sim.SimParams`, gains of a law of the NI structure:
+        :data:`nniquad.control.gains.NI_LAWS`); its ``run.sample_hold`` is set to 1 and
+        ``run.discrete`` to 0 here.
     offset
         Symmetric offset of the held measurement [m] (module docstring).
 
@@ -187,12 +193,13 @@ def linearise(model: str, params: SimParams, *, offset: float = LINEARISATION_OF
     """
     if model not in ("linear", "full"):
         raise CascadeError(f"the cascade is linearised on the 'linear' or 'full' model, not {model!r}")
-    if not isinstance(params, SimParams) or params.controller != "nni":
-        raise CascadeError("the cascade is linearised with a SimParams of the NNI controller")
+    if not isinstance(params, SimParams) or params.controller not in NI_LAWS:
+        raise CascadeError(f"the cascade is linearised with a SimParams of the NNI controller or another law of "
+                           f"the NI structure ({', '.join(NI_LAWS)})")
     p = params.with_(run={"sample_hold": 1.0, "discrete": 0.0})  # the continuous controller's Jacobian
-    names = STATE_NAMES[model]
+    names = state_names(model, params.controller)
     x_eq = initial_state(model, p, (0.0, 0.0))
-    fn = _jacobian_function(model)
+    fn = _jacobian_function(model, params.controller)
     f0 = np.asarray(fn(x_eq, p.vector())[0], float).ravel()
     residual = float(np.max(np.abs(f0)))
     if not residual <= EQUILIBRIUM_TOL:
@@ -217,61 +224,6 @@ def linearise(model: str, params: SimParams, *, offset: float = LINEARISATION_OF
 def _split_residual(M: np.ndarray, approx: np.ndarray) -> float:
     scale = max(float(np.max(np.abs(M))), 1.0)
     return float(np.max(np.abs(M - approx))) / scale if M.size else 0.0
-
-
-def _pade_ss(delay: float, order: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """State-space realisation of the Padé approximant of ``e^{-s delay}`` (python-control)."""
-    import control as ct
-
-    num, den = ct.pade(delay, order)
-    sys = ct.ss(ct.tf(num, den))
-    return (np.asarray(sys.A, float), np.asarray(sys.B, float), np.asarray(sys.C, float), np.asarray(sys.D, float))
-
-
-@dataclass(frozen=True)
-class ClosedLoop:
-    """A continuous-time closed loop with its break-point signals.
-
-    ``x' = A x``; a break point is a scalar signal ``v = c x`` the loop feeds
-    back into itself through ``b`` (``A = A_0 + b c``).  The loop transfer
-    function in the negative-feedback convention is
-    ``L(s) = -c (sI - A_0)^{-1} b`` (the closed loop is ``1 + L = 0``).
-
-    Attributes
-    ----------
-    A : ndarray (n, n)
-        Closed-loop matrix [1/s].
-    state_names
-        Names of the states.
-    breaks : dict
-        ``name -> (b, c)`` of each break point.
-    """
-
-    A: np.ndarray
-    state_names: tuple[str, ...]
-    breaks: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
-
-    @property
-    def poles(self) -> np.ndarray:
-        """Eigenvalues of ``A`` [1/s], slowest (largest real part) first."""
-        ev = np.linalg.eigvals(self.A)
-        return ev[np.argsort(-ev.real, kind="stable")]
-
-    def loop(self, name: str):
-        """The loop transfer function at a break point, as a python-control ``StateSpace``.
-
-        Parameters
-        ----------
-        name
-            One of :attr:`breaks` (``"horizontal"``, ``"attitude"``).
-        """
-        import control as ct
-
-        if name not in self.breaks:
-            raise CascadeError(f"unknown break point {name!r} (choose one of {', '.join(self.breaks)})")
-        b, c = self.breaks[name]
-        A0 = self.A - np.outer(b, c)
-        return ct.ss(A0, b.reshape(-1, 1), -c.reshape(1, -1), 0.0)
 
 
 @dataclass(frozen=True)
@@ -388,7 +340,7 @@ class LinearCascade:
             if not (isinstance(rate_hz, (int, float)) and math.isfinite(rate_hz) and rate_hz > 0):
                 raise CascadeError(f"sample rate must be a finite positive number of Hz, got {rate_hz!r}")
             T = 1.0 / float(rate_hz)
-            d = _pade_ss(T / 2, int(pade_order))
+            d = pade_delay(T / 2, int(pade_order))
             # one Padé block per axis
             blk = tuple(np.kron(np.eye(n_y), M) for M in d)
             delays = [blk] if controller == "held" else [blk, blk]
@@ -510,7 +462,7 @@ def linearise_cascade(
                            tau_motor_s)
     lin = linearise("full", params)
     names = lin.state_names
-    ctrl = ("zc_x", "zc_y")
+    ctrl = CONTROLLER_STATES[params.controller]
     held = ("held_x", "held_y")
     motors = ("w1", "w2", "w3", "w4")
     rigid = tuple(n for n in names if n not in ctrl + held + motors)

@@ -5,8 +5,9 @@ are checked literally:
 
 * poles: none in ``Re s > 0`` and none at the origin (NI); none in ``Re s >= 0`` (SNI);
 * ``j (G(jw) - G(jw)^*) >= 0`` (NI) or ``> 0`` (SNI) on a logarithmic frequency grid
-  (python-control's :func:`control.frequency_response`), with grid points
-  that fall on an imaginary-axis pole removed;
+  (:meth:`nniquad.analysis.loops.LinearSystem.frequency_response`, python-control's
+  evaluation written with numpy), with grid points that fall on an imaginary-axis
+  pole removed;
 * at each imaginary-axis pole ``j w0``: the pole is simple and the residue matrix
   ``K0 = lim_{s -> j w0} (s - j w0) s G(s)`` is Hermitian positive semidefinite.
   The residue is computed from the eigen-decomposition of A
@@ -18,6 +19,10 @@ are checked literally:
 ``G`` and an SNI ``C`` with ``G(inf) C(inf) = 0`` and ``G(inf) >= 0`` is internally
 stable iff ``lambda_max(G(0) C(0)) < 1``.  For this loop ``G(0) C(0) = 1/(m kp delta)``,
 the same quantity as the Routh condition and the paper's smallest sector γ.
+
+A system is a :class:`nniquad.analysis.loops.LinearSystem` or a python-control
+``StateSpace`` / ``TransferFunction``; python-control is imported only for a
+transfer function (its realisation), so ``nniquad lmi`` runs without it.
 """
 
 from __future__ import annotations
@@ -25,6 +30,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from nniquad.analysis.loops import as_linear_system, feedback_matrix
 
 __all__ = ["FrequencyResult", "ni_check", "residues_on_imaginary_axis", "InterconnectionResult", "ni_interconnection_check"]
 
@@ -121,8 +128,8 @@ def ni_check(sys, omega: np.ndarray | None = None, tol: float = 1e-9, n_points: 
 
     Parameters
     ----------
-    sys : control.StateSpace or control.TransferFunction
-        The system; converted to a state-space realisation for the residues.
+    sys : LinearSystem, control.StateSpace or control.TransferFunction
+        The system; a transfer function is realised in state space for the residues.
     omega
         Frequency grid (rad/s); default ``n_points`` log-spaced points spanning three
         decades beyond the smallest and largest pole magnitude.
@@ -133,9 +140,7 @@ def ni_check(sys, omega: np.ndarray | None = None, tol: float = 1e-9, n_points: 
     -------
     FrequencyResult
     """
-    import control as ct
-
-    ss = ct.ss(sys)
+    ss = as_linear_system(sys)
     poles = np.asarray(ss.poles(), dtype=complex)
     rhp, origin, imag = _pole_sets(poles, tol)
     if omega is None:
@@ -147,8 +152,7 @@ def ni_check(sys, omega: np.ndarray | None = None, tol: float = 1e-9, n_points: 
     for p in imag:
         keep &= np.abs(omega - p.imag) > 1e-6 * p.imag
     omega = omega[keep]
-    resp = ct.frequency_response(ss, omega, squeeze=False)
-    G = np.asarray(resp.complex)  # (outputs, inputs, frequencies)
+    G = ss.frequency_response(omega)  # (outputs, inputs, frequencies)
     if G.shape[0] != G.shape[1]:
         raise ValueError("NI is defined for square systems only")
     H = 1j * (G - np.conj(np.transpose(G, (1, 0, 2))))
@@ -207,7 +211,9 @@ class InterconnectionResult:
         ``plant.is_ni and controller.is_sni and dc_loop_gain < 1`` (and the
         high-frequency conditions, which hold for strictly proper systems).
     poles
-        Closed-loop poles from python-control's ``feedback(G, C, sign=+1)``.
+        Closed-loop poles of the positive-feedback interconnection
+        (:func:`nniquad.analysis.loops.feedback_matrix`, python-control's
+        ``feedback(G, C, sign=+1)``; the tests compare them).
     poles_stable
         Whether all of them lie in ``Re s < 0``.
     """
@@ -221,17 +227,16 @@ class InterconnectionResult:
 
 
 def ni_interconnection_check(G, C) -> InterconnectionResult:
-    """NI stability test of the positive-feedback loop ``G``-``C`` and its python-control poles."""
-    import control as ct
-
+    """NI stability test of the positive-feedback loop ``G``-``C`` and its closed-loop poles."""
+    G, C = as_linear_system(G), as_linear_system(C)
     g, c = ni_check(G), ni_check(C)
-    G0 = np.atleast_2d(ct.dcgain(G))
-    C0 = np.atleast_2d(ct.dcgain(C))
+    G0 = np.atleast_2d(G.dc_gain())
+    C0 = np.atleast_2d(C.dc_gain())
     dc = float(np.max(np.linalg.eigvals(G0 @ C0).real))
-    Ginf = np.atleast_2d(ct.ss(G).D)
-    Cinf = np.atleast_2d(ct.ss(C).D)
+    Ginf = np.atleast_2d(G.D)
+    Cinf = np.atleast_2d(C.D)
     hf_ok = np.allclose(Ginf @ Cinf, 0.0) and np.all(np.linalg.eigvalsh(0.5 * (Ginf + Ginf.T)) >= 0)
-    poles = np.asarray(ct.feedback(G, C, sign=+1).poles())
+    poles = np.linalg.eigvals(feedback_matrix(G, C, sign=+1)).astype(complex)
     return InterconnectionResult(
         plant=g,
         controller=c,

@@ -57,13 +57,38 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from nniquad import codecache
+from nniquad.analysis.loops import LinearSystem
 from nniquad.control.gains import PAPER_GAINS, Gains, positive_gain
 from nniquad.errors import GainError
 from nniquad.model.vehicle import PAPER_VEHICLE, Vehicle
 
-from nniquad.analysis.linear_symbolic import (SYMBOLS, characteristic_polynomial, closed_loop_matrix_sym,
-                                             controller_matrices_sym, dc_loop_gain_sym, lambdified,
-                                             plant_matrices_sym, routh_array, routh_stability_region)
+#: The symbolic layer's names re-exported here; :mod:`nniquad.analysis.linear_symbolic` (sympy) is imported on
+#: first use of one of them (PEP 562), so the numeric layer runs without sympy when its code is cached.
+_SYMBOLIC_NAMES = ("SYMBOLS", "plant_matrices_sym", "controller_matrices_sym", "closed_loop_matrix_sym",
+                   "characteristic_polynomial", "routh_array", "routh_stability_region", "dc_loop_gain_sym")
+
+
+def __getattr__(name: str):
+    if name in _SYMBOLIC_NAMES:
+        from nniquad.analysis import linear_symbolic
+
+        return getattr(linear_symbolic, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def lambdified() -> dict:
+    """The numeric functions lambdified from the symbolic layer (:func:`nniquad.analysis.linear_symbolic.lambdified`).
+
+    Their generated source is kept by :mod:`nniquad.codecache`; a process that
+    finds it there does not import sympy.
+    """
+    def build() -> dict:
+        from nniquad.analysis import linear_symbolic
+
+        return linear_symbolic.lambdified()
+
+    return codecache.cached_numpy_functions("nniquad.analysis.linear_symbolic.lambdified", build)
 
 __all__ = [
     "SYMBOLS",
@@ -262,6 +287,20 @@ class ReducedLoop:
         """Numeric ``(Ac, Bc, Cc, Dc)`` of :func:`controller_matrices_sym` (the same on both axes)."""
         return tuple(_f(M) for M in lambdified()["controller"](1.0, 1.0, self.gains.Gamma, self.gains.delta))  # type: ignore[return-value]
 
+    def plant_system(self, axis: str = "x") -> LinearSystem:
+        """The reshaped plant of one axis as a :class:`nniquad.analysis.loops.LinearSystem` (F in N -> xi in m).
+
+        Parameters
+        ----------
+        axis
+            ``'x'`` or ``'y'``.
+        """
+        return LinearSystem(*self.plant_matrices(axis))
+
+    def controller_system(self) -> LinearSystem:
+        """The integral resonant controller as a :class:`nniquad.analysis.loops.LinearSystem` (xi -> u_c)."""
+        return LinearSystem(*self.controller_matrices())
+
     def plant_ss(self, axis: str = "x"):
         """The reshaped plant of one axis as a :class:`control.StateSpace` (input F in N, output xi in m).
 
@@ -404,13 +443,55 @@ class ReducedLoop:
         kp = min(self._kp_eff(axis) for axis, _ in self.axes)
         return float(lambdified()["delta_min"](self.m, kp, g))
 
-    def poles_and_damping(self) -> PolesDamping:
-        """Poles, natural frequencies and damping of the closed loop of both axes (python-control ``damp``)."""
-        import control as ct
+    def axis_scaling(self, axis: str = "x") -> np.ndarray:
+        """Diagonal state scaling ``T = diag(1, sqrt(kp), Γ)`` of the decay LMIs of one axis
+        (:func:`nniquad.analysis.lmi.decay.closed_loop_decay`): the velocity in units of the inner loop's natural
+        frequency, the controller state in units of Γ.
 
-        A = self.closed_loop_A()
-        sys = ct.ss(A, np.zeros((6, 1)), np.zeros((1, 6)), 0)
-        wn, zeta, poles = sys.damp()
+        Parameters
+        ----------
+        axis
+            ``'x'`` or ``'y'``.
+        """
+        return np.diag([1.0, float(np.sqrt(self.kp(axis))), self.gains.Gamma])
+
+    def start_direction(self) -> np.ndarray:
+        """The start state of one axis per metre of displacement from rest: ``[1, 0, 0]`` (controller state 0)."""
+        return np.array([1.0, 0.0, 0.0])
+
+    def controller_scaling(self) -> np.ndarray:
+        """State scaling of the controller's NI lemma LMI: none (one state)."""
+        return np.eye(1)
+
+    def controller_normalisation(self) -> tuple[np.ndarray, float]:
+        """``(T, time scale)`` in which ``verify`` judges the controller's NI storage: none for this law."""
+        return np.eye(1), 1.0
+
+    def min_stable_mass(self) -> float:
+        """Smallest true mass of the paper model that keeps the loop stable: ``1/(min kp δ)`` [kg]."""
+        return 1.0 / (min(self.gains.axes()) * self.gains.delta)
+
+    @property
+    def routh_margin(self) -> float:
+        """``m kp δ - 1`` of the weaker axis (``= 1/γ - 1``): positive iff the loop is stable."""
+        return self.margin_product - 1.0
+
+    def poles_and_damping(self) -> PolesDamping:
+        """Poles, natural frequencies and damping of the closed loop of both axes."""
+        return self._damp(self.closed_loop_A())
+
+    @staticmethod
+    def _damp(A: np.ndarray) -> PolesDamping:
+        """:class:`PolesDamping` of a closed-loop matrix.
+
+        The definitions of python-control's ``damp`` (the tests compare the two):
+        the poles are the eigenvalues of ``A``, ``wn = |p|`` and
+        ``zeta = -Re(p)/|p|``.  numpy computes them, so a cold ``nniquad verify``
+        does not import python-control for them.
+        """
+        poles = np.linalg.eigvals(A).astype(complex)
+        wn = np.abs(poles)
+        zeta = -poles.real / wn
         order = np.argsort(poles.real)[::-1]
         max_re = float(np.max(poles.real))
         return PolesDamping(

@@ -8,9 +8,12 @@ Break points (:mod:`nniquad.analysis.cascade`):
     the roll-torque command (every other loop closed).
 
 Each loop transfer function ``L`` is in the negative-feedback convention
-(closed loop ``1 + L = 0``).  Margins come from python-control
-``stability_margins`` (gain and phase margin, crossover frequencies) and
-``disk_margins`` (balanced disk margin, skew 0).  A loop can be conditionally
+(closed loop ``1 + L = 0``).  The gain and phase margins and their crossover
+frequencies come from the exact frequency response on a dense grid, interpolated
+and searched as python-control's ``stability_margins`` does for frequency-response
+data (:func:`frd_crossings`, numpy and scipy: the tests compare it with
+python-control, which a cold ``nniquad verify`` then need not import); the disk
+margin is balanced (skew 0).  A loop can be conditionally
 stable (the attitude loop encloses the horizontal loop, whose gain is large at
 low frequency), so the gain margin is stated as an interval: the largest gain
 reduction and the largest gain increase that keep the loop stable.  Both ends
@@ -52,6 +55,7 @@ __all__ = [
     "gain_interval",
     "frequency_grid",
     "frequency_response",
+    "frd_crossings",
     "disk_margin",
     "cascade_margins",
 ]
@@ -74,7 +78,8 @@ def gain_interval(L, k_candidates: np.ndarray | None = None) -> tuple[float, flo
     Parameters
     ----------
     L
-        Loop transfer function (python-control ``StateSpace``; discrete if ``L.dt``).
+        Loop transfer function (:class:`nniquad.analysis.loops.LinearSystem` or python-control
+        ``StateSpace``; discrete if ``L.dt``).
     k_candidates
         Gains at which a closed-loop pole can cross the stability boundary
         (``-1/L`` at the phase crossovers); computed when ``None``.
@@ -84,8 +89,6 @@ def gain_interval(L, k_candidates: np.ndarray | None = None) -> tuple[float, flo
     k_lo, k_hi : float
         ``0 <= k_lo < 1 < k_hi <= inf``; ``(nan, nan)`` if the loop is unstable at ``k = 1``.
     """
-    import control as ct
-
     A0, B, C = np.asarray(L.A), np.asarray(L.B), np.asarray(L.C)
     dt = L.dt if L.dt not in (0, None) else None
 
@@ -96,8 +99,7 @@ def gain_interval(L, k_candidates: np.ndarray | None = None) -> tuple[float, flo
         return math.nan, math.nan
     if k_candidates is None:
         w = frequency_grid(L)
-        frd = ct.frd(frequency_response(L, w), w, dt=dt or 0)
-        gm, _, _, _, _, _ = ct.stability_margins(frd, returnall=True)
+        gm = frd_crossings(frequency_response(L, w), w)[0]
         k_candidates = np.atleast_1d(np.asarray(gm, float))
     ks = np.sort(np.unique(np.abs(k_candidates[np.isfinite(k_candidates)])))
     # a crossing at k is confirmed when the loop is unstable just beyond it
@@ -204,6 +206,59 @@ def frequency_response(L, omega: np.ndarray) -> np.ndarray:
     return (C @ X)[:, 0, 0] + D[0, 0]
 
 
+def frd_crossings(resp: np.ndarray, omega: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Every phase and gain crossover of a sampled frequency response, with its gain or phase margin.
+
+    The method of python-control's ``stability_margins(FRD(resp, omega, smooth=True),
+    returnall=True)``, written with scipy: the response is interpolated by a
+    parametric cubic spline through its real and imaginary parts (``splprep``,
+    ``s = 0``, weights ``1/(|L| + 0.001)``); a sign change of ``∠(-L)`` between two
+    grid frequencies with ``Re L <= 0`` at the first is a phase crossover, a sign
+    change of ``|L| - 1`` a gain crossover, each refined by ``brentq`` on the
+    interpolated response.
+
+    Parameters
+    ----------
+    resp : complex ndarray
+        ``L`` at the frequencies ``omega`` (continuous ``L(jω)`` or discrete ``L(e^{jωT})``).
+    omega : ndarray
+        Increasing frequencies [rad/s], at least 2.
+
+    Returns
+    -------
+    gm, pm, w_pc, w_gc : ndarray
+        Gain margins (factors ``1/|L|``) at the phase crossovers ``w_pc`` [rad/s]
+        and phase margins [deg] at the gain crossovers ``w_gc`` [rad/s], in
+        increasing frequency.
+    """
+    from scipy.interpolate import splev, splprep
+    from scipy.optimize import brentq
+
+    w = np.asarray(omega, float)
+    r = np.asarray(resp, complex)
+    tck, _ = splprep(u=w, x=[r.real, r.imag], w=1.0 / (np.abs(r) + 0.001), s=0.0, k=3 if w.size > 3 else w.size - 1)
+
+    def interp(f: Any) -> np.ndarray:
+        re, im = splev(f, tck, der=0)
+        return np.asarray(re) + 1j * np.asarray(im)
+
+    def phase_from_180(f: Any) -> Any:
+        return np.angle(-interp(f))
+
+    def gain_minus_one(f: Any) -> Any:
+        return np.abs(interp(f)) - 1.0
+
+    idx = np.where(np.diff(np.sign(phase_from_180(w))))[0]
+    idx = idx[np.real(interp(w[idx])) <= 0] if idx.size else idx
+    w_pc = np.array([brentq(phase_from_180, w[i], w[i + 1]) for i in idx], dtype=float)
+    idx = np.where(np.diff(np.sign(gain_minus_one(w))))[0]
+    w_gc = np.array([brentq(gain_minus_one, w[i], w[i + 1]) for i in idx], dtype=float)
+    with np.errstate(all="ignore"):  # |L| = 0 at a phase crossover: an infinite margin
+        gm = 1.0 / np.abs(interp(w_pc)) if w_pc.size else np.zeros(0)
+    pm = np.remainder(np.angle(interp(w_gc), deg=True), 360.0) - 180.0 if w_gc.size else np.zeros(0)
+    return gm, pm, w_pc, w_gc
+
+
 def disk_margin(resp: np.ndarray) -> tuple[float, float, float]:
     """Balanced (skew 0) disk margin from a frequency response: ``α = 2/max|(1 - L)/(1 + L)|``.
 
@@ -222,15 +277,17 @@ def loop_margins(L, break_point: str, method: str, rate_hz: float | None,
                  omega: np.ndarray | None = None) -> Margins:
     """Margins of one loop transfer function (negative-feedback convention).
 
-    The frequency response is evaluated exactly on a dense grid and handed to
-    python-control ``stability_margins`` as an FRD (its ``"poly"`` method loses
-    precision on the 20-state discrete loops).  The gain interval is confirmed
+    The frequency response is evaluated exactly on a dense grid and searched for
+    crossovers as frequency-response data (:func:`frd_crossings`; python-control's
+    ``"poly"`` method loses precision on the 20-state discrete loops).  The gain interval is confirmed
     by closed-loop eigenvalues (:func:`gain_interval`).
 
     Parameters
     ----------
     L
-        SISO python-control ``StateSpace`` (continuous or discrete).
+        SISO state-space system with ``A, B, C, D, dt`` and ``poles()``: a
+        :class:`nniquad.analysis.loops.LinearSystem` or a python-control ``StateSpace``
+        (continuous or discrete).
     break_point, method, rate_hz
         Labels stored in the result.
     omega
@@ -240,12 +297,9 @@ def loop_margins(L, break_point: str, method: str, rate_hz: float | None,
     -------
     Margins
     """
-    import control as ct
-
     w = frequency_grid(L) if omega is None else np.asarray(omega, float)
     resp = frequency_response(L, w)
-    frd = ct.frd(resp, w, dt=L.dt if L.dt not in (0, None) else 0)
-    gm, pm, _, wpc, wgc, _ = ct.stability_margins(frd, returnall=True)
+    gm, pm, wpc, wgc = frd_crossings(resp, w)
     gm, pm, wpc, wgc = (np.atleast_1d(np.asarray(v, float)) for v in (gm, pm, wpc, wgc))
     k_lo, k_hi = gain_interval(L, gm)
     stable = math.isfinite(k_lo)
@@ -294,11 +348,11 @@ def cascade_margins(cascade: LinearCascade, rate_hz: float | None = CONTROL_RATE
 
     cl = cascade.closed_loop(rate_hz, controller=controller, pade_order=pade_order)
     method = "continuous" if rate_hz is None else "pade"
-    out = {bp: loop_margins(cl.loop(bp), bp, method, rate_hz) for bp in BREAK_POINTS}
+    out = {bp: loop_margins(cl.loop_system(bp), bp, method, rate_hz) for bp in BREAK_POINTS}
     if rate_hz is not None:
         sd = sampled_cascade(cascade, rate_hz, controller=controller)
         # the held variant has no discrete a_h[k]: its x loop is broken at the sampled measurement,
         # the same scalar loop (the controller is diagonal, so every path back to a_h_x passes xi_x)
         name = "horizontal" if controller == "discrete" else "measurement"
-        out["horizontal_zoh"] = loop_margins(sd.loop(name), "horizontal", "zoh", rate_hz)
+        out["horizontal_zoh"] = loop_margins(sd.loop_system(name), "horizontal", "zoh", rate_hz)
     return out

@@ -12,15 +12,18 @@ the design notes (``DESIGN.md``):
   direction ``e0 = ξ_h(0)/‖ξ_h(0)‖``, ``max_t(-⟨ξ_h(t), e0⟩)`` clipped at 0, in
   percent of ``‖ξ_h(0)‖``.
 * **Tilt** -- the total tilt angle ``arccos(cos φ cos θ)`` in degrees.
-* **Diverged** -- a non-finite sample (position or altitude), or a horizontal
+* **Blew up** -- a non-finite sample (position or altitude), or a horizontal
   distance beyond ``DIVERGENCE_FACTOR`` (100) times the run's scale, by
   default ``‖ξ_h(0)‖`` (1 m for a run that starts at the origin).
 * **Altitude lost** -- an altitude deviation beyond ``ALTITUDE_LIMIT_M`` (2 m)
   from the reference, or a non-finite altitude (``full`` runs only).
-* **Failure** -- the first of "diverged", "altitude lost", "not settled" that
-  applies (:func:`failure_reason`); ``simulate``, ``tune`` and the Monte Carlo
-  study all read their verdicts from :func:`diverged_batch`,
-  :func:`altitude_lost_batch` and :func:`failure_reason`.
+* **Diverged** -- the vehicle is lost: it blew up or lost its altitude (the
+  ``diverged`` flag of every report).
+* **Failure** -- the first of "diverged" (blew up), "altitude lost", "not
+  settled" that applies (:func:`failure_reason`); ``simulate``, ``tune`` and
+  the Monte Carlo study all read their verdicts from
+  :mod:`nniquad.analysis.verdicts` (:func:`diverged_batch`,
+  :func:`blew_up_batch`, :func:`altitude_lost_batch`, :func:`failure_reason`).
 
 All functions are pure and take numpy arrays: time ``t`` [s] of shape ``(N,)``,
 horizontal positions ``xy`` [m] of shape ``(N, 2)``.  The ``*_batch`` variants

@@ -49,6 +49,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from nniquad.analysis.cascade import CONTROLLER_VARIANTS, LinearCascade
+from nniquad.analysis.loops import LinearSystem
 from nniquad.config import CONTROL_RATE_HZ
 from nniquad.errors import CascadeError, SolverError
 
@@ -146,15 +147,17 @@ class SampledLoop:
         """``-ln(spectral radius)/T`` [1/s]: the continuous-time equivalent of the slowest mode's decay."""
         return -math.log(self.spectral_radius) / self.T
 
-    def loop(self, name: str):
-        """Discrete loop transfer function ``L(z) = -c (zI - A_0)^{-1} b`` (python-control, ``dt = T``)."""
-        import control as ct
-
+    def loop_system(self, name: str) -> LinearSystem:
+        """Discrete loop transfer function ``L(z) = -c (zI - A_0)^{-1} b`` (``dt = T``) as a :class:`LinearSystem`."""
         if name not in self.breaks:
             raise CascadeError(f"unknown break point {name!r} of the sampled loop "
                                f"(choose one of {', '.join(self.breaks)})")
         b, c = self.breaks[name]
-        return ct.ss(self.A_d - np.outer(b, c), b.reshape(-1, 1), -c.reshape(1, -1), 0.0, self.T)
+        return LinearSystem(self.A_d - np.outer(b, c), b.reshape(-1, 1), -c.reshape(1, -1), np.zeros((1, 1)), self.T)
+
+    def loop(self, name: str):
+        """:meth:`loop_system` as a python-control ``StateSpace`` (``dt = T``)."""
+        return self.loop_system(name).to_control()
 
     def lyapunov(self, **kwargs: Any) -> "DiscreteDecay":
         """:func:`discrete_lyapunov_decay` of this loop."""
@@ -243,11 +246,12 @@ def sampled_reduced_loop(vehicle, gains, rate_hz: float = CONTROL_RATE_HZ, *, co
     the cascade; the sampling is as in :func:`sampled_cascade`.
     """
     from nniquad.analysis.cascade import linearise
-    from nniquad.sim import SimOptions, SimParams
+    from nniquad.sim import CONTROLLER_STATES, SimOptions, SimParams
 
     p = SimParams.from_options(vehicle, gains, SimOptions(model="linear", sample_hold=True))
     lin = linearise("linear", p)
-    ik, ih = lin.index("zc_x", "zc_y"), lin.index("held_x", "held_y")
+    ctrl = CONTROLLER_STATES[p.controller]
+    ik, ih = lin.index(*ctrl), lin.index("held_x", "held_y")
     plant = ("x", "x_dot", "y", "y_dot")
     ip = lin.index(*plant)
     A_k, B_k, C_k, D_k = lin.J[np.ix_(ik, ik)], lin.J[np.ix_(ik, ih)], lin.Y[:, ik], lin.Y[:, ih]
@@ -255,7 +259,7 @@ def sampled_reduced_loop(vehicle, gains, rate_hz: float = CONTROL_RATE_HZ, *, co
     B_p = lin.J[np.ix_(ip, ik + ih)] @ np.linalg.pinv(np.hstack([C_k, D_k]))
     C_p = np.zeros((2, len(plant)))
     C_p[0, plant.index("x")] = C_p[1, plant.index("y")] = 1.0
-    return sampled_loop_from_blocks(lin.J[np.ix_(ip, ip)], B_p, C_p, A_k, B_k, C_k, D_k, plant + ("zc_x", "zc_y"),
+    return sampled_loop_from_blocks(lin.J[np.ix_(ip, ip)], B_p, C_p, A_k, B_k, C_k, D_k, plant + ctrl,
                                     rate_hz, controller)
 
 

@@ -1,9 +1,19 @@
-"""Run verdicts and the metrics bundle: one definition of divergence, altitude loss and success.
+"""Run verdicts and the metrics bundle: one definition of a lost vehicle, of its cause and of success.
 
-:func:`diverged_batch` (a non-finite sample, or a horizontal distance beyond
-``DIVERGENCE_FACTOR`` times the run's scale), :func:`altitude_lost_batch` (an
-altitude deviation beyond :data:`nniquad.config.ALTITUDE_LIMIT_M`) and
-:func:`failure_reason` serve :func:`nniquad.simulate`, :func:`nniquad.tune` and
+A run is **lost** -- its ``diverged`` flag, wherever it is reported
+(``simulate``, certificates, the report, :class:`Metrics`) -- when it blew up
+*or* lost its altitude (:func:`diverged_batch`):
+
+* **blew up** (:func:`blew_up_batch`): a non-finite sample (position or
+  altitude), or a horizontal distance beyond ``DIVERGENCE_FACTOR`` times the
+  run's scale;
+* **altitude lost** (:func:`altitude_lost_batch`): an altitude deviation beyond
+  :data:`nniquad.config.ALTITUDE_LIMIT_M` (``full`` runs only).
+
+The failure verdict (:func:`failure_reason`) names the cause: ``"diverged"``
+(it blew up), ``"altitude lost"`` (lost through its altitude only), ``"not
+settled"``, or ``None`` (success); a lost run never counts as settled.  These
+functions serve :func:`nniquad.simulate`, :func:`nniquad.tune` and
 :func:`nniquad.montecarlo` alike.  :func:`compute_metrics` bundles every
 signal metric of :mod:`nniquad.analysis.metrics` with these verdicts into a
 :class:`Metrics`.
@@ -23,10 +33,11 @@ from nniquad.analysis.metrics import (DEFAULT_BAND_FRACTION, DEFAULT_DIVERGENCE_
 from nniquad.config import ALTITUDE_LIMIT_M, TILT_LIMIT_DEG
 from nniquad.errors import SimulationError
 
-__all__ = ["diverged", "diverged_batch", "altitude_lost_batch", "failure_reason", "Metrics", "compute_metrics"]
+__all__ = ["diverged", "diverged_batch", "blew_up_batch", "altitude_lost_batch", "failure_reason", "Metrics",
+           "compute_metrics"]
 
 
-def diverged_batch(
+def blew_up_batch(
     xy_batch: ArrayLike,
     threshold_m: float | None = None,
     factor: float = DEFAULT_DIVERGENCE_FACTOR,
@@ -34,21 +45,21 @@ def diverged_batch(
     scale_m: float | ArrayLike | None = None,
     z_batch: ArrayLike | None = None,
 ) -> NDArray[np.bool_]:
-    """Divergence flags of a batch of runs (see :func:`diverged`).
+    """Blow-up flags of a batch of runs: a non-finite sample, or a distance beyond a threshold.
 
     Parameters
     ----------
     xy_batch
         Horizontal positions [m], shape ``(B, N, 2)``.
     threshold_m
-        Distance [m] beyond which a run has diverged; default ``factor · scale_m``.
+        Distance [m] beyond which a run has blown up; default ``factor · scale_m``.
     factor
         Multiple of the scale (default :data:`nniquad.config.DIVERGENCE_FACTOR`).
     scale_m
         Scale [m] per run, scalar or ``(B,)``; default ``‖xy[:, 0]‖`` (1 m where
         that is zero or non-finite: a run starting at the origin has no scale).
     z_batch
-        Altitudes, shape ``(B, N)``; a non-finite altitude also counts as diverged.
+        Altitudes, shape ``(B, N)``; a non-finite altitude also counts.
 
     Returns
     -------
@@ -72,29 +83,68 @@ def diverged_batch(
     return bad | far
 
 
+def diverged_batch(
+    xy_batch: ArrayLike,
+    threshold_m: float | None = None,
+    factor: float = DEFAULT_DIVERGENCE_FACTOR,
+    *,
+    scale_m: float | ArrayLike | None = None,
+    z_batch: ArrayLike | None = None,
+    altitude_limit_m: float = ALTITUDE_LIMIT_M,
+    z_ref: float = 0.0,
+) -> NDArray[np.bool_]:
+    """Lost-vehicle flags of a batch of runs: it blew up (:func:`blew_up_batch`) or lost its altitude.
+
+    Parameters
+    ----------
+    xy_batch, threshold_m, factor, scale_m
+        As in :func:`blew_up_batch`.
+    z_batch
+        Altitudes [m], shape ``(B, N)``; with them an altitude deviation beyond
+        ``altitude_limit_m`` (:func:`altitude_lost_batch`) or a non-finite
+        altitude also makes the run lost.
+    altitude_limit_m, z_ref
+        Largest allowed altitude deviation [m] and its reference (same frame as ``z_batch``).
+
+    Returns
+    -------
+    ndarray of bool
+        Shape ``(B,)``.
+    """
+    lost = blew_up_batch(xy_batch, threshold_m, factor, scale_m=scale_m, z_batch=z_batch)
+    if z_batch is not None:
+        lost |= altitude_lost_batch(np.asarray(z_batch, dtype=float).reshape(lost.shape[0], -1), altitude_limit_m,
+                                    z_ref)
+    return lost
+
+
 def diverged(xy: ArrayLike, threshold_m: float | None = None, factor: float = DEFAULT_DIVERGENCE_FACTOR, *,
-             scale_m: float | None = None, z: ArrayLike | None = None) -> bool:
-    """True when a run blew up: a non-finite sample, or a distance beyond a threshold.
+             scale_m: float | None = None, z: ArrayLike | None = None, altitude_limit_m: float = ALTITUDE_LIMIT_M,
+             z_ref: float = 0.0) -> bool:
+    """True when the vehicle of one run is lost (:func:`diverged_batch`): it blew up or lost its altitude.
 
     Parameters
     ----------
     xy
         Horizontal positions [m], shape ``(N, 2)``.
     threshold_m
-        Distance [m] beyond which the run counts as diverged; default
-        ``factor · scale_m``.
+        Distance [m] beyond which the run blew up; default ``factor · scale_m``.
     factor
         Multiple of the scale used when ``threshold_m`` is ``None``.
     scale_m
         Scale [m]; default ``‖xy[0]‖`` (1 m when the run starts at the origin).
     z
-        Altitude [m], shape ``(N,)``; non-finite counts as diverged.
+        Altitude [m], shape ``(N,)``; non-finite, or beyond ``altitude_limit_m``
+        from ``z_ref``, counts as lost.
+    altitude_limit_m, z_ref
+        Largest allowed altitude deviation [m] and its reference.
     """
     a = np.asarray(xy, dtype=float)
     if a.ndim != 2 or a.shape[-1] != 2:
         raise ValueError(f"positions must have shape (N, 2), got {a.shape}")
     zb = None if z is None else np.asarray(z, dtype=float)[None]
-    return bool(diverged_batch(a[None], threshold_m, factor, scale_m=scale_m, z_batch=zb)[0])
+    return bool(diverged_batch(a[None], threshold_m, factor, scale_m=scale_m, z_batch=zb,
+                               altitude_limit_m=altitude_limit_m, z_ref=z_ref)[0])
 
 
 def altitude_lost_batch(z_batch: ArrayLike, limit_m: float = ALTITUDE_LIMIT_M, z_ref: float = 0.0) -> NDArray[np.bool_]:
@@ -122,13 +172,15 @@ def altitude_lost_batch(z_batch: ArrayLike, limit_m: float = ALTITUDE_LIMIT_M, z
         return ~(dev <= limit_m)  # NaN counts as lost
 
 
-def failure_reason(diverged: bool, altitude_lost: bool | None, settled: bool) -> str | None:
+def failure_reason(blew_up: bool, altitude_lost: bool | None, settled: bool) -> str | None:
     """The one verdict of a run: ``"diverged"``, ``"altitude lost"``, ``"not settled"`` or ``None`` (success).
 
-    Checked in that order: a run that blew up has also lost its altitude and not
-    settled, and is reported as diverged.
+    Checked in that order: a run that blew up (:func:`blew_up_batch`) has also
+    lost its altitude and not settled, and is reported as diverged; a run lost
+    through its altitude only is reported as such.  Either is a lost vehicle
+    (its ``diverged`` flag, :func:`diverged_batch`).
     """
-    if diverged:
+    if blew_up:
         return "diverged"
     if altitude_lost:
         return "altitude lost"
@@ -164,12 +216,17 @@ class Metrics:
     tilt_jitter_rms_deg
         RMS tilt after settling [deg].
     diverged
-        The run blew up (non-finite or far away, :func:`diverged`).
+        The vehicle is lost (:func:`diverged`): it blew up (non-finite or far
+        away) or lost its altitude.
     horizon_s
         Duration of the run [s].
     altitude_lost
         The altitude deviation exceeded its limit (:func:`altitude_lost_batch`);
         ``None`` without an altitude signal.
+    blew_up
+        The run blew up (:func:`blew_up_batch`), the cause :attr:`failure`
+        calls "diverged"; ``None`` when not recorded, and then ``diverged``
+        stands for it.
     """
 
     settling_s: float | None
@@ -183,11 +240,13 @@ class Metrics:
     diverged: bool
     horizon_s: float
     altitude_lost: bool | None = None
+    blew_up: bool | None = None
 
     @property
     def failure(self) -> str | None:
         """:func:`failure_reason` of the run: ``"diverged"``, ``"altitude lost"``, ``"not settled"`` or ``None``."""
-        return failure_reason(self.diverged, self.altitude_lost, self.settling_s is not None)
+        blew_up = self.diverged if self.blew_up is None else self.blew_up
+        return failure_reason(blew_up, self.altitude_lost, self.settling_s is not None and not self.diverged)
 
     def to_json(self) -> dict[str, Any]:
         """Plain dict; ``None`` and non-finite numbers become JSON ``null``."""
@@ -257,13 +316,13 @@ def compute_metrics(
     Returns
     -------
     Metrics
-        Fields whose signals were not given are ``None``; for a diverged run
-        settling and overshoot are ``None``.
+        Fields whose signals were not given are ``None``; for a lost run
+        (``diverged``: blown up or altitude lost) settling and overshoot are ``None``.
     """
     ta = _time(t)
     a = np.asarray(xy, dtype=float)
     _xy_batch(ta, a, batched=False)
-    div = diverged(a, z=z)
+    div = diverged(a, z=z, altitude_limit_m=altitude_limit_m, z_ref=z_ref)
     settling = None if div else settling_time(ta, a, band_fraction)
     over = None if div else _opt(overshoot_pct(ta, a))
     tilt = None
@@ -286,4 +345,5 @@ def compute_metrics(
         horizon_s=float(ta[-1] - ta[0]),
         altitude_lost=None if z is None else bool(altitude_lost_batch(np.asarray(z, float)[None], altitude_limit_m,
                                                                       z_ref)[0]),
+        blew_up=bool(blew_up_batch(a[None], z_batch=None if z is None else np.asarray(z, float)[None])[0]),
     )

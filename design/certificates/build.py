@@ -9,12 +9,12 @@ from typing import TYPE_CHECKING, Any, Callable, Mapping, Sequence
 
 import numpy as np
 
-from nniquad.analysis.linear import ReducedLoop
+from nniquad.analysis.sni_loop import reduced_loop
 from nniquad.certificates.certificate import (NI_FORM, PERFORMANCE_HORIZON_S, ROA_MODEL, TOLERANCES, Certificate,
                                               reference_run_options)
 from nniquad.config import (CASCADE_GRID_POINTS_PER_AXIS, CONTROL_RATE_HZ, DT_S, GAMMA_MAX, MASS_RANGE_FRACTION,
                             TILT_LIMIT_DEG, XI0_M)
-from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, InnerLoopGains
+from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, InnerLoopGains, SNI2Gains
 from nniquad.control.law_classes import DEFAULT_LAW_CLASS
 from nniquad.control.law_classes import law_class as law_class_of
 from nniquad.errors import CertificateError
@@ -23,7 +23,8 @@ from nniquad.model.vehicle import Vehicle
 if TYPE_CHECKING:
     from nniquad.analysis.robust_cascade import ParameterBox
 
-__all__ = ["build_certificate", "performance_runs", "margins_section", "MARGIN_FIELDS", "sector_pm_ceiling_deg"]
+__all__ = ["build_certificate", "performance_runs", "margins_section", "MARGIN_FIELDS", "sector_pm_ceiling_deg",
+           "sector_section"]
 
 
 def _software() -> dict[str, str]:
@@ -74,8 +75,8 @@ def performance_runs(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, t
 MARGIN_FIELDS = ("gm_db", "gm_lower_db", "pm_deg", "w_gc_rad_s", "w_pc_rad_s", "stable", "meets_requirement")
 
 
-def sector_pm_ceiling_deg(gamma_max: float) -> float:
-    """Largest phase margin of the NNI law on a pure double integrator under the sector bound [deg].
+def sector_pm_ceiling_deg(gamma_max: float, controller: str = "nni") -> float:
+    """Largest phase margin of the law on a pure double integrator under the sector bound [deg].
 
     ``a_h = -k_p ξ + z/m``, ``z' = -Γδ z + Γ ξ`` is a lead compensator
     ``k_p (s + a)/(s + b)`` with ``a/b = 1 - 1/(m k_p δ)``; the sector bound
@@ -84,12 +85,20 @@ def sector_pm_ceiling_deg(gamma_max: float) -> float:
     ``asin(γ_max/(2 - γ_max))``: 41.8° at γ_max = 0.8.  The cascade's attitude loop,
     motor lag and sampling only take phase away, so PM >= 45° at the horizontal
     break point is out of reach of every admissible gain set of this law.
+
+    The ``sni2`` law is ``k_p (s² + 2ζωs + ω²(1 - γ))/(s² + 2ζωs + ω²)``: between the frequencies
+    ``ω sqrt(1 - γ)`` and ``ω`` of its zero and pole pairs the phase of the numerator exceeds 90° and
+    that of the denominator stays below it, and as ``ζ → 0`` the lead there tends to 180° for any
+    ``γ > 0``: no ceiling below 180° (what it costs in robustness the cascade margins say).
     """
+    if controller == "sni2":
+        return 180.0
     g = float(gamma_max)
     return math.degrees(math.asin(g / (2.0 - g)))
 
 
-def margins_section(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, tilt_limit_deg: float = TILT_LIMIT_DEG,
+def margins_section(vehicle: Vehicle, gains: Gains | SNI2Gains, inner: InnerLoopGains, *,
+                    tilt_limit_deg: float = TILT_LIMIT_DEG,
                     gamma_max: float = GAMMA_MAX, rate_hz: float | None = None) -> dict[str, Any]:
     """The certificate's ``margins`` section: classical margins of the linearised cascade.
 
@@ -114,11 +123,23 @@ def margins_section(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, ti
         "required": {"gm_db": REQUIRED_GM_DB, "pm_deg": REQUIRED_PM_DEG},
         "break_points": points,
         "meets_requirement": all(p["meets_requirement"] for p in points.values()),
-        "horizontal_pm_ceiling_deg": sector_pm_ceiling_deg(gamma_max),
+        "horizontal_pm_ceiling_deg": sector_pm_ceiling_deg(gamma_max, gains.controller),
     }
 
 
-def build_certificate(vehicle: Vehicle, gains: Gains, *, inner: InnerLoopGains = DEFAULT_INNER_LOOP_GAINS,
+def sector_section(loop: Any, gamma_max: float) -> dict[str, float]:
+    """The certificate's ``sector`` section: ``gamma`` (the DC loop gain ``1/(m kp δ)``, or ``k/(m kp ω²)`` for
+    ``sni2``), ``gamma_max``, and the bound on the law's own gain: ``delta_min = 1/(γ_max m kp)`` (NNI) or
+    ``k_max = γ_max m kp ω²`` (``sni2``)."""
+    out = {"gamma": loop.smallest_gamma, "gamma_max": float(gamma_max)}
+    if isinstance(loop.gains, SNI2Gains):
+        out["k_max"] = loop.sector_k_max(gamma_max)
+    else:
+        out["delta_min"] = loop.sector_delta_min(gamma_max)
+    return out
+
+
+def build_certificate(vehicle: Vehicle, gains: Gains | SNI2Gains, *, inner: InnerLoopGains = DEFAULT_INNER_LOOP_GAINS,
                       gamma_max: float = GAMMA_MAX, tilt_limit_deg: float = TILT_LIMIT_DEG,
                       mass_range: tuple[float, float] | None = None, xi0: Sequence[float] = XI0_M,
                       model: str = "reduced", tuning: Mapping[str, Any] | None = None,
@@ -134,7 +155,9 @@ def build_certificate(vehicle: Vehicle, gains: Gains, *, inner: InnerLoopGains =
     vehicle
         The vehicle.
     gains
-        The gain set (equal axes).
+        The gain set (equal axes): the NNI law's :class:`Gains` or the ``sni2`` law's :class:`SNI2Gains`
+        (the same sections; its DC loop gain ``k/(m kp ω²)`` is the sector constant, its controller's
+        NI lemma is solved in scaled coordinates, :meth:`nniquad.analysis.sni_loop.SNI2Loop.controller_scaling`).
     inner
         Inner-loop gains of the ``full`` run.
     gamma_max
@@ -196,7 +219,10 @@ def build_certificate(vehicle: Vehicle, gains: Gains, *, inner: InnerLoopGains =
 
     say = progress or (lambda msg: None)
     rate_hz = check_rate_hz(rate_hz, DT_S, option="rate", error=CertificateError)
-    if gains.kpy is not None and gains.kpy != gains.kp:
+    if not isinstance(gains, (Gains, SNI2Gains)):
+        raise CertificateError(f"certificates cover the laws of the NI structure (nni, sni2), not a "
+                               f"{type(gains).__name__}")
+    if isinstance(gains, Gains) and gains.kpy is not None and gains.kpy != gains.kp:
         raise CertificateError("certificates cover equal axis gains only (kpy must equal kp)")
     if not 0.0 < gamma_max < 1.0:
         raise CertificateError(f"gamma_max must lie in (0, 1), got {gamma_max!r}")
@@ -207,24 +233,29 @@ def build_certificate(vehicle: Vehicle, gains: Gains, *, inner: InnerLoopGains =
     if cls.needs_cascade and not cascade:
         raise CertificateError(f"the {cls.name} class is certified by the sampled-data cascade section: it cannot "
                                "be written without one (schema 1)")
-    loop = ReducedLoop.from_vehicle(vehicle, gains)
-    m, kp = vehicle.m, gains.kp
+    loop = reduced_loop(vehicle, gains)
+    m = vehicle.m
     gamma = loop.smallest_gamma
     if cls.sector_bound and gamma > gamma_max * (1 + 1e-12):
-        raise CertificateError(
-            f"gains violate the sector bound of the paper class: delta = {gains.delta:.6g} < 1/(gamma_max m kp) = "
-            f"{loop.sector_delta_min(gamma_max):.6g} (smallest gamma {gamma:.6g} > gamma_max {gamma_max:g}); "
-            "--law-class cascade drops the bound and certifies with the sampled-data cascade alone"
-        )
+        if isinstance(gains, SNI2Gains):
+            what = (f"k = {gains.k:.6g} > gamma_max m kp omega^2 = {loop.sector_k_max(gamma_max):.6g} (DC loop gain "
+                    f"k/(m kp omega^2) = {gamma:.6g} > gamma_max {gamma_max:g})")
+        else:
+            what = (f"delta = {gains.delta:.6g} < 1/(gamma_max m kp) = {loop.sector_delta_min(gamma_max):.6g} "
+                    f"(smallest gamma {gamma:.6g} > gamma_max {gamma_max:g})")
+        raise CertificateError(f"gains violate the sector bound of the paper class: {what}; --law-class cascade "
+                               "drops the bound and certifies with the sampled-data cascade alone")
     if not gamma < 1.0:
-        raise CertificateError(f"m kp delta = {m * kp * gains.delta:.6g} <= 1: the reduced loop is not stable "
+        what = "k/(m kp omega^2)" if isinstance(gains, SNI2Gains) else "1/(m kp delta)"
+        raise CertificateError(f"DC loop gain {what} = {gamma:.6g} >= 1: the reduced loop is not stable "
                                "(no law class certifies it)")
     lo, hi = mass_range if mass_range is not None else (MASS_RANGE_FRACTION[0] * m, MASS_RANGE_FRACTION[1] * m)
     say("solving the LMIs")
     A, B, C, D = loop.plant_matrices()
     plant = ni_lemma_dissipation(A, B, C, D, name="ni_lemma_dissipation[plant]")
     Ac, Bc, Cc, _ = loop.controller_matrices()
-    ctrl = ni_lemma_dissipation(Ac, Bc, Cc, name="ni_lemma_dissipation[controller]")
+    ctrl = ni_lemma_dissipation(Ac, Bc, Cc, name="ni_lemma_dissipation[controller]",
+                                scaling=loop.controller_scaling())
     cl = closed_loop_decay(loop)
     rob = robust_mass_decay(loop, lo, hi, parameter_dependent=True, thrust_model=True)
     region = certified_region(loop, tilt_limit_deg)
@@ -259,6 +290,7 @@ def build_certificate(vehicle: Vehicle, gains: Gains, *, inner: InnerLoopGains =
         say(f"certifying the sampled-data cascade at {rate_hz:g} Hz over the parameter box")
         try:
             section = cascade_section(vehicle, gains, inner, tilt_limit_deg=tilt_limit_deg, rate_hz=rate_hz, box=box,
+                                      xi0_m=xi0,
                                       widest=widest_box, grid_points_per_axis=grid_points_per_axis)
         except (CascadeError, SolverError) as exc:
             raise CertificateError(f"the sampled-data cascade is not certified at {rate_hz:g} Hz: {exc}") from None
@@ -267,13 +299,13 @@ def build_certificate(vehicle: Vehicle, gains: Gains, *, inner: InnerLoopGains =
     cert = Certificate(
         model=model,
         vehicle=vehicle,
-        gains=Gains(kp=kp, Gamma=gains.Gamma, delta=gains.delta),
+        gains=gains if isinstance(gains, SNI2Gains) else Gains(kp=gains.kp, Gamma=gains.Gamma, delta=gains.delta),
         inner_loop=inner,
         tilt_limit_deg=float(tilt_limit_deg),
         xi0_m=(float(xi0[0]), float(xi0[1])),
-        sector={"gamma": gamma, "gamma_max": float(gamma_max), "delta_min": loop.sector_delta_min(gamma_max)},
+        sector=sector_section(loop, gamma_max),
         stability_margin={
-            "routh_margin": m * kp * gains.delta - 1.0,
+            "routh_margin": loop.routh_margin,
             "max_real_part_1_s": float(pd.max_real_part),
             "decay_rate_1_s": float(pd.decay_rate),
             "min_damping": float(pd.min_damping),

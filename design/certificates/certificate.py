@@ -3,12 +3,15 @@
 A certificate is one JSON document (:data:`SCHEMA`, :data:`SCHEMA_VERSION`):
 
 ``vehicle``, ``gains``, ``inner_loop``, ``tilt_limit_deg``, ``xi0_m``
-    What is certified: the vehicle, the horizontal gains ``kp, Gamma, delta``,
+    What is certified: the vehicle, the horizontal gains ``kp, Gamma, delta`` (the NNI law;
+    the ``sni2`` law states ``{"controller": "sni2", "kp", "k", "omega", "zeta"}``: the NNI structure
+    with a second-order SNI controller, :mod:`nniquad.control.sni`),
     the inner loops the ``full`` performance was measured with, the tilt
     limit and the initial position of the reference run.
 ``sector``
     ``gamma`` (the smallest γ the gains satisfy ``δ >= 1/(γ m kp)`` with),
-    ``gamma_max`` and ``delta_min = 1/(γ_max m kp)``.
+    ``gamma_max`` and ``delta_min = 1/(γ_max m kp)``; for ``sni2`` ``gamma`` is the DC loop
+    gain ``k/(m kp ω²)`` and ``k_max = γ_max m kp ω²`` replaces ``delta_min``.
 ``stability_margin``
     ``m kp δ - 1`` (the exact Routh condition is ``> 0``), the slowest pole's
     real part, the decay rate ``-2 max Re λ`` and the smallest damping ratio.
@@ -59,10 +62,13 @@ import math
 from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any, ClassVar, Mapping
+from typing import TYPE_CHECKING, Any, ClassVar, Mapping
 
 from nniquad.analysis.linear import ReducedLoop
-from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, InnerLoopGains
+
+if TYPE_CHECKING:
+    from nniquad.analysis.sni_loop import SNI2Loop
+from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, InnerLoopGains, SNI2Gains
 from nniquad.errors import CertificateCheckError, CertificateError, GainError, NniquadError, VehicleError
 from nniquad.io import atomic_write_text
 from nniquad.model.vehicle import Vehicle
@@ -86,6 +92,8 @@ __all__ = [
     "check_form",
     "canonical_digest",
     "certificate_gains",
+    "gains_json",
+    "GAINS_LAW_KEY",
     "certificate_vehicle",
     "certificate_inner_loop",
 ]
@@ -279,7 +287,18 @@ def _get(cert: Mapping[str, Any], key: str, kind: type = dict) -> Any:
     return value
 
 
-def certificate_gains(cert: "Mapping[str, Any] | Certificate") -> Gains:
+#: The ``controller`` entry of the ``gains`` section of a law other than the NNI law (whose section has none).
+GAINS_LAW_KEY = "controller"
+
+
+def gains_json(gains: Gains | SNI2Gains) -> dict[str, Any]:
+    """The ``gains`` section of a gain set: ``kp, Gamma, delta`` (NNI), ``controller, kp, k, omega, zeta`` (``sni2``)."""
+    if isinstance(gains, SNI2Gains):
+        return {GAINS_LAW_KEY: gains.controller, **gains.values()}
+    return {"kp": gains.kp, "Gamma": gains.Gamma, "delta": gains.delta}
+
+
+def certificate_gains(cert: "Mapping[str, Any] | Certificate") -> Gains | SNI2Gains:
     """The certified gain set, of a :class:`Certificate` or of a form-checked mapping.
 
     Parameters
@@ -290,6 +309,19 @@ def certificate_gains(cert: "Mapping[str, Any] | Certificate") -> Gains:
     if isinstance(cert, Certificate):
         return cert.gains
     g = _get(cert, "gains")
+    law = g.get(GAINS_LAW_KEY, "nni")
+    if law == SNI2Gains.controller:
+        names = [f.name for f in fields(SNI2Gains)]
+        missing = [k for k in names if k not in g]
+        if missing:
+            raise CertificateError(f"certificate 'gains' lacks '{missing[0]}'")
+        try:
+            return SNI2Gains(**{k: g[k] for k in names})
+        except (GainError, TypeError) as exc:
+            raise CertificateError(f"certificate gains: {exc}") from None
+    if GAINS_LAW_KEY in g:  # the NNI law's section names no law: any other value is not a certified law
+        raise CertificateError(f"certificate 'gains' names an unknown law {law!r} (known: nni without the key, "
+                               f"{SNI2Gains.controller})")
     missing = [k for k in ("kp", "Gamma", "delta") if k not in g]
     if missing:
         raise CertificateError(f"certificate 'gains' lacks '{missing[0]}'")
@@ -381,7 +413,7 @@ class Certificate:
     vehicle
         The certified vehicle.
     gains
-        The certified gains (equal axes).
+        The certified gains (equal axes): NNI :class:`Gains` or :class:`SNI2Gains`.
     inner_loop
         The inner-loop gains of the ``full`` performance run.
     tilt_limit_deg
@@ -415,7 +447,7 @@ class Certificate:
 
     model: str
     vehicle: Vehicle
-    gains: Gains
+    gains: Gains | SNI2Gains
     inner_loop: InnerLoopGains
     tilt_limit_deg: float
     xi0_m: tuple[float, float]
@@ -450,7 +482,7 @@ class Certificate:
             "schema_version": self.schema_version,
             "model": self.model,
             "vehicle": self.vehicle.as_dict(),
-            "gains": {"kp": self.gains.kp, "Gamma": self.gains.Gamma, "delta": self.gains.delta},
+            "gains": gains_json(self.gains),
             "inner_loop": self.inner_loop.as_dict(),
             "tilt_limit_deg": self.tilt_limit_deg,
             "xi0_m": list(self.xi0_m),
@@ -567,9 +599,17 @@ class Certificate:
     # ------------------------------------------------------------------ derived objects
 
     @property
-    def loop(self) -> ReducedLoop:
-        """The certified reduced loop (vehicle mass and gravity, gains)."""
-        return ReducedLoop.from_vehicle(self.vehicle, self.gains)
+    def loop(self) -> "ReducedLoop | SNI2Loop":
+        """The certified reduced loop (vehicle mass and gravity, gains): :class:`ReducedLoop` (NNI) or
+        :class:`nniquad.analysis.sni_loop.SNI2Loop`."""
+        from nniquad.analysis.sni_loop import reduced_loop
+
+        return reduced_loop(self.vehicle, self.gains)
+
+    @property
+    def controller(self) -> str:
+        """The certified law (``"nni"`` or ``"sni2"``: the type of :attr:`gains`)."""
+        return self.gains.controller
 
     @property
     def certified_reach_m(self) -> float:
@@ -598,8 +638,9 @@ class Certificate:
         return read_certificate(path)
 
     def __repr__(self) -> str:
-        g = self.gains
-        return (f"Certificate(vehicle={self.vehicle.name!r}, kp={g.kp:.6g}, Gamma={g.Gamma:.6g}, delta={g.delta:.6g}, "
+        gains = ", ".join(f"{k}={v:.6g}" for k, v in gains_json(self.gains).items() if k != GAINS_LAW_KEY)
+        law = "" if self.controller == "nni" else f"controller={self.controller!r}, "
+        return (f"Certificate(vehicle={self.vehicle.name!r}, {law}{gains}, "
                 f"model={self.model!r}, reach={self.region_of_attraction.get('max_displacement_m')!r} m, "
                 f"digest={self.signature[:16]}...)")
 

@@ -8,7 +8,7 @@ from typing import Any, Callable, Mapping
 from nniquad.certificates.build import build_certificate
 from nniquad.certificates.certificate import Certificate
 from nniquad.certificates.verify import Verification, verify_certificate
-from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, InnerLoopGains
+from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, InnerLoopGains, SNI2Gains
 from nniquad.errors import CertificateCheckError, CertificateError, NniquadError
 from nniquad.model.vehicle import PAPER_VEHICLE, Vehicle
 
@@ -28,7 +28,8 @@ def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLo
     vehicle
         The vehicle; default the paper's.
     gains
-        Gains to certify (:class:`nniquad.control.gains.Gains`, or a
+        Gains to certify (:class:`nniquad.control.gains.Gains`, the ``sni2`` law's
+        :class:`~nniquad.control.gains.SNI2Gains`, or a
         :class:`~nniquad.control.gains.PDFilteredGains`, certified as its NNI image,
         :func:`nniquad.control.pd_equivalence.nni_from_filtered_pd`); a
         :class:`nniquad.tuning.tune.TuneResult` (its gains and inner loops, and
@@ -98,8 +99,9 @@ def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLo
     if isinstance(gains, PDFilteredGains):  # the filtered PD is the NNI law with these gains
         tuning["certified_as_nni_image_of"] = {"pd_filtered": gains.as_dict()}
         gains = nni_from_filtered_pd(gains, vehicle.m)
-    if not isinstance(gains, Gains):
-        raise NniquadError("gains must be a Gains (kp, Gamma, delta) or a filtered PD (certified as its NNI image)")
+    if not isinstance(gains, (Gains, SNI2Gains)):
+        raise NniquadError("gains must be a Gains (kp, Gamma, delta), an SNI2Gains (kp, k, omega, zeta) or a filtered "
+                           "PD (certified as its NNI image)")
     cert = build_certificate(vehicle, gains, inner=inner, gamma_max=options.gamma_max,
                              tilt_limit_deg=options.tilt_limit_deg, mass_range=options.mass_range,
                              model=options.model, tuning=tuning, progress=progress,
@@ -143,7 +145,7 @@ def unsettled_reference_run(cert: Certificate | Mapping[str, Any]) -> str | None
         horizon = float(run["settings"]["horizon_s"])
         s = run["settling_s"]
         if run.get("diverged"):
-            return f"the {model} reference run diverged"
+            return f"the {model} reference run diverged (the vehicle was lost: it blew up or lost its altitude)"
         if s is None:
             return f"the {model} reference run did not settle within its {horizon:g} s horizon"
         if not settling_shown(s, horizon):

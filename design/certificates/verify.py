@@ -158,7 +158,8 @@ def ni_storage_check(name: str, P: np.ndarray, A: np.ndarray, B: np.ndarray, C: 
 #: Fields that are records, not claims: ``verify`` checks none of them, and they change
 #: no check and nothing ``montecarlo`` simulates (``tests/test_tampering.py`` shows it
 #: for every leaf).  ``tuning.model`` is the exception: it must equal ``model``.
-RECORD_FIELDS: tuple[str, ...] = ("software", "tuning", "vehicle.name", "cascade.box_search")
+RECORD_FIELDS: tuple[str, ...] = ("software", "tuning", "vehicle.name", "cascade.box_search",
+                                  "cascade.region_of_attraction.lure_search")
 
 #: The keys of every schema-1 section (a signed key no check reads would be a claim nobody verifies).
 SECTION_KEYS: dict[str, frozenset[str]] = {k: frozenset(v) for k, v in {
@@ -180,6 +181,9 @@ SECTION_KEYS: dict[str, frozenset[str]] = {k: frozenset(v) for k, v in {
                 "horizontal_pm_ceiling_deg"),
     "law_class": ("name", "theorem"),
 }.items()}
+
+#: The ``sector`` keys of an ``sni2`` certificate (its controller gain bound ``k_max`` in place of ``delta_min``).
+SNI2_SECTOR_KEYS: frozenset[str] = frozenset(("gamma", "gamma_max", "k_max"))
 
 #: Sections a certificate may lack (written before they existed): the layout check skips them when absent.
 OPTIONAL_SECTIONS = ("margins", "law_class")
@@ -355,6 +359,8 @@ def _layout_check(cert: Certificate) -> Check:
     for path, keys in SECTION_KEYS.items():
         if path in OPTIONAL_SECTIONS and getattr(cert, path) is None:
             continue
+        if path == "sector" and cert.controller == "sni2":  # the law's own gain bound: k_max, not delta_min
+            keys = SNI2_SECTOR_KEYS
         node: Any = doc
         for part in path.split("."):
             node = node.get(part) if isinstance(node, Mapping) else None
@@ -445,19 +451,24 @@ def _sector_check(cert: Certificate, tol: Mapping[str, float]) -> Check:
     ok = abs(gamma - gamma_stated) <= tol["sector_relative"] * gamma and 0 < gamma_max < 1 and gamma < 1
     if bound:
         ok = ok and gamma <= gamma_max * (1 + 1e-12)
-    delta_min = loop.sector_delta_min(gamma_max) if 0 < gamma_max < 1 else math.nan
-    ok = ok and _close(sec.get("delta_min"), delta_min, tol["sector_relative"])
+    sni2 = cert.controller == "sni2"
+    key = "k_max" if sni2 else "delta_min"
+    if 0 < gamma_max < 1:
+        limit = loop.sector_k_max(gamma_max) if sni2 else loop.sector_delta_min(gamma_max)
+    else:
+        limit = math.nan
+    ok = ok and _close(sec.get(key), limit, tol["sector_relative"])
     claim = (f"<= gamma_max = {gamma_max:g} < 1 (the paper class's sector bound)" if bound else
              f"< 1 (class {cert.law_class_name}: the sector bound with gamma_max = {gamma_max:g} is not claimed"
              f"{'' if gamma <= gamma_max else '; it does not hold'})")
-    return Check("sector", ok, f"delta m kp gamma >= 1 holds with gamma = {gamma:.6g} (stated "
-                               f"{gamma_stated:.6g}) {claim}; delta_min "
-                               f"{delta_min:.6g} (stated {_f(sec.get('delta_min'))})")
+    what = "the DC loop gain k/(m kp omega^2) is" if sni2 else "delta m kp gamma >= 1 holds with"
+    return Check("sector", ok, f"{what} gamma = {gamma:.6g} (stated {gamma_stated:.6g}) {claim}; {key} "
+                               f"{limit:.6g} (stated {_f(sec.get(key))})")
 
 
 def _poles_check(cert: Certificate) -> Check:
     loop = cert.loop
-    m, kp, d = cert.vehicle.m, cert.gains.kp, cert.gains.delta
+    routh = loop.routh_margin  # m kp delta - 1 (NNI), 1/gamma - 1 (sni2): positive iff the reduced loop is stable
     pd = loop.poles_and_damping()
     margin = cert.stability_margin
     stated_rate = float(margin.get("decay_rate_1_s", math.nan))
@@ -465,13 +476,13 @@ def _poles_check(cert: Certificate) -> Check:
     # every other stated number of the section too: a wrong damping or pole list must not pass
     # (the poles to 1e-8 of the largest: a stated imaginary part of 1e-6 on a real pole is refused)
     stated_poles = np.array(margin.get("poles_1_s", ()), dtype=float)
-    ok = (ok and _close(margin.get("routh_margin"), m * kp * d - 1.0, 1e-12)
+    ok = (ok and _close(margin.get("routh_margin"), routh, 1e-12)
           and _close(margin.get("max_real_part_1_s"), pd.max_real_part, 1e-6)
           and _close(margin.get("min_damping"), pd.min_damping, 1e-6)
           and same_multiset(stated_poles, pd.poles, 1e-8 * float(np.max(np.abs(pd.poles)))))
     return Check("poles", ok, f"max Re = {pd.max_real_part:.6g} 1/s, decay {pd.decay_rate:.6g} 1/s "
                               f"(stated {stated_rate:.6g}), min damping {pd.min_damping:.4g}, "
-                              f"m kp delta - 1 = {m * kp * d - 1:.4g}")
+                              f"Routh margin 1/gamma - 1 = {routh:.4g}")
 
 
 def same_multiset(stated: np.ndarray, computed: np.ndarray, tol: float) -> bool:
@@ -506,15 +517,23 @@ def _ni_checks(cert: Certificate, tol: Mapping[str, float], which: str) -> Check
     P = _array(_part(cert.lmi, which, "lmi"), "P", A.shape, f"lmi.{which}")
     if not np.array_equal(P, P.T):
         return Check(f"lmi.{which}", False, "stored P is not symmetric")
+    if which == "controller_ni":
+        # judged in the controller's normalised coordinates (recomputed from the gains): the state x = T x~ and the
+        # time in units of 1/w.  P > 0 and the dissipation inequality are invariant (a congruence, and M/w), and
+        # there the residual's scale is the system's own: the sni2 controller's B = [0, k] would otherwise dwarf the
+        # storage's terms, and a 1 % edit of P would pass; identity for NNI
+        T, w = loop.controller_normalisation()
+        Ti = np.linalg.inv(T)
+        P, A, B, C = T.T @ P @ T, Ti @ A @ T / w, Ti @ B / w, C @ T
     return ni_storage_check(f"lmi.{which}", P, A, B, C, tol["lmi_relative"])
 
 
 def _closed_loop_check(cert: Certificate, tol: Mapping[str, float]) -> Check:
     part = _part(cert.lmi, "closed_loop", "lmi")
-    P = _array(part, "P", (3, 3), "lmi.closed_loop")
+    A = cert.loop.closed_loop_A_axis()
+    P = _array(part, "P", A.shape, "lmi.closed_loop")
     if not np.array_equal(P, P.T):
         return Check("lmi.closed_loop", False, "stored P is not symmetric")
-    A = cert.loop.closed_loop_A_axis()
     rate = K.certified_rate(A, P)
     bound = K.rate_rounding_bound(A, P, rate)
     stated = float(part.get("decay_rate_1_s", math.nan))
@@ -525,8 +544,9 @@ def _closed_loop_check(cert: Certificate, tol: Mapping[str, float]) -> Check:
 
 def _robust_mass_check(cert: Certificate, tol: Mapping[str, float]) -> Check:
     part = _part(cert.lmi, "robust_mass", "lmi")
-    P0 = _array(part, "P0", (3, 3), "lmi.robust_mass")
-    P1 = _array(part, "P1", (3, 3), "lmi.robust_mass")
+    n = cert.loop.closed_loop_A_axis().shape[0]
+    P0 = _array(part, "P0", (n, n), "lmi.robust_mass")
+    P1 = _array(part, "P1", (n, n), "lmi.robust_mass")
     if not (np.array_equal(P0, P0.T) and np.array_equal(P1, P1.T)):
         return Check("lmi.robust_mass", False, "stored P0 or P1 is not symmetric")
     lo, hi, mn = (float(part.get(k, math.nan)) for k in ("m_lo_kg", "m_hi_kg", "m_nominal_kg"))
@@ -576,12 +596,13 @@ def _cascade_checks(cert: Certificate) -> list[Check]:
     section = _thaw_json(cert.cascade)
     if isinstance(section, dict):
         section.pop("box_search", None)  # a record (RECORD_FIELDS): how the box was found, not what is certified
-    g = cert.gains
+        if isinstance(section.get("region_of_attraction"), dict):
+            section["region_of_attraction"].pop("lure_search", None)  # a record too: how the region was found
     # a pure function of the section and the design: an edit elsewhere in the document does not re-run it
-    rows = _memo("cascade", [section, cert.vehicle.as_dict(), [g.kp, g.Gamma, g.delta], cert.inner_loop.as_dict(),
-                             cert.tilt_limit_deg],
+    rows = _memo("cascade", [section, cert.vehicle.as_dict(), _gains_key(cert), cert.inner_loop.as_dict(),
+                             cert.tilt_limit_deg, list(cert.xi0_m)],
                  lambda: check_cascade_section(section, cert.vehicle, cert.gains, cert.inner_loop,
-                                               tilt_limit_deg=cert.tilt_limit_deg))
+                                               tilt_limit_deg=cert.tilt_limit_deg, xi0_m=cert.xi0_m))
     checks = [Check(f"cascade.{name}", ok, detail) for name, ok, detail in rows]
     return checks or [Check("cascade", False, "the cascade check returned no checks")]
 
@@ -593,21 +614,22 @@ def _thaw_json(value: Any) -> Any:
 
 def _roa_check(cert: Certificate) -> Check:
     part = _part(cert.lmi, "region_of_attraction", "lmi")
-    P = _array(part, "P", (3, 3), "lmi.region_of_attraction")
+    A0, B, Kc = cert.loop.saturation_split()
+    n = A0.shape[0]
+    P = _array(part, "P", (n, n), "lmi.region_of_attraction")
     if not np.array_equal(P, P.T):
         return Check("lmi.region_of_attraction", False, "stored P is not symmetric")
-    Gm = _array(part, "G", (1, 3), "lmi.region_of_attraction")
+    Gm = _array(part, "G", (1, n), "lmi.region_of_attraction")
     T = _array(part, "T", (1, 1), "lmi.region_of_attraction")
     r = float(part.get("max_displacement_m", math.nan))
     u0 = axis_acceleration_limit(cert.vehicle.g, cert.tilt_limit_deg, "norm")
-    A0, B, Kc = cert.loop.saturation_split()
     Acl = A0 + B @ Kc
     dec_rel, dec_bound = K.roa_decrease_margin(Acl, B, P, Gm, T)
     definite, definite_bound = K.definite_margin(P)
     positive = definite > definite_bound
-    W = np.linalg.inv(P) if positive else np.full((3, 3), np.nan)
+    W = np.linalg.inv(P) if positive else np.full((n, n), np.nan)
     incl = K.roa_inclusion_margin(Kc, Gm, W, u0)
-    level = K.ellipsoid_level(P, [r, 0.0, 0.0])
+    level = K.ellipsoid_level(P, r * cert.loop.start_direction())  # the law's start state at the reach
     top = cert.region_of_attraction
     start = cert.start_certified
     consistent = (top.get("max_displacement_m") == r and start == bool(math.hypot(*cert.xi0_m) <= r)
@@ -672,8 +694,7 @@ def _margins_check(cert: Certificate, tol: Mapping[str, float]) -> Check:
     if (stated.get("controller") != "discrete" or stated.get("pade_order") != 2
             or isinstance(stated.get("pade_order"), bool)):
         return Check("margins", False, "margins stated for another sampling model than the one recomputed")
-    g = cert.gains
-    fresh = _memo("margins", [cert.vehicle.as_dict(), [g.kp, g.Gamma, g.delta], cert.inner_loop.as_dict(),
+    fresh = _memo("margins", [cert.vehicle.as_dict(), _gains_key(cert), cert.inner_loop.as_dict(),
                               cert.tilt_limit_deg, gamma_max, rate],
                   lambda: margins_section(cert.vehicle, cert.gains, cert.inner_loop,
                                           tilt_limit_deg=cert.tilt_limit_deg, gamma_max=gamma_max, rate_hz=rate))
@@ -701,7 +722,8 @@ def _margins_check(cert: Certificate, tol: Mapping[str, float]) -> Check:
     # the overall verdict is the conjunction of the stated per-break-point verdicts (each checked above)
     ok = ok and stated.get("meets_requirement") is all(points[n].get("meets_requirement") is True for n in points)
     ok = ok and isinstance(stated.get("required"), Mapping) and dict(stated["required"]) == fresh["required"]
-    ok = ok and _close(stated.get("horizontal_pm_ceiling_deg"), sector_pm_ceiling_deg(gamma_max), 1e-12)
+    ok = ok and _close(stated.get("horizontal_pm_ceiling_deg"), sector_pm_ceiling_deg(gamma_max, cert.controller),
+                       1e-12)
     h, a = fresh["break_points"]["horizontal"], fresh["break_points"]["attitude"]
     detail = (f"horizontal GM +{h['gm_db']}/{h['gm_lower_db']} dB PM {h['pm_deg']} deg; attitude GM +{a['gm_db']}/"
               f"{a['gm_lower_db']} dB PM {a['pm_deg']} deg at {rate:g} Hz; meets GM >= {fresh['required']['gm_db']:g} dB, "
@@ -731,8 +753,7 @@ def _performance_check(cert: Certificate, tol: Mapping[str, float], model: str) 
         met = simulate(cert.vehicle, cert.gains, opts)[0].metrics()
         return {k: getattr(met, k) for k in ("settling_s", "overshoot_pct", "peak_tilt_deg", "diverged")}
 
-    got_all = _memo("simulate", [cert.vehicle.as_dict(), [cert.gains.kp, cert.gains.Gamma, cert.gains.delta],
-                                 opts.to_json()], run)
+    got_all = _memo("simulate", [cert.vehicle.as_dict(), _gains_key(cert), opts.to_json()], run)
     diffs = []
     ok = True
     for key, tkey in (("settling_s", "settling_abs_s"), ("overshoot_pct", "overshoot_abs_pct"),
@@ -748,6 +769,13 @@ def _performance_check(cert: Certificate, tol: Mapping[str, float], model: str) 
     ok &= same
     diffs.append(f"diverged {bool(got_all['diverged'])} (stated {stated.get('diverged')!r})")
     return Check(f"performance.{model}", ok, ", ".join(diffs))
+
+
+def _gains_key(cert: Certificate) -> dict[str, Any]:
+    """The certified law and gains, as the exact inputs of a cached recomputation (:func:`_memo`)."""
+    from nniquad.certificates.certificate import gains_json
+
+    return {"controller": cert.controller, **gains_json(cert.gains)}
 
 
 def _is_num(x: Any) -> bool:

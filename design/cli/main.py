@@ -18,11 +18,21 @@ Exit status, the same for every command (:data:`EXIT_STATUS_HELP`, printed by
          file, an output path that cannot be written, a request too large for
          this machine; nothing is written and no work is started
     3    an internal error (a bug in nniquad); the only case with a traceback
+    4    'montecarlo' only: the study was stopped by a fault of where it ran (a
+         worker or the scheduler died, the cluster made no progress); its
+         finished scenarios are saved, marked partial
     130  interrupted (Ctrl-C); 'montecarlo' keeps its finished batches
+    143  terminated (SIGTERM), handled like Ctrl-C: 'montecarlo' keeps its
+         finished batches, every other command stops cleanly (no traceback,
+         no partial file); see :mod:`nniquad.termination`
 
 Every error ends in one line on stderr, ``nniquad COMMAND: error: ...``.
 Output paths declared by a command (``--json``, ``--out``, ...) are checked
 before its work starts.
+
+A cold start stays cheap: ``nniquad --help`` (or no command) imports no command
+module, and a command process runs with one BLAS thread unless
+``OPENBLAS_NUM_THREADS`` / ``MKL_NUM_THREADS`` is set (:func:`_single_threaded_blas`).
 """
 
 from __future__ import annotations
@@ -36,8 +46,9 @@ import traceback
 from typing import Sequence
 
 from nniquad import __version__
-from nniquad.errors import (EXIT_CHECK_FAILED, EXIT_INTERNAL_ERROR, EXIT_INTERRUPTED, EXIT_OK, EXIT_USER_ERROR,
-                            NniquadError)
+from nniquad.errors import (EXIT_CHECK_FAILED, EXIT_INTERNAL_ERROR, EXIT_INTERRUPTED, EXIT_OK, EXIT_STUDY_FAILED,
+                            EXIT_TERMINATED, EXIT_USER_ERROR, NniquadError, Terminated)
+from nniquad.termination import sigterm_as_interrupt, termination_requested
 
 __all__ = ["main", "COMMANDS", "build_parser", "EXIT_STATUS_HELP"]
 
@@ -46,7 +57,8 @@ EXIT_STATUS_HELP = (
     f"exit status: {EXIT_OK} done (every check passed); {EXIT_CHECK_FAILED} a check failed (verify, a certificate "
     f"digest mismatch, prove --strict); {EXIT_USER_ERROR} user error (bad option, input file or output path, "
     f"request too large; nothing written); {EXIT_INTERNAL_ERROR} internal error (a bug, with traceback); "
-    f"{EXIT_INTERRUPTED} interrupted (Ctrl-C)."
+    f"{EXIT_STUDY_FAILED} montecarlo stopped by a fault of its workers or cluster (finished scenarios saved); "
+    f"{EXIT_INTERRUPTED} interrupted (Ctrl-C); {EXIT_TERMINATED} terminated (SIGTERM, handled like Ctrl-C)."
 )
 
 
@@ -84,7 +96,7 @@ def _available_commands() -> dict[str, tuple[str, str]]:
 
 
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:
-    """Build the argument parser; only ``command``'s module is imported (all when ``None``)."""
+    """Build the argument parser; only ``command``'s module is imported (all when ``None``, none when ``""``)."""
     parser = _Parser(
         prog="nniquad",
         epilog=EXIT_STATUS_HELP,
@@ -114,6 +126,27 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     return parser
 
 
+#: BLAS thread pools capped to one thread in a command-line process (unless the user set them).
+BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def _single_threaded_blas() -> None:
+    """One BLAS thread for this process and its workers, unless the environment says otherwise.
+
+    Every matrix of nniquad is small (at most a few dozen states, in stacks of
+    thousands); a second BLAS thread on one of them only adds synchronisation,
+    which on a loaded 2-core machine costs more than the work (a cold
+    ``verify``'s stacked matrix exponentials took seconds instead of a tenth of
+    one).  The variables are read when numpy loads, so this runs before any
+    command module is imported; in a process that already imported numpy it
+    changes nothing.
+    """
+    if "numpy" in sys.modules:
+        return
+    for var in BLAS_THREAD_VARIABLES:
+        os.environ.setdefault(var, "1")
+
+
 def _one_line(text: object) -> str:
     """A message as one line (a newline in a user's file name must not split it)."""
     return " ".join(str(text).split()) or "(no message)"
@@ -121,10 +154,20 @@ def _one_line(text: object) -> str:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the console script; returns the exit status (see the module docstring)."""
+    _single_threaded_blas()
+    with sigterm_as_interrupt():
+        try:
+            return _main(argv)
+        except Terminated:  # before a command had started
+            print("nniquad: terminated", file=sys.stderr)
+            return EXIT_TERMINATED
+
+
+def _main(argv: Sequence[str] | None) -> int:
     args_list = list(sys.argv[1:] if argv is None else argv)
     command = next((a for a in args_list if not a.startswith("-")), None)
     if command not in COMMANDS:
-        command = None
+        command = ""  # no command (or an unknown one): the sub-command list needs no command module
     parser = build_parser(command)
     args = parser.parse_args(args_list)
     if not getattr(args, "command", None):
@@ -133,8 +176,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     name = f"nniquad {args.command}"
 
     def fail(message: object, code: int = EXIT_USER_ERROR) -> int:
+        if termination_requested():  # the failure is the SIGTERM, told by a library in its own words
+            return terminated()
         print(f"{name}: error: {_one_line(message)}", file=sys.stderr)
         return code
+
+    def terminated() -> int:
+        print(f"{name}: terminated", file=sys.stderr)
+        return EXIT_TERMINATED
 
     try:
         from nniquad.cli.commands.common import check_declared_outputs
@@ -143,7 +192,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return int(args._run(args) or 0)
     except NniquadError as exc:
         return fail(exc, getattr(exc, "exit_code", EXIT_USER_ERROR))
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (Terminated; CasADi makes it a plain KeyboardInterrupt)
+        if isinstance(exc, Terminated) or termination_requested():
+            return terminated()
         print(f"{name}: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     except MemoryError:
@@ -162,6 +213,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
         return fail(f"{where}{exc.strerror or exc}")
     except Exception:  # noqa: BLE001 -- anything else is a bug: say so, with the traceback
+        if termination_requested():
+            return terminated()
         traceback.print_exc()
         return fail("internal error (a bug in nniquad; please report it with the traceback above)",
                     EXIT_INTERNAL_ERROR)

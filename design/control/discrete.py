@@ -1,17 +1,20 @@
-"""The NNI horizontal law in discrete time: a reference implementation and its CasADi step function.
+"""The horizontal law of an NI structure in discrete time: a reference implementation and its CasADi step.
 
 At the control rate ``f_s = 1/T`` the position ``ξ_k`` (both axes) is sampled
-and the law runs once per sample (exact ZOH equivalent of
-``C(s) = Γ/(s + Γδ)``, :mod:`nniquad.analysis.sampled`):
+and the law runs once per sample (exact ZOH equivalent of its SNI controller,
+:mod:`nniquad.analysis.sampled`).  The NNI law, ``C(s) = Γ/(s + Γδ)``:
 
 .. math:: z_{k+1} = a z_k + b \\xi_k,\\quad a = e^{-\\Gamma\\delta T},\\ b = (1 - a)/\\delta,
           \\qquad a_k = -k_p \\xi_k + z_k/\\hat m,
 
-per axis (``k_p^x``, ``k_p^y``), and the command ``a_k`` is held until the next
-sample.  The output stage is the simulator's (:mod:`nniquad.control.inner_loops`):
-the norm limit ``‖a‖ <= g_z tan(T_lim)`` with ``g_z = max(g - a_z, 0.2 g)``
-(``a_z`` the altitude loop's vertical command, NED) and the tilt setpoints
-``φ_d, θ_d`` at yaw ``ψ``.  The controller state integrates the measurement
+per axis (``k_p^x``, ``k_p^y``).  The ``sni2`` law (:mod:`nniquad.control.sni`) has the
+state ``(z, z')`` per axis, ordered ``(z_x, z_y, z'_x, z'_y)`` as in the simulator, and
+its ZOH matrices come from ``scipy.linalg.expm`` (:func:`nniquad.analysis.sampled.zoh`),
+independently of the closed form the simulator uses; ``a_k = -k_p ξ_k + z_k/m̂`` again.
+The command ``a_k`` is held until the next sample.  The output stage is the simulator's
+(:mod:`nniquad.control.inner_loops`): the norm limit ``‖a‖ <= g_z tan(T_lim)`` with
+``g_z = max(g - a_z, 0.2 g)`` (``a_z`` the altitude loop's vertical command, NED) and the
+tilt setpoints ``φ_d, θ_d`` at yaw ``ψ``.  The controller state integrates the measurement
 whatever the limit does (as in the simulator).
 
 :class:`DiscreteNNI` holds the matrices and steps in numpy (the reference);
@@ -29,18 +32,25 @@ import casadi as ca
 import numpy as np
 
 from nniquad.control import inner_loops as IL
-from nniquad.control.gains import Gains
+from nniquad.control.gains import Gains, SNI2Gains
 from nniquad.errors import GainError
 
-__all__ = ["DiscreteNNI", "STEP_INPUTS", "STEP_OUTPUTS"]
+__all__ = ["DiscreteNNI", "STEP_INPUTS", "STEP_OUTPUTS", "step_inputs"]
 
-#: Inputs of one step: (name, size, unit, meaning).
-STEP_INPUTS: tuple[tuple[str, int, str, str], ...] = (
-    ("z", 2, "N", "controller state z_k (x, y), zero at start-up"),
-    ("xi", 2, "m", "measured horizontal position xi_k (north, east) relative to the setpoint"),
-    ("psi", 1, "rad", "measured yaw angle"),
-    ("a_z", 1, "m/s^2", "vertical acceleration command of the altitude loop (NED, 0 at hover)"),
-)
+
+def step_inputs(n_state: int = 2, unit: str = "N") -> tuple[tuple[str, int, str, str], ...]:
+    """Inputs of one step: (name, size, unit, meaning); the controller state has ``n_state`` entries."""
+    what = "z_k (x, y)" if n_state == 2 else "(z_x, z_y, z'_x, z'_y)_k"
+    return (
+        ("z", n_state, unit, f"controller state {what}, zero at start-up"),
+        ("xi", 2, "m", "measured horizontal position xi_k (north, east) relative to the setpoint"),
+        ("psi", 1, "rad", "measured yaw angle"),
+        ("a_z", 1, "m/s^2", "vertical acceleration command of the altitude loop (NED, 0 at hover)"),
+    )
+
+
+#: Inputs of one step of the NNI law: (name, size, unit, meaning).
+STEP_INPUTS: tuple[tuple[str, int, str, str], ...] = step_inputs()
 #: Outputs of one step.
 STEP_OUTPUTS: tuple[tuple[str, int, str, str], ...] = (
     ("z_next", 2, "N", "controller state z_{k+1}"),
@@ -51,18 +61,24 @@ STEP_OUTPUTS: tuple[tuple[str, int, str, str], ...] = (
 
 @dataclass(frozen=True)
 class DiscreteNNI:
-    """The discrete-time NNI controller of both axes, ``z_{k+1} = A z_k + B ξ_k``, ``a_k = C z_k + D ξ_k``.
+    """The discrete-time controller of an NI law, both axes: ``z_{k+1} = A z_k + B ξ_k``, ``a_k = C z_k + D ξ_k``.
 
     Attributes
     ----------
-    A, B, C, D : ndarray (2, 2)
-        State-space matrices (state z [N], input ξ [m], output a_h [m/s²]).
+    A, B, C, D : ndarray
+        State-space matrices (state z [N] (and z' [N/s] for ``sni2``), input ξ [m], output a_h [m/s²]);
+        ``A`` is ``(n, n)`` with ``n = 2`` (NNI) or 4 (``sni2``).
     T
         Sample period [s].
     g
         Gravity the controller assumes [m/s²].
     tilt_limit_rad
         Tilt limit [rad].
+    law
+        ``"nni"`` or ``"sni2"``.
+    S : ndarray (n, 2), optional
+        Start map: the state at take-over is ``z_0 = S ξ_0`` (:meth:`start`); ``None``: zero (the NNI law).
+        ``sni2``: at rest at the DC value, ``S = [C(0) I; 0]`` (:func:`nniquad.control.sni.start_state`).
     """
 
     A: np.ndarray
@@ -72,15 +88,19 @@ class DiscreteNNI:
     T: float
     g: float
     tilt_limit_rad: float
+    law: str = "nni"
+    S: np.ndarray | None = None
 
     @classmethod
-    def from_gains(cls, gains: Gains, m_nom: float, g: float, rate_hz: float, tilt_limit_deg: float) -> "DiscreteNNI":
-        """Exact ZOH discretisation at ``rate_hz`` (closed form of the module docstring).
+    def from_gains(cls, gains: Gains | SNI2Gains, m_nom: float, g: float, rate_hz: float,
+                   tilt_limit_deg: float) -> "DiscreteNNI":
+        """Exact ZOH discretisation at ``rate_hz`` (NNI: the closed form of the module docstring; ``sni2``:
+        ``scipy.linalg.expm``).
 
         Raises
         ------
         GainError
-            Non-positive or non-finite rate, mass, gravity or tilt limit.
+            Non-positive or non-finite rate, mass, gravity or tilt limit, or a law without this structure.
         """
         for name, v in (("rate", rate_hz), ("nominal mass", m_nom), ("gravity", g)):
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
@@ -88,6 +108,19 @@ class DiscreteNNI:
         if not (isinstance(tilt_limit_deg, (int, float)) and 0 < tilt_limit_deg < 90):
             raise GainError(f"tilt limit must be in (0, 90) deg, got {tilt_limit_deg!r}")
         T = 1.0 / float(rate_hz)
+        if isinstance(gains, SNI2Gains):
+            from nniquad.analysis.sampled import zoh
+            from nniquad.control.sni import controller_matrices, start_state
+
+            A_c, B_c, C_c, _ = controller_matrices(gains.k, gains.omega, gains.zeta)
+            Ad, Bd = zoh(A_c, B_c, T)
+            # state (z_x, z_y, z'_x, z'_y): entry (i, j) of the per-axis matrix acts on both axes alike
+            I2 = np.eye(2)
+            S = np.array([start_state(gains.k, gains.omega, col) for col in I2]).T  # columns: unit positions
+            return cls(A=np.kron(Ad, I2), B=np.kron(Bd, I2), C=np.kron(C_c, I2) / m_nom, D=-gains.kp * I2, T=T,
+                       g=float(g), tilt_limit_rad=math.radians(tilt_limit_deg), law="sni2", S=S)
+        if not isinstance(gains, Gains):
+            raise GainError(f"no discrete NI controller for a {type(gains).__name__} gain block")
         a = math.exp(-gains.Gamma * gains.delta * T)
         b = -math.expm1(-gains.Gamma * gains.delta * T) / gains.delta
         kp = np.diag(gains.axes())
@@ -97,6 +130,34 @@ class DiscreteNNI:
     @property
     def rate_hz(self) -> float:
         return 1.0 / self.T
+
+    @property
+    def n_state(self) -> int:
+        """Number of controller states (both axes)."""
+        return self.A.shape[0]
+
+    def start(self, xi0: np.ndarray) -> np.ndarray:
+        """The controller state at take-over for the first measured position ``ξ_0`` (zero for the NNI law)."""
+        if self.S is None:
+            return np.zeros(self.n_state)
+        return self.S @ np.asarray(xi0, float)
+
+    def casadi_start(self, name: str = "nniquad_nni_start") -> ca.Function:
+        """:meth:`start` as a CasADi function ``xi[2] -> z0[n]`` (``nniquad export`` writes it beside the step)."""
+        xi = ca.SX.sym("xi", 2)
+        S = np.zeros((self.n_state, 2)) if self.S is None else self.S
+        return ca.Function(name, [xi], [ca.mtimes(ca.DM(S), xi)], ["xi"], ["z0"])
+
+    @property
+    def step_inputs(self) -> tuple[tuple[str, int, str, str], ...]:
+        """Inputs of one step (:func:`step_inputs` with this controller's state size)."""
+        return step_inputs(self.n_state, "N" if self.law == "nni" else "N, N/s")
+
+    @property
+    def step_outputs(self) -> tuple[tuple[str, int, str, str], ...]:
+        """Outputs of one step (:data:`STEP_OUTPUTS` with this controller's state size)."""
+        z_next = ("z_next", self.n_state, STEP_OUTPUTS[0][2] if self.law == "nni" else "N, N/s", STEP_OUTPUTS[0][3])
+        return (z_next,) + STEP_OUTPUTS[1:]
 
     # ------------------------------------------------------------------ numpy reference
     def step(self, z: np.ndarray, xi: np.ndarray, psi: float = 0.0, a_z: float = 0.0
@@ -117,19 +178,20 @@ class DiscreteNNI:
 
     def run(self, xi: np.ndarray, psi: np.ndarray | None = None, a_z: np.ndarray | None = None,
             z0: np.ndarray | None = None) -> dict[str, np.ndarray]:
-        """Step through a recorded measurement sequence ``xi`` of shape ``(N, 2)``.
+        """Step through a recorded measurement sequence ``xi`` of shape ``(N, 2)``, from ``z0`` (default:
+        :meth:`start` of the first measurement).
 
         Returns
         -------
         dict
-            ``z`` (N+1, 2), ``a_h`` (N, 2), ``tilt_sp`` (N, 2).
+            ``z`` (N+1, n), ``a_h`` (N, 2), ``tilt_sp`` (N, 2).
         """
         xi = np.asarray(xi, float)
         n = xi.shape[0]
         psi = np.zeros(n) if psi is None else np.asarray(psi, float)
         a_z = np.zeros(n) if a_z is None else np.asarray(a_z, float)
-        z = np.zeros((n + 1, 2))
-        z[0] = 0.0 if z0 is None else z0
+        z = np.zeros((n + 1, self.n_state))
+        z[0] = (self.start(xi[0]) if n else 0.0) if z0 is None else z0
         ah, sp = np.zeros((n, 2)), np.zeros((n, 2))
         for k in range(n):
             z[k + 1], ah[k], sp[k] = self.step(z[k], xi[k], psi[k], a_z[k])
@@ -137,32 +199,45 @@ class DiscreteNNI:
 
     # ------------------------------------------------------------------ CasADi / C
     def casadi_step(self, name: str = "nniquad_nni_step") -> ca.Function:
-        """The step as a CasADi function (inputs :data:`STEP_INPUTS`, outputs :data:`STEP_OUTPUTS`).
+        """The step as a CasADi function (inputs :attr:`step_inputs`, outputs :attr:`step_outputs`).
 
         Built from the same matrices and the simulator's own output stage
         (:func:`nniquad.control.inner_loops.limit_norm`, :func:`~nniquad.control.inner_loops.tilt_setpoints`).
         """
-        z, xi, psi, a_z = (ca.SX.sym(n, k) for n, k, _, _ in STEP_INPUTS)
+        z, xi, psi, a_z = (ca.SX.sym(n, k) for n, k, _, _ in self.step_inputs)
         a = ca.mtimes(ca.DM(self.C), z) + ca.mtimes(ca.DM(self.D), xi)
         g_z = ca.fmax(self.g - a_z, IL.G_Z_MIN_FRACTION * self.g)
         a = IL.limit_norm(a, g_z * math.tan(self.tilt_limit_rad))
         phi_d, theta_d, _ = IL.tilt_setpoints(a, g_z, psi)
         z_next = ca.mtimes(ca.DM(self.A), z) + ca.mtimes(ca.DM(self.B), xi)
         return ca.Function(name, [z, xi, psi, a_z], [z_next, a, ca.vertcat(phi_d, theta_d)],
-                           [n for n, *_ in STEP_INPUTS], [n for n, *_ in STEP_OUTPUTS])
+                           [n for n, *_ in self.step_inputs], [n for n, *_ in self.step_outputs])
 
     def to_json(self) -> dict[str, Any]:
         """Matrices with units and the discretisation, for a flight stack."""
+        if self.law == "sni2":
+            law = {"discretisation": "exact zero-order hold of C(s) = k/(s^2 + 2 zeta omega s + omega^2), realised "
+                                     "per axis as (z, z')' = [[0, 1], [-omega^2, -2 zeta omega]] (z, z') + [0, k] xi "
+                                     "(scipy.linalg.expm); state order (z_x, z_y, z'_x, z'_y)",
+                   "units": {"state z": "N", "state z'": "N/s", "input xi": "m", "output a_h": "m/s^2",
+                             "A": "- (z rows/columns), 1/s or s across", "B": "N/m (z), N/(m s) (z')",
+                             "C": "1/kg", "D": "1/s^2"},
+                   "state_names": ["z_x", "z_y", "zdot_x", "zdot_y"]}
+        else:
+            law = {"discretisation": "exact zero-order hold of C(s) = Gamma/(s + Gamma delta): "
+                                     "A = exp(-Gamma delta T) I, B = (1 - exp(-Gamma delta T))/delta I",
+                   "units": {"state z": "N", "input xi": "m", "output a_h": "m/s^2",
+                             "A": "-", "B": "N/m", "C": "1/kg", "D": "1/s^2"},
+                   "state_names": ["z_x", "z_y"]}
         return {
+            "law": self.law,
             "form": "z[k+1] = A z[k] + B xi[k];  a_h[k] = C z[k] + D xi[k]  (then the tilt limit)",
-            "discretisation": "exact zero-order hold of C(s) = Gamma/(s + Gamma delta): "
-                              "A = exp(-Gamma delta T) I, B = (1 - exp(-Gamma delta T))/delta I",
+            "discretisation": law["discretisation"],
             "sample_period_s": self.T,
             "rate_hz": self.rate_hz,
             "A": self.A.tolist(), "B": self.B.tolist(), "C": self.C.tolist(), "D": self.D.tolist(),
-            "units": {"state z": "N", "input xi": "m", "output a_h": "m/s^2",
-                      "A": "-", "B": "N/m", "C": "1/kg", "D": "1/s^2"},
-            "state_names": ["z_x", "z_y"], "input_names": ["xi_x", "xi_y"], "output_names": ["a_x", "a_y"],
+            "units": law["units"],
+            "state_names": law["state_names"], "input_names": ["xi_x", "xi_y"], "output_names": ["a_x", "a_y"],
             "g_m_s2": self.g,
             "tilt_limit_deg": math.degrees(self.tilt_limit_rad),
             "output_stage": "a_h scaled to norm <= g_z tan(tilt_limit), g_z = max(g - a_z, "

@@ -2,7 +2,7 @@
 
 Each block validates its numbers on construction (a one-line error naming the
 gain).  Each horizontal-controller block names its law in the class attribute
-``controller`` (``"nni"``, ``"pd_velocity"``, ``"pd_filtered"``): the simulator
+``controller`` (``"nni"``, ``"pd_velocity"``, ``"pd_filtered"``, ``"sni2"``): the simulator
 reads the law from the block's type, and the gain part of its parameter vector
 from the block's fields (units in each field's ``metadata``,
 :func:`field_unit`).
@@ -20,12 +20,15 @@ from nniquad.validate import finite_number
 __all__ = [
     "positive_gain",
     "field_unit",
+    "gains_text",
     "Gains",
     "PAPER_GAINS",
     "PDGains",
     "PDFilteredGains",
+    "SNI2Gains",
     "ControllerGains",
     "CONTROLLER_GAINS",
+    "NI_LAWS",
     "DEFAULT_TAU_F_S",
     "InnerLoopGains",
     "DEFAULT_INNER_LOOP_GAINS",
@@ -220,15 +223,66 @@ class PDFilteredGains(_PlainBlock):
         return PDFilteredGains(self.kp * lam**2, self.kd * lam, self.tau_f / lam)
 
 
+@dataclass(frozen=True)
+class SNI2Gains(_PlainBlock):
+    """The NNI structure with a second-order strictly negative-imaginary controller (``controller = "sni2"``).
+
+    Per axis ``a_h = -k_p ξ_m + z/m̂`` with ``z = C(s) ξ_m``, ``C(s) = k/(s² + 2ζω s + ω²)``
+    (:mod:`nniquad.control.sni`: the realisation, the DC condition ``k/(m̂ k_p ω²) < 1`` and the exact
+    ZOH).  Velocity-free, like the NNI law; two controller states per axis.
+
+    Attributes
+    ----------
+    kp
+        Inner-loop proportional gain [1/s²] (both axes).
+    k
+        Gain of ``C(s)`` [N/(m s²)] (``C(0) = k/ω²`` N/m).
+    omega
+        Natural frequency ω of ``C(s)`` [rad/s].
+    zeta
+        Damping ratio ζ of ``C(s)`` (> 0: strictly negative imaginary).
+    """
+
+    controller: ClassVar[str] = "sni2"
+
+    kp: float = _f("1/s^2", "inner-loop gain")
+    k: float = _f("N/(m s^2)", "gain of the SNI controller C(s) = k/(s^2 + 2 zeta omega s + omega^2)")
+    omega: float = _f("rad/s", "natural frequency of C(s)")
+    zeta: float = _f("-", "damping ratio of C(s)")
+
+    def axes(self) -> tuple[float, float]:
+        """``(kpx, kpy)``: one gain for both axes."""
+        return self.kp, self.kp
+
+    def dc_loop_gain(self, m_hat: float) -> float:
+        """``k/(m̂ k_p ω²)``, the DC loop gain γ of the NI theorem (:func:`nniquad.control.sni.dc_loop_gain`)."""
+        from nniquad.control.sni import dc_loop_gain
+
+        return dc_loop_gain(m_hat, self.kp, self.k, self.omega)
+
+    def time_scaled(self, factor: float) -> "SNI2Gains":
+        """The same loop ``factor`` times faster: ``k_p λ², k λ⁴, ω λ``, ζ unchanged (``z_λ(t) = λ² z(λ t)``).
+
+        The DC loop gain ``k/(m k_p ω²)`` is unchanged.
+
+        Parameters
+        ----------
+        factor
+            Speed-up λ > 0.
+        """
+        lam = positive_gain("time-scale factor", factor)
+        return SNI2Gains(self.kp * lam**2, self.k * lam**4, self.omega * lam, self.zeta)
+
+
 #: Any horizontal-controller gain block.
-ControllerGains = Union[Gains, PDGains, PDFilteredGains]
+ControllerGains = Union[Gains, PDGains, PDFilteredGains, SNI2Gains]
 
 
 def wind_equilibrium_m(gains: ControllerGains, m_hat: float, wind_N: tuple[float, float]) -> tuple[float, float]:
     """Static position under a constant horizontal force, ``F / k`` per axis (origin where ``k <= 0``).
 
     The static stiffness ``k`` is ``m̂ k_p − 1/δ`` for the NNI law (its state settles
-    at ``z = ξ/δ``) and ``m̂ k_p`` for the PD laws (the derivative term vanishes at rest).
+    at ``z = ξ/δ``), ``m̂ k_p − k/ω²`` for the ``sni2`` law (``z = C(0) ξ``) and ``m̂ k_p`` for the PD laws (the derivative term vanishes at rest).
 
     Parameters
     ----------
@@ -241,12 +295,42 @@ def wind_equilibrium_m(gains: ControllerGains, m_hat: float, wind_N: tuple[float
     """
     if isinstance(gains, Gains):
         stiffness = [m_hat * kp - 1.0 / gains.delta for kp in (gains.kp, gains.kp_y)]
+    elif isinstance(gains, SNI2Gains):  # z settles at C(0) ξ = (k/ω²) ξ
+        stiffness = [m_hat * gains.kp - gains.k / gains.omega**2] * 2
     else:
         stiffness = [m_hat * gains.kp] * 2
     x, y = (f / k if k > 0 else 0.0 for f, k in zip(wind_N, stiffness))
     return (x, y)
+_GREEK = {"Gamma": "Γ", "delta": "δ", "omega": "ω", "zeta": "ζ", "tau_f": "τ_f"}
+
+
+def gains_text(gains: ControllerGains, *, sep: str = " ", greek: bool = False, number: Any = None) -> str:
+    """One line of a gain block's numbers, ``name=value``, for messages, tables and figure titles.
+
+    Parameters
+    ----------
+    gains
+        Any horizontal-controller gain block.
+    sep
+        Separator of the entries.
+    greek
+        Greek letters for the names (``Γ, δ, ω, ζ, τ_f``), and the NNI law's ``kpy`` left out when it is ``kp``
+        (figure titles).
+    number
+        Formats a value (default ``format(v, "g")``).
+    """
+    fmt_ = number or (lambda v: f"{v:g}")
+    items = gains.as_dict()
+    if greek and items.get("kpy") == items.get("kp"):
+        items = {k: v for k, v in items.items() if k != "kpy"}
+    return sep.join(f"{_GREEK.get(k, k) if greek else k}={fmt_(v)}" for k, v in items.items() if v is not None)
+
+
 #: The gain block of each controller law, by name.
-CONTROLLER_GAINS: dict[str, type] = {cls.controller: cls for cls in (Gains, PDGains, PDFilteredGains)}
+CONTROLLER_GAINS: dict[str, type] = {cls.controller: cls for cls in (Gains, PDGains, PDFilteredGains, SNI2Gains)}
+#: The laws of the NNI structure (a proportional inner loop and an SNI controller in positive feedback):
+#: their closed loop has the NI certificates, the sector (DC) condition and the cascade certificate.
+NI_LAWS: tuple[str, ...] = ("nni", "sni2")
 
 
 @dataclass(frozen=True)

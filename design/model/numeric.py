@@ -8,19 +8,26 @@ a named :class:`casadi.Function`, or onto numpy.
 Vehicle parameters are an *input* of every generated function (vector ``p`` in
 the order of :attr:`nniquad.model.symbolic.Symbols.params`), so one compiled function
 serves every vehicle, including the perturbed vehicles of a Monte Carlo study.
+
+sympy is imported only when a function is generated: the CasADi functions are
+kept between processes by :mod:`nniquad.codecache`, so a process that finds
+them there never imports it.
 """
 
 from __future__ import annotations
 
 from functools import lru_cache
-from typing import Callable, Mapping, Sequence
+from typing import TYPE_CHECKING, Callable, Mapping, Sequence
 
 import casadi as ca
 import numpy as np
-import sympy as sp
 
-from nniquad.model import symbolic as S
+from nniquad.codecache import cached_casadi_function
+from nniquad.model.layout import PARAM_NAMES
 from nniquad.model.vehicle import Vehicle
+
+if TYPE_CHECKING:
+    import sympy as sp
 
 __all__ = [
     "PARAM_NAMES",
@@ -35,8 +42,6 @@ __all__ = [
     "rotation_function",
 ]
 
-#: Names of the entries of the parameter vector ``p`` (vehicle field names).
-PARAM_NAMES: tuple[str, ...] = ("m", "g", "Jx", "Jy", "Jz", "Jr", "l", "b", "d")
 
 _CASADI_MODULE = {
     "sin": ca.sin, "cos": ca.cos, "tan": ca.tan, "sqrt": ca.sqrt, "exp": ca.exp, "log": ca.log,
@@ -51,6 +56,8 @@ def param_vector(vehicle: Vehicle) -> np.ndarray:
 
 
 def _flatten(outputs: Mapping[str, sp.Matrix | sp.Expr]) -> list[list[sp.Expr]]:
+    import sympy as sp
+
     return [list(sp.Matrix([e]) if not isinstance(e, sp.MatrixBase) else e) for e in outputs.values()]
 
 
@@ -70,6 +77,8 @@ def casadi_function(
     outputs
         Output name -> expression or matrix (matrices keep their shape).
     """
+    import sympy as sp
+
     sx_in = {key: ca.SX.sym(key, len(syms)) for key, syms in inputs.items()}
     flat_syms = [sym for syms in inputs.values() for sym in syms]
     flat_args = [sx_in[key][i] for key, syms in inputs.items() for i in range(len(syms))]
@@ -90,15 +99,19 @@ def numpy_function(
     output: sp.Matrix | sp.Expr,
 ) -> Callable[..., np.ndarray]:
     """Turn a sympy expression or matrix into a numpy function of the given symbols (with CSE)."""
+    import sympy as sp
+
     return sp.lambdify(list(inputs), output, modules="numpy", cse=True)
 
 
 def _dynamics_inputs() -> dict[str, tuple[sp.Symbol, ...]]:
+    from nniquad.model import symbolic as S
+
     s = S.symbols()
     return {"x": s.state, "u": (s.u1,) + s.tau, "Omega_r": (s.Omega_r,), "p": s.params}
 
 
-@lru_cache(maxsize=None)
+@cached_casadi_function
 def dynamics_function(variant: str = "exact") -> ca.Function:
     """CasADi function ``f(x[12], u[4], Omega_r, p[9]) -> xdot[12]`` of the 12-state model (NED).
 
@@ -107,6 +120,8 @@ def dynamics_function(variant: str = "exact") -> ca.Function:
     :func:`nniquad.model.symbolic.full_dynamics` (``"exact"`` or ``"paper"``), or
     ``"paper-printed"`` for the paper's eq. (full_dynamics) as printed.
     """
+    from nniquad.model import symbolic as S
+
     f = S.paper_full_dynamics() if variant == "paper-printed" else S.full_dynamics(variant)
     return casadi_function(f"quadrotor_{variant.replace('-', '_')}", _dynamics_inputs(), {"xdot": f})
 
@@ -114,6 +129,8 @@ def dynamics_function(variant: str = "exact") -> ca.Function:
 @lru_cache(maxsize=None)
 def dynamics_numpy(variant: str = "exact") -> Callable[..., np.ndarray]:
     """Numpy version of :func:`dynamics_function`: ``f(x, u, Omega_r, p) -> xdot`` (1-D arrays)."""
+    from nniquad.model import symbolic as S
+
     f = S.paper_full_dynamics() if variant == "paper-printed" else S.full_dynamics(variant)
     s = S.symbols()
     raw = numpy_function(list(s.state) + [s.u1, *s.tau, s.Omega_r, *s.params], f)
@@ -125,9 +142,13 @@ def dynamics_numpy(variant: str = "exact") -> Callable[..., np.ndarray]:
     return evaluate
 
 
-@lru_cache(maxsize=None)
+@cached_casadi_function
 def mixer_function() -> ca.Function:
     """CasADi ``mixer(w[4], p) -> (u[4], Omega_r)``: rotor speeds [rad/s] to thrust/torques."""
+    import sympy as sp
+
+    from nniquad.model import symbolic as S
+
     s = S.symbols()
     A = S.mixer_matrix()
     w2 = sp.Matrix([w**2 for w in s.rotor])
@@ -138,12 +159,14 @@ def mixer_function() -> ca.Function:
     )
 
 
-@lru_cache(maxsize=None)
+@cached_casadi_function
 def reaction_torque_function() -> ca.Function:
     """CasADi ``reaction(w_dot[4], p) -> tau[3]``: body torque [N m] of the rotor spin-up.
 
     :func:`nniquad.model.symbolic.rotor_reaction_torque`, ``-Jr dOmega_r/dt e3_B``.
     """
+    from nniquad.model import symbolic as S
+
     s = S.symbols()
     return casadi_function(
         "rotor_reaction",
@@ -154,6 +177,8 @@ def reaction_torque_function() -> ca.Function:
 
 @lru_cache(maxsize=None)
 def _mixer_matrix_numpy() -> Callable[..., np.ndarray]:
+    from nniquad.model import symbolic as S
+
     s = S.symbols()
     return numpy_function(list(s.params), S.mixer_matrix())
 
@@ -163,9 +188,11 @@ def mixer_numpy(vehicle: Vehicle) -> np.ndarray:
     return np.asarray(_mixer_matrix_numpy()(*param_vector(vehicle)), dtype=float)
 
 
-@lru_cache(maxsize=None)
+@cached_casadi_function
 def rotation_function() -> ca.Function:
     """CasADi ``rotation(eta[3]) -> (R[3x3], W[3x3])``."""
+    from nniquad.model import symbolic as S
+
     s = S.symbols()
     return casadi_function(
         "rotation",

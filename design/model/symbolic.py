@@ -46,6 +46,8 @@ from typing import Sequence
 
 import sympy as sp
 
+from nniquad.model.layout import STATE_ORDER
+
 __all__ = [
     "Symbols",
     "symbols",
@@ -73,11 +75,6 @@ __all__ = [
     "STATE_ORDER",
 ]
 
-#: The paper's state order x = [x, x', y, y', z, z', phi, phi', theta, theta', psi, psi'].
-STATE_ORDER: tuple[str, ...] = (
-    "x", "x_dot", "y", "y_dot", "z", "z_dot",
-    "phi", "phi_dot", "theta", "theta_dot", "psi", "psi_dot",
-)
 
 
 @dataclass(frozen=True)

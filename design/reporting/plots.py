@@ -17,6 +17,7 @@ import numpy as np
 from nniquad.io import atomic_write_with
 
 from nniquad.config import BAND_FRACTION
+from nniquad.control.gains import gains_text
 
 if TYPE_CHECKING:  # pragma: no cover
     from nniquad.sim.results import SimulationResult, Trajectory
@@ -61,7 +62,7 @@ def trajectory_plot(traj: "Trajectory", path: str | os.PathLike[str]) -> Path:
     fig = _figure(figsize=(9, 2.3 * n + 0.6))
     axes = fig.subplots(n, 1, sharex=True)
     g = traj.gains
-    fig.suptitle(f"{traj.model} model, kp={g.kp:g}, Γ={g.Gamma:g}, δ={g.delta:g}")
+    fig.suptitle(f"{traj.model} model, {gains_text(g, sep=', ', greek=True)}")
     ax = axes[0]
     ax.plot(traj.t, traj.xy[:, 0], label="x (north)")
     ax.plot(traj.t, traj.xy[:, 1], label="y (east)")
@@ -189,7 +190,7 @@ def paper_figure(
         ax.axhline(0, color="k", lw=0.4)
     xi0 = first.xy[0]
     fig.suptitle(title or (f"Horizontal position from ξ_h(0) = ({xi0[0]:g}, {xi0[1]:g}) m, "
-                           f"kp = {g.kp:g}, Γ = {g.Gamma:g}, δ = {g.delta:g}"))
+                           + gains_text(g, sep=", ", greek=True).replace("=", " = ")))
     fig.tight_layout()
     return _save(fig, path)
 

@@ -170,7 +170,7 @@ def _build(vehicle: Vehicle, options: ReportOptions, tune_opts: Any, out: Path, 
     from nniquad.certificates import build_certificate, certificate_gains, certificate_inner_loop, verify_certificate, write_certificate
     from nniquad.errors import CertificateCheckError
     from nniquad.analysis.linear import ReducedLoop
-    from nniquad.control.gains import PAPER_GAINS
+    from nniquad.control.gains import PAPER_GAINS, gains_text
     from nniquad.sim import SimOptions, paper_figure_runs
     from nniquad.tuning.tune import tune
 
@@ -230,7 +230,7 @@ def _build(vehicle: Vehicle, options: ReportOptions, tune_opts: Any, out: Path, 
     cert_runs = paper_figure_runs(vehicle, gains, horizon_s=cert_horizon,
                                   options=SimOptions(inner=certificate_inner_loop(cert), motor_lag=True))
     written.append(plots.paper_figure(cert_runs, out / "certified_gains.png",
-                                      title=f"Certified gains (kp={fmt(gains.kp)}, Γ={fmt(gains.Gamma)}, δ={fmt(gains.delta)})",
+                                      title=f"Certified gains ({gains_text(gains, sep=', ', greek=True, number=fmt)})",
                                       zoom_s=min(10.0, cert_horizon)))
     cert_rows = _model_rows(cert_runs)
 

@@ -13,6 +13,8 @@ Modules
     C code generation and the compiled-function disk cache.
 :mod:`~nniquad.sim.runner`
     :func:`simulate` and the batched runner.
+:mod:`~nniquad.sim.step`
+    The RK4 step check every run meets (:func:`~nniquad.sim.step.check_step`).
 :mod:`~nniquad.sim.results`
     :class:`SimulationResult` (many runs, named signals, metrics, plot) and
     :class:`Trajectory` (one run).
@@ -21,8 +23,8 @@ Modules
 from nniquad.sim.codegen import cache_dir, compile_status
 from nniquad.sim.models import output_function, rhs_function, step_function, vehicle_dynamics
 from nniquad.sim.options import CONTROLLER_SAMPLING, MODELS, SimOptions, check_rate_hz
-from nniquad.sim.params import (CONTROLLERS, EXO_FIELDS, OUTPUT_NAMES, STATE_NAMES, ParamField, RunSettings,
-                                SimParams, VehicleParams, n_params, param_layout, to_gains)
+from nniquad.sim.params import (CONTROLLER_STATES, CONTROLLERS, EXO_FIELDS, OUTPUT_NAMES, STATE_NAMES, ParamField,
+                                RunSettings, SimParams, VehicleParams, n_params, param_layout, state_names, to_gains)
 from nniquad.sim.results import SimulationResult, Trajectory
 from nniquad.sim.runner import (PAPER_FIGURE_HORIZON_S, exogenous_inputs, initial_state, paper_figure_runs,
                                 run_batch, simulate)
@@ -44,6 +46,8 @@ __all__ = [
     "check_rate_hz",
     "CONTROLLERS",
     "STATE_NAMES",
+    "CONTROLLER_STATES",
+    "state_names",
     "OUTPUT_NAMES",
     "EXO_FIELDS",
     "paper_figure_runs",

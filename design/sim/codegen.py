@@ -2,9 +2,11 @@
 
 A function is generated to C, compiled with ``$CC`` (default gcc) and loaded
 with ``casadi.external``; the shared object is cached in :func:`cache_dir`
-under a name that holds the hash of the source, the compiler, its flags and
-the CasADi version, so a changed model (or parameter layout) compiles anew
-and an unchanged one loads in milliseconds.  Without a compiler, or with
+(:mod:`nniquad.codecache`) under a name that holds the hash of the source, the
+compiler, its flags and the CasADi version, so a changed model (or parameter layout) compiles anew
+and an unchanged one loads in milliseconds.  Beside it, a record (a code-cache
+entry) holds the object's SHA-256: an object that does not match it, or has
+none, is compiled again, never loaded.  Without a compiler, or with
 ``NNIQUAD_NO_JIT=1``, the CasADi VM runs the same function, with a warning.
 """
 
@@ -19,16 +21,14 @@ from pathlib import Path
 
 import casadi as ca
 
+from nniquad import codecache
+
 __all__ = ["cache_dir", "compile_function", "compile_status"]
 
 
 def cache_dir() -> Path:
-    """Folder of compiled simulation functions: ``$NNIQUAD_CACHE_DIR``, else ``~/.cache/nniquad``."""
-    env = os.environ.get("NNIQUAD_CACHE_DIR")
-    if env:
-        return Path(env)
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "nniquad"
+    """Folder of compiled simulation functions: :func:`nniquad.codecache.cache_dir` (``$NNIQUAD_CACHE_DIR``)."""
+    return codecache.cache_dir()
 
 
 _CFLAGS = ("-O2", "-fPIC", "-shared", "-fno-math-errno")
@@ -46,25 +46,23 @@ def compile_function(fn: ca.Function) -> ca.Function:
         src = cg.dump()
         compiler = os.environ.get("CC", "gcc")
         key = hashlib.sha256((src + compiler + " ".join(_CFLAGS) + ca.__version__).encode()).hexdigest()[:16]
-        folder = cache_dir()
-        try:
-            folder.mkdir(parents=True, exist_ok=True)
-            if not os.access(folder, os.W_OK):
-                raise PermissionError(str(folder))
-        except OSError:  # read-only home (CI sandboxes): a private temp folder instead
-            folder = Path(tempfile.gettempdir()) / f"nniquad-cache-{os.getuid() if hasattr(os, 'getuid') else 0}"
-            folder.mkdir(parents=True, exist_ok=True)
+        folder = codecache.writable_cache_dir()
         so = folder / f"{fn.name()}_{key}.so"
-        if not so.exists():
+        digest = so.with_name(so.name + ".sha256")
+        if not _intact(so, digest):
             with tempfile.TemporaryDirectory(dir=folder) as tmp:
                 c_file = Path(tmp) / f"{fn.name()}.c"
                 c_file.write_text(src)
                 out = Path(tmp) / "out.so"
-                res = subprocess.run([compiler, *_CFLAGS, str(c_file), "-o", str(out), "-lm"],
+                # relative names: no temporary path in the object, so every build of a source is the same file
+                res = subprocess.run([compiler, *_CFLAGS, c_file.name, "-o", out.name, "-lm"], cwd=tmp,
                                      capture_output=True, text=True, timeout=600)
                 if res.returncode != 0:
                     raise RuntimeError(res.stderr.strip().splitlines()[-1] if res.stderr.strip() else "compile failed")
-                os.replace(out, so)  # atomic: concurrent builders write identical files
+                os.replace(out, so)  # atomic: a reader sees the old file or the new one
+                codecache.write_entry(digest, key, hashlib.sha256(so.read_bytes()).hexdigest().encode("ascii"))
+            if not _intact(so, digest):
+                raise RuntimeError(f"{so.name} changed while it was being written (another process?)")
         ext = ca.external(fn.name(), str(so))
         _COMPILE_NOTES[fn.name()] = f"compiled ({so})"
         return ext
@@ -73,6 +71,22 @@ def compile_function(fn: ca.Function) -> ca.Function:
                       RuntimeWarning, stacklevel=2)
         _COMPILE_NOTES[fn.name()] = f"vm (compile failed: {exc})"
         return fn
+
+
+def _intact(so: Path, digest: Path) -> bool:
+    """Whether the shared object exists and its SHA-256 is the one recorded beside it when it was compiled.
+
+    A truncated or damaged object, or one without its record (an older cache), is compiled again,
+    never loaded.
+    """
+    key = so.stem.rsplit("_", 1)[-1]
+    recorded = codecache.read_entry(digest, key)
+    if recorded is None:
+        return False
+    try:
+        return hashlib.sha256(so.read_bytes()).hexdigest().encode("ascii") == recorded
+    except OSError:
+        return False
 
 
 def compile_status() -> dict[str, str]:

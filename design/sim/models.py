@@ -61,11 +61,19 @@ it latches the new measurement, so ``a_h`` is held over the period.  NNI:
 sampled with the position and held (stored in ``zc``).
 
 Every law has its own parameter layout (:func:`nniquad.sim.params.param_layout`,
-the gain entries named after the block's fields) and its own compiled
-function; all share the state layout (:data:`STATE_NAMES`: ``zc_x, zc_y`` hold
-the NNI state z, the ``pd_filtered`` filter state d, or zeros for
-``pd_velocity``).  With ``pd_filtered`` the RK4 step must satisfy
-``dt/τ_f ≤ 2.5`` (filter pole), checked before every run.
+the gain entries named after the block's fields), its own state layout
+(:func:`nniquad.sim.params.state_names`: ``zc_x, zc_y`` hold the NNI state z, the
+``pd_filtered`` filter state d, or zeros for ``pd_velocity``; ``sni2`` adds
+``zcd_x, zcd_y``) and its own compiled function.  With ``pd_filtered`` the RK4
+step must satisfy ``dt/τ_f ≤ 2.5`` (filter pole), checked before every run.
+
+``"sni2"``
+    The NNI structure with a second-order strictly negative-imaginary controller
+    (:mod:`nniquad.control.sni`): ``a_h = -k_p ξ_m + z/m̂``,
+    ``z'' + 2ζω z' + ω² z = k ξ_m``, state ``(z, z')`` per axis; gains
+    :class:`nniquad.control.gains.SNI2Gains`.  Discrete variant: ``(z, z')``
+    advanced by the exact ZOH of ``C(s)`` in closed form
+    (:func:`nniquad.control.sni.zoh_entries`).
 
 Integration
 -----------
@@ -75,7 +83,10 @@ CasADi ``SX`` function of (state, per-step exogenous input
 steps (one output sample) and is compiled to C (:mod:`nniquad.sim.codegen`).
 Two things keep the full model cheap: the vehicle dynamics are evaluated in
 factored form (:func:`vehicle_dynamics`) and ``casadi.cse`` merges the sin/cos
-that the separately generated pieces recompute.
+that the separately generated pieces recompute.  The ``SX`` functions
+(:func:`vehicle_dynamics`, :func:`rhs_function`, :func:`output_function`,
+:func:`step_function`) are kept between processes by :mod:`nniquad.codecache`:
+a new process loads them instead of deriving them from sympy again.
 """
 
 from __future__ import annotations
@@ -84,16 +95,18 @@ from functools import lru_cache
 
 import casadi as ca
 
+from nniquad.codecache import cached_casadi_function
 from nniquad.control import inner_loops as IL
+from nniquad.control import sni as SNI
 from nniquad.model.numeric import PARAM_NAMES, mixer_function, reaction_torque_function, rotation_function
 from nniquad.sim.codegen import compile_function
 from nniquad.sim.options import check_model
-from nniquad.sim.params import EXO_FIELDS, STATE_NAMES, check_controller, param_layout
+from nniquad.sim.params import CONTROLLER_STATES, EXO_FIELDS, check_controller, param_layout, state_names
 
 __all__ = ["vehicle_dynamics", "rhs_function", "output_function", "step_function", "chunk_function"]
 
 
-@lru_cache(maxsize=None)
+@cached_casadi_function
 def vehicle_dynamics() -> ca.Function:
     """The ``"exact"`` 12-state model, ``f(x, u, Omega_r, p) -> xdot``, in factored form for speed.
 
@@ -131,12 +144,22 @@ def _closed_loop(model: str, X: ca.SX, e: ca.SX, p: ca.SX, controller: str = "nn
     P = {f.name: p[i] for i, f in enumerate(param_layout(controller))}
     noise, gust = e[0:2], e[3:5]
     wind = ca.vertcat(P["run.wind_x"], P["run.wind_y"]) + gust
-    if model in ("linear", "reduced"):
-        pos, vel, zc, held = X[[0, 2]], X[[1, 3]], X[4:6], X[6:8]
-    else:
-        pos, vel, zc, held = X[[0, 2]], X[[1, 3]], X[12:14], X[14:16]
+    ix = _index(model, controller)
+    pos, vel = X[[ix["x"], ix["y"]]], X[[ix["x_dot"], ix["y_dot"]]]
+    zc, held = X[[ix["zc_x"], ix["zc_y"]]], X[[ix["held_x"], ix["held_y"]]]
+    zc_dot_extra = []  # derivatives of the controller states after zc_x, zc_y (sni2: z')
     meas = ca.if_else(P["run.sample_hold"] > 0.5, held, pos + noise)
-    if controller == "nni":
+    if controller == "sni2":
+        # a_h = -kp xi + z/m, z'' + 2 zeta omega z' + omega^2 z = k xi (nniquad.control.sni, written once there)
+        zd = X[[ix["zcd_x"], ix["zcd_y"]]]
+        A_c, B_c, _ = SNI.realisation(P["gains.k"], P["gains.omega"], P["gains.zeta"])
+        a_h = -P["gains.kp"] * meas + zc / P["nominal.m"]
+        still = ca.SX.zeros(2)
+        # discrete variant: (z, z') constant over the period and advanced by step_function at the samples
+        discrete = P["run.discrete"] > 0.5
+        zc_dot = ca.if_else(discrete, still, A_c[0][0] * zc + A_c[0][1] * zd + B_c[0][0] * meas)
+        zc_dot_extra = [ca.if_else(discrete, still, A_c[1][0] * zc + A_c[1][1] * zd + B_c[1][0] * meas)]
+    elif controller == "nni":
         kp = ca.vertcat(P["gains.kp"], P["gains.kpy"])
         a_h = -kp * meas + zc / P["nominal.m"]
         # discrete variant: z is constant over the period and advanced by step_function at the samples
@@ -158,14 +181,14 @@ def _closed_loop(model: str, X: ca.SX, e: ca.SX, p: ca.SX, controller: str = "nn
             a_h = IL.limit_norm(a_h, g * ca.tan(P["run.tilt_limit"]))
         acc = (P["nominal.m"] / P["plant.m"]) * a_h + wind / P["plant.m"]
         phi_d, theta_d, tilt = IL.tilt_setpoints(a_h, g, 0)
-        Xdot = ca.vertcat(vel[0], acc[0], vel[1], acc[1], zc_dot, ca.SX.zeros(2))
+        Xdot = ca.vertcat(vel[0], acc[0], vel[1], acc[1], zc_dot, *zc_dot_extra, ca.SX.zeros(2))
         return Xdot, ca.vertcat(a_h, tilt, phi_d, theta_d)
 
     # ---- full vehicle
     s = X[0:12]
     z, z_dot = s[4], s[5]
     eta, eta_dot = s[[6, 8, 10]], s[[7, 9, 11]]
-    z_int, w_state = X[16], X[17:21]
+    z_int, w_state = X[ix["z_int"]], X[[ix[f"w{i}"] for i in range(1, 5)]]
     a_z = IL.altitude_command(z, z_dot, z_int, P["inner.altitude_wn_rad_s"])
     g_z = ca.fmax(P["nominal.g"] - a_z, IL.G_Z_MIN_FRACTION * P["nominal.g"])
     a_h = IL.limit_norm(a_h, g_z * ca.tan(P["run.tilt_limit"]))
@@ -189,12 +212,18 @@ def _closed_loop(model: str, X: ca.SX, e: ca.SX, p: ca.SX, controller: str = "nn
     sdot = vehicle_dynamics()(s, u, omega_r, p_true)
     sdot[1] += wind[0] / P["plant.m"]
     sdot[3] += wind[1] / P["plant.m"]
-    Xdot = ca.vertcat(sdot, zc_dot, ca.SX.zeros(2), z, w_dot)
+    Xdot = ca.vertcat(sdot, zc_dot, *zc_dot_extra, ca.SX.zeros(2), z, w_dot)
     return Xdot, ca.vertcat(a_h, tilt, w_act, u[0])
 
 
+@lru_cache(maxsize=None)
+def _index(model: str, controller: str) -> dict[str, int]:
+    """Position of every state of a model with a controller law (:func:`nniquad.sim.params.state_names`)."""
+    return {n: i for i, n in enumerate(state_names(check_model(model), controller))}
+
+
 def _symbols(model: str, controller: str) -> tuple[ca.SX, ca.SX, ca.SX]:
-    nx = len(STATE_NAMES[check_model(model)])
+    nx = len(state_names(check_model(model), controller))
     return ca.SX.sym("x", nx), ca.SX.sym("e", len(EXO_FIELDS)), ca.SX.sym("p", len(param_layout(controller)))
 
 
@@ -203,7 +232,7 @@ def _suffix(controller: str) -> str:
     return "" if check_controller(controller) == "nni" else f"_{controller}"
 
 
-@lru_cache(maxsize=None)
+@cached_casadi_function
 def rhs_function(model: str, controller: str = "nni") -> ca.Function:
     """Continuous closed loop ``f(x, e, p) -> xdot`` (held measurement and exogenous input constant).
 
@@ -216,7 +245,7 @@ def rhs_function(model: str, controller: str = "nni") -> ca.Function:
     return ca.Function(f"rhs_{model}{_suffix(controller)}", [X, e, p], [ca.cse(Xdot)], ["x", "e", "p"], ["xdot"])
 
 
-@lru_cache(maxsize=None)
+@cached_casadi_function
 def output_function(model: str, controller: str = "nni") -> ca.Function:
     """``out(x, e, p) -> y`` (:data:`OUTPUT_NAMES`): commanded acceleration and tilt, rotor speeds, ..."""
     X, e, p = _symbols(model, controller)
@@ -224,15 +253,9 @@ def output_function(model: str, controller: str = "nni") -> ca.Function:
     return ca.Function(f"out_{model}{_suffix(controller)}", [X, e, p], [ca.cse(y)], ["x", "e", "p"], ["y"])
 
 
-def _held_slice(model: str) -> slice:
-    return slice(6, 8) if model in ("linear", "reduced") else slice(14, 16)
 
 
-def _zc_slice(model: str) -> slice:
-    return slice(4, 6) if model in ("linear", "reduced") else slice(12, 14)
-
-
-@lru_cache(maxsize=None)
+@cached_casadi_function
 def step_function(model: str, controller: str = "nni") -> ca.Function:
     """One RK4 step ``step(x, e, p) -> x_next`` of length ``p[dt]``.
 
@@ -250,12 +273,20 @@ def step_function(model: str, controller: str = "nni") -> ca.Function:
     position (a sampled velocity sensor).
     """
     X, e, p = _symbols(model, controller)
-    hs, zs = _held_slice(model), _zc_slice(model)
-    pos = X[[0, 2]]
+    ix = _index(model, controller)
+    hs = [ix["held_x"], ix["held_y"]]
+    zs = [ix[n] for n in CONTROLLER_STATES[controller]]
+    pos = X[[ix["x"], ix["y"]]]
     P = {f.name: p[i] for i, f in enumerate(param_layout(check_controller(controller)))}
     discrete = P["run.discrete"] > 0.5
     advance = ca.logic_and(e[2] > 1.5, discrete)  # a later sample: the period that ends is integrated first
-    if controller == "nni":
+    if controller == "sni2":
+        # exact ZOH of (z, z') over the period on the value held over it (nniquad.control.sni.zoh_entries)
+        Ad, Bd = SNI.zoh_entries(P["gains.k"], P["gains.omega"], P["gains.zeta"], P["run.sample_period"], ca)
+        z, zd, h = X[zs[0:2]], X[zs[2:4]], X[hs]
+        zc = ca.if_else(advance, ca.vertcat(Ad[0][0] * z + Ad[0][1] * zd + Bd[0][0] * h,
+                                            Ad[1][0] * z + Ad[1][1] * zd + Bd[1][0] * h), X[zs])
+    elif controller == "nni":
         gd_T = P["gains.Gamma"] * P["gains.delta"] * P["run.sample_period"]
         a, b = ca.exp(-gd_T), -ca.expm1(-gd_T) / P["gains.delta"]
         zc = ca.if_else(advance, a * X[zs] + b * X[hs], X[zs])
@@ -264,9 +295,10 @@ def step_function(model: str, controller: str = "nni") -> ca.Function:
         a = ca.exp(-P["run.sample_period"] / P["gains.tau_f"])
         zc = ca.if_else(advance, a * X[zs] + (1 - a) * X[hs], X[zs])
     else:  # pd_velocity: every sample (the first too) latches the true velocity with the position
-        zc = ca.if_else(ca.logic_and(e[2] > 0.5, discrete), X[[1, 3]], X[zs])
-    Xa = ca.vertcat(X[: zs.start], zc, X[zs.stop :])
-    Xs = ca.vertcat(Xa[: hs.start], ca.if_else(e[2] > 0.5, pos + e[0:2], Xa[hs]), Xa[hs.stop :])
+        zc = ca.if_else(ca.logic_and(e[2] > 0.5, discrete), X[[ix["x_dot"], ix["y_dot"]]], X[zs])
+    # the controller states and the held measurement are contiguous runs of the state (state_names)
+    Xa = ca.vertcat(X[: zs[0]], zc, X[zs[-1] + 1 :])
+    Xs = ca.vertcat(Xa[: hs[0]], ca.if_else(e[2] > 0.5, pos + e[0:2], Xa[hs]), Xa[hs[-1] + 1 :])
     f = rhs_function(model, controller)
     h = p[[entry.name for entry in param_layout(controller)].index("run.dt")]
     k1 = f(Xs, e, p)
@@ -283,7 +315,7 @@ def chunk_function(model: str, K: int, controller: str = "nni") -> ca.Function:
     step = step_function(model, controller)
     # MX around the SX step keeps the K steps a loop in the generated C (step emitted once):
     # the same speed as unrolled SX, a tenth of the compile time.
-    X = ca.MX.sym("x", len(STATE_NAMES[model]))
+    X = ca.MX.sym("x", len(state_names(model, controller)))
     p = ca.MX.sym("p", len(param_layout(controller)))
     E = ca.MX.sym("E", len(EXO_FIELDS), K)
     if K == 1:

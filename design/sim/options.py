@@ -107,7 +107,8 @@ class SimOptions:
         Initial horizontal position [m] (vehicle at rest, level, ψ = 0, z = 0; default
         :data:`nniquad.config.XI0_M`).
     zc0
-        Initial NNI controller state (default 0; the PD laws ignore it).
+        Initial NNI controller state (default 0; the PD laws and ``sni2`` ignore it: they start at
+        the measured position, :func:`nniquad.sim.runner.initial_state`).
     noise_sigma_m
         Standard deviation of the position noise [m] (≥ 0).
     noise_rate_hz

@@ -36,15 +36,17 @@ from typing import Any, Mapping, NamedTuple, Sequence
 import numpy as np
 
 from nniquad.control.gains import (CONTROLLER_GAINS, ControllerGains, Gains, InnerLoopGains, PDFilteredGains,
-                                   PDGains, field_unit)
+                                   PDGains, SNI2Gains, field_unit)
 from nniquad.errors import GainError, SimulationError
-from nniquad.model.symbolic import STATE_ORDER
+from nniquad.model.layout import STATE_ORDER
 from nniquad.model.vehicle import DESCRIPTIONS, UNITS, Vehicle
 
 __all__ = [
     "CONTROLLERS",
     "EXO_FIELDS",
     "STATE_NAMES",
+    "CONTROLLER_STATES",
+    "state_names",
     "OUTPUT_NAMES",
     "ParamField",
     "VehicleParams",
@@ -65,8 +67,27 @@ CONTROLLERS: tuple[str, ...] = tuple(CONTROLLER_GAINS)
 #: measurement is latched); the continuous and held variants treat 1 and 2 alike.
 EXO_FIELDS: tuple[str, ...] = ("noise_x", "noise_y", "sample_flag", "gust_x", "gust_y")
 
-#: State of each model.  ``zc_x, zc_y`` is the controller state (NNI: z; ``pd_filtered``: the
-#: filter state d; ``pd_velocity``: unused, zero); ``held_*`` the sampled-and-held measurement.
+#: Controller states of each law, both axes: ``zc_x, zc_y`` is the state of a one-state law (NNI: z;
+#: ``pd_filtered``: the filter state d; ``pd_velocity``: unused, zero, or the sampled velocity of the
+#: discrete variant); ``sni2`` has ``z`` [N] in ``zc_*`` and ``z'`` [N/s] in ``zcd_*``.
+CONTROLLER_STATES: dict[str, tuple[str, ...]] = {
+    "nni": ("zc_x", "zc_y"), "pd_velocity": ("zc_x", "zc_y"), "pd_filtered": ("zc_x", "zc_y"),
+    "sni2": ("zc_x", "zc_y", "zcd_x", "zcd_y"),
+}
+
+
+def state_names(model: str, controller: str = "nni") -> tuple[str, ...]:
+    """State of a model with a controller law: the plant, the controller states (:data:`CONTROLLER_STATES`),
+    the sampled-and-held measurement ``held_*``, and on ``full`` the altitude integrator and the rotor speeds."""
+    ctrl = CONTROLLER_STATES[check_controller(controller)]
+    if model in ("linear", "reduced"):
+        return ("x", "x_dot", "y", "y_dot") + ctrl + ("held_x", "held_y")
+    if model == "full":
+        return STATE_ORDER + ctrl + ("held_x", "held_y", "z_int", "w1", "w2", "w3", "w4")
+    raise SimulationError(f"unknown model {model!r} (choose one of linear, reduced, full)")
+
+
+#: State of each model with a one-state controller law (every law but ``sni2``: :func:`state_names`).
 STATE_NAMES: dict[str, tuple[str, ...]] = {
     "linear": ("x", "x_dot", "y", "y_dot", "zc_x", "zc_y", "held_x", "held_y"),
     "full": STATE_ORDER + ("zc_x", "zc_y", "held_x", "held_y", "z_int", "w1", "w2", "w3", "w4"),
@@ -247,7 +268,7 @@ def to_gains(gains: Any, controller: str | None = None) -> ControllerGains:
         Missing, unknown, non-finite or non-positive gains, or a block of another law.
     """
     want = None if controller is None else check_controller(controller)
-    if isinstance(gains, (Gains, PDGains, PDFilteredGains)):
+    if isinstance(gains, (Gains, PDGains, PDFilteredGains, SNI2Gains)):
         if want is not None and gains.controller != want:
             raise GainError(f"{type(gains).__name__} ({gains.controller}) given where {want} gains are needed "
                             f"(use {CONTROLLER_GAINS[want].__name__})")

@@ -315,7 +315,8 @@ class SimulationResult:
 
     @property
     def diverged(self) -> np.ndarray:
-        """Divergence flags ``(B,)`` (:func:`nniquad.analysis.verdicts.diverged_batch`)."""
+        """Lost-vehicle flags ``(B,)``: blown up, or altitude lost on ``full``
+        (:func:`nniquad.analysis.verdicts.diverged_batch`, as :attr:`Metrics.diverged`)."""
         return diverged_batch(self.xy, z_batch=self.z_ned)
 
     @property

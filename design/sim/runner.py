@@ -24,9 +24,9 @@ the PD laws likewise, :mod:`nniquad.sim.models`).
 Accuracy at the default step of 1 ms (``tests/test_simulate.py``): the linear
 model agrees with the matrix exponential to ~2e-10 m over 30 s; the full model
 with DOP853 (``solve_ivp``, rtol 1e-11) to ~3e-6 m over 4 s (~2e-5 m with motor
-lag: saturation kinks cap RK4 near first order).  The RK4 step must satisfy
-``Γ δ dt ≤ 2.5`` (NNI controller pole) or ``dt/τ_f ≤ 2.5`` (PD filter), and
-with motor lag ``dt/τ_m ≤ 2.5`` (motor pole), checked before every run.
+lag: saturation kinks cap RK4 near first order).  Before any work every run's
+step is checked against every pole it has (:func:`nniquad.sim.step.check_step`:
+the controller, the motor lag, the inner loops on ``full``; ``|λ| dt ≤ 2.5``).
 """
 
 from __future__ import annotations
@@ -39,14 +39,15 @@ import casadi as ca
 import numpy as np
 
 from nniquad.config import XI0_M
-from nniquad.control.gains import PAPER_GAINS, ControllerGains, Gains, PDFilteredGains, PDGains
+from nniquad.control.gains import PAPER_GAINS, ControllerGains, Gains, PDFilteredGains, PDGains, SNI2Gains
 from nniquad.errors import GainError, SimulationError
 from nniquad.model.vehicle import PAPER_VEHICLE, Vehicle
 from nniquad.sim.models import chunk_function, output_function
 from nniquad.sim.options import MODELS, SimOptions, check_model
-from nniquad.sim.params import (EXO_FIELDS, OUTPUT_NAMES, STATE_NAMES, SimParams, check_controller, n_params,
+from nniquad.sim.params import (EXO_FIELDS, OUTPUT_NAMES, SimParams, check_controller, n_params, state_names,
                                 to_gains)
 from nniquad.sim.results import SimulationResult, Trajectory
+from nniquad.sim.step import check_step
 
 __all__ = ["simulate", "run_batch", "exogenous_inputs", "initial_state", "paper_figure_runs",
            "PAPER_FIGURE_HORIZON_S"]
@@ -159,17 +160,25 @@ def initial_state(model: str, params: SimParams, xi0: Sequence[float] = XI0_M,
                   zc0: Sequence[float] = (0.0, 0.0)) -> np.ndarray:
     """Initial state: at ``xi0``, at rest, level, ψ = 0, z = 0; motors at the nominal hover speed.
 
-    Controller states: ``zc0`` for ``"nni"``; the filter at ``d = xi0`` (velocity
-    estimate 0) for ``"pd_filtered"``; zero (unused) for ``"pd_velocity"``.
+    Controller states: ``zc0`` for ``"nni"``; for ``"sni2"`` at rest at its DC value for the position,
+    ``z = C(0) xi0``, ``z' = 0`` (:func:`nniquad.control.sni.start_state`); the filter at ``d = xi0``
+    (velocity estimate 0) for ``"pd_filtered"``; zero (unused) for ``"pd_velocity"``.  ``zc0`` is read
+    by the NNI law only.
     """
     check_model(model)
     controller = params.controller
-    names = STATE_NAMES[model]
+    names = state_names(model, controller)
     x0 = np.zeros(len(names))
     ix = {n: i for i, n in enumerate(names)}
     x0[ix["x"]], x0[ix["y"]] = xi0
     if controller == "nni":
         x0[ix["zc_x"]], x0[ix["zc_y"]] = zc0
+    elif controller == "sni2":
+        from nniquad.control.sni import start_state
+
+        g = params.gains
+        for name, v in zip(("zc_x", "zc_y", "zcd_x", "zcd_y"), start_state(g.k, g.omega, xi0)):
+            x0[ix[name]] = v
     elif controller == "pd_filtered":
         x0[ix["zc_x"]], x0[ix["zc_y"]] = xi0
     x0[ix["held_x"]], x0[ix["held_y"]] = xi0
@@ -181,22 +190,13 @@ def initial_state(model: str, params: SimParams, xi0: Sequence[float] = XI0_M,
     return x0
 
 
-def _check_step(params: Sequence[SimParams]) -> None:
-    """RK4 is stable on the real axis up to |λ dt| = 2.785: the controller pole -Γδ (pd_filtered: -1/τ_f)
-    and, with motor lag, the motor pole -1/τ_m must be resolved (margin: 2.5)."""
+def _check_step(params: Sequence[SimParams], model: str) -> None:
+    """Refuse what the runner cannot integrate: a step too large for a pole (:func:`check_step`), or a
+    discrete controller that is not the NNI law or not fed the sampled measurement."""
     for p in params:
-        g, dt = p.gains, p.run.dt
         if p.run.discrete > 0.5 and p.run.sample_hold < 0.5:
             raise SimulationError("the discrete controller needs the sampled measurement (run.sample_hold = 1)")
-        if isinstance(g, PDFilteredGains) and dt / g.tau_f > 2.5:
-            raise SimulationError(f"time step {dt:g} s too large for the derivative filter tau_f = {g.tau_f:g} s "
-                                  "(RK4 needs dt/tau_f <= 2.5)")
-        if isinstance(g, Gains) and g.Gamma * g.delta * dt > 2.5:
-            raise SimulationError(f"time step {dt:g} s too large for Gamma*delta = {g.Gamma * g.delta:g} 1/s "
-                                  "(RK4 needs Gamma*delta*dt <= 2.5)")
-        if p.run.motor_lag > 0.5 and dt / p.plant.tau_motor > 2.5:
-            raise SimulationError(f"time step {dt:g} s too large for the motor time constant "
-                                  f"{p.plant.tau_motor:g} s (RK4 needs dt/tau_motor <= 2.5)")
+    check_step(params, model)
 
 
 # =============================================================================== running
@@ -250,7 +250,7 @@ def run_batch(
     P = np.atleast_2d(np.asarray(params, float))
     X0 = np.atleast_2d(np.asarray(x0, float))
     B = P.shape[0]
-    nx, ny = len(STATE_NAMES[model]), len(OUTPUT_NAMES[model])
+    nx, ny = len(state_names(model, controller)), len(OUTPUT_NAMES[model])
     if P.shape[1] != n_p:
         raise ValueError(f"params must have {n_p} columns, got {P.shape[1]}")
     if X0.shape != (B, nx):
@@ -335,7 +335,7 @@ def _gain_list(gains: Any) -> list[ControllerGains]:
     """One gain set (a block, a mapping, a tuple of numbers) or a sequence of gain sets."""
     if gains is None:
         return [PAPER_GAINS]
-    if isinstance(gains, (Gains, PDGains, PDFilteredGains, Mapping, str, bytes)):
+    if isinstance(gains, (Gains, PDGains, PDFilteredGains, SNI2Gains, Mapping, str, bytes)):
         return [to_gains(gains)]
     try:
         items = list(gains)
@@ -433,7 +433,7 @@ def simulate(
             raise SimulationError("all option sets of one simulate call must share model, horizon, dt and output dt")
     if plist is None:
         plist = [SimParams.from_options(vehicle, g, o) for g, o in zip(glist, olist)]
-    _check_step(plist)
+    _check_step(plist, first.model)
     for p, o in zip(plist, olist):
         # the discrete controller's period is a parameter; it must be the period the sample flags follow
         if p.run.discrete > 0.5 and abs(p.run.sample_period * o.noise_rate_hz - 1.0) > 1e-9:
@@ -451,7 +451,7 @@ def simulate(
     X, Y = run_batch(model, P, X0, E, steps_per_sample=first.steps_per_sample, n_samples=first.n_samples,
                      progress=progress, controller=controller)
     t = np.arange(first.n_samples + 1) * first.output_dt_s
-    return SimulationResult(model, t, X, Y, STATE_NAMES[model], OUTPUT_NAMES[model], tuple(glist), tuple(olist),
+    return SimulationResult(model, t, X, Y, state_names(model, controller), OUTPUT_NAMES[model], tuple(glist), tuple(olist),
                             tuple(plist), vehicle)
 
 

@@ -56,14 +56,18 @@ A scenario succeeds when it *settled* and never *diverged*:
   wind force ``F`` moves the equilibrium to ``ξ_eq = F / (m̂ k_p − 1/δ)`` per
   axis (exact for the full model with its altitude integrator), and the offset
   is reported separately (``offset_m``).
-* **diverged** -- a non-finite position or altitude, or a horizontal distance
-  beyond ``DIVERGENCE_FACTOR · max(‖ξ(0)‖, band)`` (100 ×);
+
+A vehicle is *lost* (diverged) when it blew up or lost its altitude, and the
+failure names the cause:
+
+* **diverged** -- it blew up: a non-finite position or altitude, or a
+  horizontal distance beyond ``DIVERGENCE_FACTOR · max(‖ξ(0)‖, band)`` (100 ×);
 * **altitude lost** -- an altitude deviation beyond ``altitude_limit_m``
   (default :data:`nniquad.config.ALTITUDE_LIMIT_M`, 2 m; a vehicle whose
   thrust cannot carry its mass falls and fails here).
 
 Both verdicts are the project's one definition
-(:mod:`nniquad.analysis.metrics`), the same that ``simulate`` and ``tune`` use.
+(:mod:`nniquad.analysis.verdicts`), the same that ``simulate`` and ``tune`` use.
 
 Reproducibility
 ---------------
@@ -88,8 +92,10 @@ Modules
 """
 
 from nniquad.errors import MonteCarloError, StudyFailedError
-from nniquad.study.executors import (CONNECT_TIMEOUT_S, StopRequest, StudyRun, auto_batch_size, catch_interrupts,
-                                     close_client, cluster_threads, connect_scheduler, make_batches, run_study)
+from nniquad.study.executors import (CONNECT_TIMEOUT_S, STOP_SIGNALS, StopRequest, StudyRun, auto_batch_size,
+                                     catch_interrupts, close_client, cluster_threads, connect_scheduler, make_batches,
+                                     run_study)
+from nniquad.study.job import check_study_step
 from nniquad.study.runs import ScenarioResult, run_scenarios
 from nniquad.study.scenarios import (BOX_KEYS, DEFAULT_HORIZON_S, DEFAULT_RANGES, Scenario, ScenarioRanges,
                                      StudySetup, certificate_rate_hz, draw_scenario, draw_scenarios, study_setup,
@@ -113,11 +119,13 @@ __all__ = [
     "BOX_KEYS",
     "draw_scenario",
     "draw_scenarios",
+    "check_study_step",
     "run_scenarios",
     "make_batches",
     "auto_batch_size",
     "run_study",
     "StopRequest",
+    "STOP_SIGNALS",
     "catch_interrupts",
     "connect_scheduler",
     "close_client",

@@ -12,7 +12,7 @@ from nniquad.study.scenarios import (DEFAULT_RANGES, ScenarioRanges, StudySetup,
                                      within_certificate_ranges)
 from nniquad.study.statistics import Summary, summarize
 
-__all__ = ["MonteCarloResult", "montecarlo"]
+__all__ = ["MonteCarloResult", "montecarlo", "check_study_step"]
 
 
 @dataclass(frozen=True)
@@ -71,7 +71,8 @@ class MonteCarloResult:
         """``partial, stopped, completed, requested, study, run, summary, results`` (units in the key names).
 
         ``stopped`` is ``None`` for a complete study, else ``{"kind", "reason"}``: ``kind`` is
-        ``"interrupted"`` (Ctrl-C) or the fault (``"worker"``, ``"scheduler"``, ``"stalled"``, ``"error"``).
+        ``"interrupted"`` (Ctrl-C), ``"terminated"`` (SIGTERM, caught by the command line) or the fault
+        (``"worker"``, ``"scheduler"``, ``"stalled"``, ``"error"``).
         """
         r = self.run
         return {
@@ -86,6 +87,40 @@ class MonteCarloResult:
             "summary": None if self.summary is None else self.summary.to_json(),
             "results": [x.to_json() for x in r.results],
         }
+
+
+#: What to change when the fastest scenario is too fast for the step (the Python API's names).
+RANGE_HINTS = {"attitude": "ScenarioRanges.attitude_gain_factor",
+               "motor lag": "ScenarioRanges.tau_motor_factor or tau_motor_s"}
+
+
+def check_study_step(setup: StudySetup, ranges: ScenarioRanges, *, hint: Mapping[str, str] | None = None) -> None:
+    """Refuse ranges whose fastest scenario the RK4 step cannot integrate, before any scenario runs.
+
+    The fastest plant the ranges can draw -- the strongest attitude gain, the
+    fastest motor, motor lag on -- goes through the runner's own check
+    (:func:`nniquad.sim.step.check_step`), which every scenario also meets.
+
+    Parameters
+    ----------
+    setup, ranges
+        The study.
+    hint
+        What to change, by pole name (default :data:`RANGE_HINTS`; the command names its options).
+
+    Raises
+    ------
+    MonteCarloError
+        A pole too fast for the step ``setup.dt_s``.
+    """
+    from nniquad.sim.step import check_step
+
+    base = setup.base
+    tau_lo = (ranges.tau_motor_s[0] if ranges.tau_motor_s is not None
+              else base.plant.tau_motor * ranges.tau_motor_factor[0])
+    fastest = base.with_(plant={"tau_motor": tau_lo}, run={"motor_lag": 1.0, "dt": setup.dt_s},
+                         inner={"attitude_gain_scale": base.inner.attitude_gain_scale * ranges.attitude_gain_factor[1]})
+    check_step(fastest, "full", hint=RANGE_HINTS if hint is None else hint, error=MonteCarloError)
 
 
 def montecarlo(certificate: Any, samples: int = 1000, seed: int = 0, *, ranges: ScenarioRanges = DEFAULT_RANGES,
@@ -140,7 +175,8 @@ def montecarlo(certificate: Any, samples: int = 1000, seed: int = 0, *, ranges: 
     Raises
     ------
     MonteCarloError
-        Bad options, an unreachable scheduler.
+        Bad options, a pole of the fastest scenario too fast for the RK4 step
+        (:func:`check_study_step`), an unreachable scheduler.
     StudyFailedError
         A fault while the study ran (a worker or the scheduler died, a stall,
         an unexpected error); its ``result`` is the :class:`MonteCarloResult`
@@ -164,6 +200,7 @@ def montecarlo(certificate: Any, samples: int = 1000, seed: int = 0, *, ranges: 
         setup = study_setup(certificate, ranges, horizon_s=horizon_s, region_m=region)
     else:
         setup = study_setup(certificate, ranges, horizon_s=horizon_s)
+    check_study_step(setup, ranges)
     scenarios = draw_scenarios(samples, seed, ranges, setup)
     try:
         run = run_study(scenarios, workers=workers, scheduler=scheduler, client=client, batch_size=batch_size,

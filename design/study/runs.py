@@ -1,7 +1,7 @@
 """Running Monte Carlo scenarios: one :func:`nniquad.sim.simulate` call each, and its verdict.
 
-The verdict is the project's one definition (:mod:`nniquad.analysis.metrics`:
-:func:`~nniquad.analysis.verdicts.diverged_batch`,
+The verdict is the project's one definition (:mod:`nniquad.analysis.verdicts`:
+:func:`~nniquad.analysis.verdicts.blew_up_batch`,
 :func:`~nniquad.analysis.verdicts.altitude_lost_batch`,
 :func:`~nniquad.analysis.verdicts.failure_reason`), with the study's scale:
 distances are measured from the scenario's wind equilibrium, the divergence
@@ -19,7 +19,7 @@ import numpy as np
 
 from nniquad.analysis.metrics import DEFAULT_BAND_FRACTION, settling_time_batch, tilt_deg
 
-from nniquad.analysis.verdicts import altitude_lost_batch, diverged_batch, failure_reason
+from nniquad.analysis.verdicts import altitude_lost_batch, blew_up_batch, failure_reason
 from nniquad.errors import NniquadError
 from nniquad.sim import SimOptions, simulate
 from nniquad.study.scenarios import Scenario
@@ -97,13 +97,13 @@ def _run_one(s: Scenario) -> ScenarioResult:
     with np.errstate(all="ignore"):
         rel = xy - np.asarray(eq)
         scale = max(math.hypot(*s.xi0_m), s.band_m)
-        diverged = bool(diverged_batch(xy, scale_m=scale, z_batch=z)[0])
+        blew_up = bool(blew_up_batch(xy, scale_m=scale, z_batch=z)[0])
         lost = bool(altitude_lost_batch(z, s.altitude_limit_m)[0])
         alt = float(np.max(np.abs(z[0])))
         peak_tilt = float(np.max(tilt_deg(res.phi[0], res.theta[0])))
         final = float(np.hypot(*rel[0, -1]))
     settling = float(settling_time_batch(res.t, rel, DEFAULT_BAND_FRACTION, s.band_m / DEFAULT_BAND_FRACTION)[0])
-    failure = failure_reason(diverged, lost, math.isfinite(settling))
+    failure = failure_reason(blew_up, lost, math.isfinite(settling))
     return ScenarioResult(
         index=s.index, study_seed=s.study_seed, success=failure is None, failure=failure,
         settling_s=None if failure is not None else settling,

@@ -15,6 +15,7 @@ import numpy as np
 from nniquad.config import (ALTITUDE_LIMIT_M, BAND_FRACTION, CONTROL_RATE_HZ, DT_S, OUTPUT_DT_S, TAU_MOTOR_FACTOR_RANGE, TILT_LIMIT_DEG,
                              WIND_WEIGHT_FRACTION_RANGE, XI0_M)
 from nniquad.errors import MonteCarloError
+from nniquad.control.gains import NI_LAWS
 from nniquad.sim import SimOptions, SimParams, to_gains
 
 __all__ = [
@@ -167,7 +168,7 @@ class StudySetup:
         Certificate identification (digest or name) for the report.
     controller
         Horizontal law of :attr:`base_params` (``"nni"``, ``"pd_velocity"``,
-        ``"pd_filtered"``: :data:`nniquad.sim.CONTROLLERS`); it fixes the layout
+        ``"pd_filtered"``, ``"sni2"``: :data:`nniquad.sim.CONTROLLERS`); it fixes the layout
         of the parameter vector.
     controller_sampling
         ``"discrete"`` (the law in discrete time at the sample rate, what
@@ -251,7 +252,7 @@ def study_setup_from(vehicle: Any, gains: Any, *, inner: Any = None, tilt_limit_
     label
         Identification of the design for the report.
     controller_sampling
-        ``"discrete"`` or ``"held"``; default ``"discrete"`` for every law (the
+        ``"discrete"`` or ``"held"``; default ``"discrete"`` for every law (NNI, ``sni2`` and the PD laws: the
         discrete-time controller at ``ranges.noise_rate_hz``: what flies, and what the
         tuner ranks; the PD laws' discrete forms are in :mod:`nniquad.sim.models`).
 

@@ -20,7 +20,7 @@ from nniquad.tuning.options import TuneOptions
 # ----------------------------------------------------------------------------- coordinates
 
 #: Number of search coordinates of each horizontal law's gains (the attitude loop adds 3).
-LAW_DIMS: dict[str, int] = {"nni": 3, "pd_velocity": 2, "pd_filtered": 3}
+LAW_DIMS: dict[str, int] = {"nni": 3, "pd_velocity": 2, "pd_filtered": 3, "sni2": 4}
 
 
 def law_dims(controller: str) -> int:
@@ -135,7 +135,8 @@ def search_box(options: TuneOptions, dt_s: float = DT_S, vehicle: Vehicle | None
         limits = gain_limits(vehicle, options.tilt_limit_deg, dt_s)
         kp_max, gd_max = limits["kp_max"], limits["gamma_delta_max"]
     law = options.controller
-    lo, hi = law_of(law, options.law_class).box(kp_max, gd_max, config.CONTROL_RATE_HZ)
+    lo, hi = law_of(law, options.law_class).box(kp_max, gd_max, config.CONTROL_RATE_HZ,
+                                                config.RK4_STEP_LIMIT / dt_s)
     if options.dims > law_dims(law):
         lo += [math.log(ATTITUDE_WN_RANGE[0]), ATTITUDE_ZETA_RANGE[0], ATTITUDE_ALPHA_RANGE[0]]
         hi += [math.log(ATTITUDE_WN_RANGE[1]), ATTITUDE_ZETA_RANGE[1], ATTITUDE_ALPHA_RANGE[1]]
@@ -258,7 +259,9 @@ def warm_start_coordinates(vehicle: Vehicle, options: TuneOptions,
 
     A filtered PD seeds the NNI law through its image
     (:func:`nniquad.control.pd_equivalence.nni_from_filtered_pd`) and an NNI gain set seeds a
-    filtered PD through the inverse map (when ``m kp δ > 1``); other laws seed only themselves.
+    filtered PD through the inverse map (when ``m kp δ > 1``); both seed the ``sni2`` law through
+    the NNI law followed by a fast low-pass (:func:`nniquad.control.sni.sni2_from_nni` at the top of
+    :data:`nniquad.tuning.laws.SNI2_ZETA_RANGE`); other laws seed only themselves.
 
     Parameters
     ----------
@@ -269,17 +272,21 @@ def warm_start_coordinates(vehicle: Vehicle, options: TuneOptions,
     alpha_avail
         The attitude acceleration headroom [rad/s²] (:func:`attitude_accel_headroom`).
     """
-    from nniquad.control.gains import Gains, PDFilteredGains
+    from nniquad.control.gains import Gains, PDFilteredGains, SNI2Gains
     from nniquad.control.pd_equivalence import filtered_pd_from_nni, nni_from_filtered_pd
+    from nniquad.control.sni import sni2_from_nni
     from nniquad.errors import GainError
+    from nniquad.tuning.laws import SNI2_ZETA_RANGE
 
     out: list[np.ndarray | None] = []
     for g, inn in warm_starts:
         try:
-            if options.controller == "nni" and isinstance(g, PDFilteredGains):
+            if options.controller in ("nni", "sni2") and isinstance(g, PDFilteredGains):
                 g = nni_from_filtered_pd(g, vehicle.m)
             elif options.controller == "pd_filtered" and isinstance(g, Gains):
                 g = filtered_pd_from_nni(g, vehicle.m)
+            if options.controller == "sni2" and isinstance(g, Gains):
+                g = SNI2Gains(*sni2_from_nni(g.kp, g.Gamma, g.delta, SNI2_ZETA_RANGE[1]))
             out.append(encode(g, vehicle.m, options.gamma_max, inn if options.dims > law_dims(options.controller)
                               else None, alpha_avail, options.law_class))
         except (ValueError, GainError):  # another law, or outside this class's coordinates

@@ -14,7 +14,21 @@ law                gains                  coordinates (before the attitude loop'
 ``pd_filtered``    :class:`PDFilteredGains`  ``ln k_p``, ``ζ``, ``ln τ_f``              with a class: the NNI image
                                                                                         (:mod:`nniquad.control.pd_equivalence`)
                                                                                         must lie in its box
+``sni2``/paper     :class:`SNI2Gains`     ``ln kp``, ``u = ln(γ_max/γ)``, ``ln ω``,     the DC (sector) condition
+                                          ``ln ζ``                                      ``γ = k/(m kp ω²) <= γ_max`` is
+                                                                                        ``u >= 0``
+``sni2``/cascade   :class:`SNI2Gains`     ``ln kp``, ``v = ln(1/γ - 1)``, ``ln ω``,     ``γ < 1`` built in
+                                          ``ln ζ``
 =================  =====================  ============================================  ==============================
+
+The ``sni2`` law (:mod:`nniquad.control.sni`) reads its DC loop gain
+``γ = k/(m kp ω²)`` in the NNI law's own coordinates (for the NNI law
+``γ = 1/(m kp δ)``, so ``u`` and ``v`` mean the same in both).  Its box keeps
+``ω <= π f_s`` (the resonance below the Nyquist frequency of the sampled position) and
+``ζ`` in :data:`SNI2_ZETA_RANGE`, whose top keeps the faster real pole
+``ω (ζ + sqrt(ζ² - 1))`` inside the RK4 step's stability region; at ``ζ = 4`` the law
+is the NNI law followed by a low-pass 62 times faster than its pole
+(:func:`nniquad.control.sni.sni2_from_nni`): the seeds from NNI and filtered-PD designs.
 
 Why ``v`` for the cascade class: without the sector bound ``m kp δ`` runs down
 to 1 (a filtered PD with a small ``k_p τ_f/k_d``: ``m kp δ - 1 = k_p τ_f/k_d``),
@@ -34,11 +48,11 @@ import math
 from dataclasses import dataclass
 from typing import Sequence
 
-from nniquad.control.gains import ControllerGains, Gains, PDFilteredGains, PDGains
+from nniquad.control.gains import ControllerGains, Gains, PDFilteredGains, PDGains, SNI2Gains
 from nniquad.control.law_classes import LAW_CLASSES
 
 __all__ = ["Law", "law_of", "LAWS", "KP_RANGE", "U_RANGE", "V_RANGE", "GAMMA_DELTA_MIN", "PD_ZETA_RANGE",
-           "CASCADE_GAMMA_CAP"]
+           "CASCADE_GAMMA_CAP", "SNI2_OMEGA_MIN", "SNI2_ZETA_RANGE", "sni2_omega_max"]
 
 #: Bounds of the NNI coordinates that do not depend on the vehicle: kp [1/s^2], u, Gamma delta [1/s].
 KP_RANGE: tuple[float, float] = (0.5, 2000.0)
@@ -51,6 +65,25 @@ CASCADE_GAMMA_CAP: float = 0.995
 V_RANGE: tuple[float, float] = (math.log(1.0 / CASCADE_GAMMA_CAP - 1.0), math.log(math.exp(U_RANGE[1]) / 0.8 - 1.0))
 #: Damping ratio ``k_d / (2 √k_p)`` of a PD law on the double integrator: the search range.
 PD_ZETA_RANGE: tuple[float, float] = (0.3, 2.0)
+#: Smallest natural frequency ω of the ``sni2`` controller searched [rad/s].
+SNI2_OMEGA_MIN: float = 0.5
+#: Damping ratio ζ of the ``sni2`` controller searched: from a resonance (0.1) to real poles 62 : 1 apart (4).
+SNI2_ZETA_RANGE: tuple[float, float] = (0.1, 4.0)
+
+
+def sni2_omega_max(gamma_delta_max: float, rk4_pole_max: float) -> float:
+    """Largest ω of the ``sni2`` box [rad/s]: the NNI pole bound (``π f_s`` and the RK4 limit), and the faster
+    real pole ``ω (ζ + sqrt(ζ² - 1))`` at the top of :data:`SNI2_ZETA_RANGE` inside the RK4 limit.
+
+    Parameters
+    ----------
+    gamma_delta_max
+        The NNI law's largest controller pole [1/s] (:func:`nniquad.tuning.coordinates.gain_limits`).
+    rk4_pole_max
+        Largest pole the RK4 step integrates, ``config.RK4_STEP_LIMIT / dt`` [1/s].
+    """
+    z = SNI2_ZETA_RANGE[1]
+    return min(gamma_delta_max, rk4_pole_max / (z + math.sqrt(z * z - 1.0)))
 
 
 @dataclass(frozen=True)
@@ -60,7 +93,7 @@ class Law:
     Attributes
     ----------
     controller
-        The gains class's law name (``"nni"``, ``"pd_velocity"``, ``"pd_filtered"``).
+        The gains class's law name (``"nni"``, ``"pd_velocity"``, ``"pd_filtered"``, ``"sni2"``).
     law_class
         ``"paper"`` or ``"cascade"`` (:data:`nniquad.control.law_classes.LAW_CLASSES`), or ``None``
         for a PD law tuned without a class.
@@ -84,9 +117,10 @@ class Law:
         The initial design then puts a share of its points on that face
         (:func:`nniquad.tuning.search.initial_design`).
         """
-        return self.controller == "nni" and self.law_class == "paper"
+        return self.controller in ("nni", "sni2") and self.law_class == "paper"
 
-    def box(self, kp_max: float, gamma_delta_max: float, control_rate_hz: float) -> tuple[list[float], list[float]]:
+    def box(self, kp_max: float, gamma_delta_max: float, control_rate_hz: float,
+            rk4_pole_max: float = math.inf) -> tuple[list[float], list[float]]:
         """Lower and upper ends of the gain coordinates.
 
         Parameters
@@ -98,7 +132,15 @@ class Law:
         control_rate_hz
             The control rate [Hz]: a derivative filter faster than one sample period only passes the
             sampling steps, so τ_f >= 1/f_s.
+        rk4_pole_max
+            Largest pole the RK4 step integrates [1/s] (bounds the ``sni2`` law's faster pole,
+            :func:`sni2_omega_max`).
         """
+        if self.controller == "sni2":
+            q1 = U_RANGE if self.law_class == "paper" else V_RANGE
+            w_max = sni2_omega_max(gamma_delta_max, rk4_pole_max)
+            return ([math.log(KP_RANGE[0]), q1[0], math.log(SNI2_OMEGA_MIN), math.log(SNI2_ZETA_RANGE[0])],
+                    [math.log(kp_max), q1[1], math.log(w_max), math.log(SNI2_ZETA_RANGE[1])])
         if self.controller == "nni":
             q1 = U_RANGE if self.law_class == "paper" else V_RANGE
             return ([math.log(KP_RANGE[0]), q1[0], math.log(GAMMA_DELTA_MIN)],
@@ -112,6 +154,10 @@ class Law:
     def decode(self, q: Sequence[float], m: float, gamma_max: float) -> ControllerGains:
         """Gain coordinates -> gains (only the first :attr:`dims` entries of ``q`` are read)."""
         kp = math.exp(q[0])
+        if self.controller == "sni2":
+            gamma = gamma_max * math.exp(-q[1]) if self.law_class == "paper" else 1.0 / (1.0 + math.exp(q[1]))
+            omega = math.exp(q[2])
+            return SNI2Gains(kp=kp, k=gamma * m * kp * omega**2, omega=omega, zeta=math.exp(q[3]))
         if self.controller == "nni":
             mkd = math.exp(q[1]) / gamma_max if self.law_class == "paper" else 1.0 + math.exp(q[1])  # m kp delta
             delta = mkd / (m * kp)
@@ -131,6 +177,15 @@ class Law:
         """
         if type(gains).controller != self.controller:
             raise ValueError(f"{type(gains).__name__} is not a gain block of the {self.controller!r} law")
+        if isinstance(gains, SNI2Gains):
+            gamma = gains.dc_loop_gain(m)
+            if self.law_class == "paper":
+                q1 = math.log(gamma_max / gamma)
+            elif gamma < 1.0:
+                q1 = math.log(1.0 / gamma - 1.0)
+            else:
+                raise ValueError(f"DC loop gain {gamma:.6g} >= 1: outside the cascade class's coordinates")
+            return [math.log(gains.kp), q1, math.log(gains.omega), math.log(gains.zeta)]
         if isinstance(gains, Gains):
             mkd = m * gains.kp * gains.delta
             if self.law_class == "paper":
@@ -170,20 +225,24 @@ LAWS: dict[tuple[str, str | None], Law] = {
     ("nni", "paper"): Law("nni", "paper", ("ln kp", "u = ln(gamma_max m kp delta)", "ln Gamma delta")),
     ("nni", "cascade"): Law("nni", "cascade", ("ln kp", "v = ln(m kp delta - 1)", "ln Gamma delta")),
     ("pd_velocity", None): Law("pd_velocity", None, ("ln k_p", "zeta = k_d/(2 sqrt k_p)")),
+    ("sni2", "paper"): Law("sni2", "paper", ("ln kp", "u = ln(gamma_max/gamma), gamma = k/(m kp omega^2)",
+                                             "ln omega", "ln zeta")),
+    ("sni2", "cascade"): Law("sni2", "cascade", ("ln kp", "v = ln(1/gamma - 1), gamma = k/(m kp omega^2)",
+                                                 "ln omega", "ln zeta")),
 }
 for _cls in (None, *LAW_CLASSES):
     LAWS[("pd_filtered", _cls)] = Law("pd_filtered", _cls, ("ln k_p", "zeta = k_d/(2 sqrt k_p)", "ln tau_f"))
 
 
 def law_of(controller: str, law_class: str | None = None) -> Law:
-    """The :class:`Law` of a controller and law class (``nni`` without a class: ``paper``).
+    """The :class:`Law` of a controller and law class (``nni`` or ``sni2`` without a class: ``paper``).
 
     Raises
     ------
     ValueError
         An unknown controller, or a class the controller has no law for.
     """
-    if controller == "nni" and law_class is None:
+    if controller in ("nni", "sni2") and law_class is None:
         law_class = "paper"
     try:
         return LAWS[(controller, law_class)]

@@ -102,25 +102,29 @@ def _cost(metrics: Metrics, xy_end: np.ndarray, xi0_norm: float, horizon: float,
 
     The settling time counts only if :func:`settling_shown` on this horizon; a last
     exit ``s`` that is not shown costs ``horizon + s`` (ranked, but above every shown one).
-    Not settled: ``horizon (2 + min(‖ξ(T)‖/‖ξ(0)‖, 10))``; diverged: ``12 horizon``;
-    actual tilt above ``tilt_cap``: ``horizon (1 + excess in deg)`` added; altitude
-    deviation above :data:`ALTITUDE_CAP_M`: ``horizon (1 + excess in m)`` added.
-    "Diverged" is the project's one verdict (:attr:`Metrics.diverged`); a run that
-    loses altitude (:attr:`Metrics.altitude_lost`, beyond
-    :data:`nniquad.config.ALTITUDE_LIMIT_M`) is always above the stricter
-    :data:`ALTITUDE_CAP_M` and pays that penalty, in proportion, so failures stay ranked.
+    Not settled: ``horizon (2 + min(‖ξ(T)‖/‖ξ(0)‖, 10))``, plus ``horizon (1 + excess
+    in m)`` for an altitude deviation above :data:`ALTITUDE_CAP_M`; at most
+    ``horizon (13 + L - cap)`` with ``L`` = :data:`nniquad.config.ALTITUDE_LIMIT_M`.
+    Lost (:attr:`Metrics.diverged`, the project's one verdict: blown up, or the
+    altitude lost beyond ``L``): ``horizon (14 + L - cap)``, above every run that
+    is not lost, plus ``horizon`` per metre fallen beyond ``L`` (the further it
+    fell, the more it costs: failures stay ranked).  On every run, actual tilt
+    above ``tilt_cap``: ``horizon (1 + excess in deg)`` added.
     """
     if metrics.diverged or not np.all(np.isfinite(xy_end)):
-        return 12.0 * horizon
-    if metrics.settling_s is not None and not settling_shown(metrics.settling_s, horizon):
-        # in the band at the end but not shown to stay: ranked by its last exit, above every shown settling
-        cost = horizon + float(metrics.settling_s)
-    elif metrics.settling_s is None:
-        cost = horizon * (2.0 + min(float(np.hypot(*xy_end)) / xi0_norm, 10.0))
+        cost = horizon * (14.0 + config.ALTITUDE_LIMIT_M - ALTITUDE_CAP_M)
+        if metrics.altitude_dev_m is not None and metrics.altitude_dev_m > config.ALTITUDE_LIMIT_M:
+            cost += horizon * (metrics.altitude_dev_m - config.ALTITUDE_LIMIT_M)
     else:
-        cost = float(metrics.settling_s)
-    if metrics.altitude_dev_m is not None and metrics.altitude_dev_m > ALTITUDE_CAP_M:
-        cost += horizon * (1.0 + metrics.altitude_dev_m - ALTITUDE_CAP_M)
+        if metrics.settling_s is not None and not settling_shown(metrics.settling_s, horizon):
+            # in the band at the end but not shown to stay: ranked by its last exit, above every shown settling
+            cost = horizon + float(metrics.settling_s)
+        elif metrics.settling_s is None:
+            cost = horizon * (2.0 + min(float(np.hypot(*xy_end)) / xi0_norm, 10.0))
+        else:
+            cost = float(metrics.settling_s)
+        if metrics.altitude_dev_m is not None and metrics.altitude_dev_m > ALTITUDE_CAP_M:
+            cost += horizon * (1.0 + metrics.altitude_dev_m - ALTITUDE_CAP_M)
     if tilt_cap is not None and metrics.peak_tilt_deg is not None and metrics.peak_tilt_deg > tilt_cap:
         cost += horizon * (1.0 + metrics.peak_tilt_deg - tilt_cap)
     return cost

@@ -7,6 +7,7 @@ from typing import Any
 
 
 from nniquad.config import CONTROL_RATE_HZ, GAMMA_MAX, TILT_LIMIT_DEG, TUNING_SCENARIO_SEED, XI0_NORM_M
+from nniquad.control.gains import NI_LAWS
 from nniquad.errors import GainError, NniquadError, VehicleError
 from nniquad.validate import finite_number
 
@@ -77,6 +78,9 @@ ALTITUDE_CAP_M = 0.5
 #: The robust objective minimises this quantile of the settling times over the tuning scenarios.
 ROBUST_QUANTILE = 0.95
 
+#: The laws :func:`nniquad.tuning.tune` tunes (:attr:`TuneOptions.controller`).
+TUNABLE_CONTROLLERS: tuple[str, ...] = ("nni", "pd_velocity", "pd_filtered", "sni2")
+
 #: The objectives (:attr:`TuneOptions.objective`).
 OBJECTIVES = ("robust", "nominal")
 
@@ -117,7 +121,9 @@ class TuneOptions:
     reruns
         Extra seeds for the artefact check; ``None`` takes the budget's.
     controller
-        Horizontal law to tune: ``"nni"`` (the paper's, default), or one of the
+        Horizontal law to tune: ``"nni"`` (the paper's, default), ``"sni2"`` (the NNI
+        structure with a second-order SNI controller, :mod:`nniquad.control.sni`; the same
+        law classes, its DC condition in place of the sector bound), or one of the
         PD comparison laws ``"pd_velocity"`` (true velocity) and ``"pd_filtered"``
         (filtered derivative of the measurement), tuned on the same inner loops,
         scenarios and rules; the PD laws have no sector bound and no certified
@@ -197,9 +203,9 @@ class TuneOptions:
     def __post_init__(self) -> None:
         from nniquad.control.law_classes import LAW_CLASSES
 
-        if self.controller not in ("nni", "pd_velocity", "pd_filtered"):
-            raise NniquadError(f"controller must be 'nni', 'pd_velocity' or 'pd_filtered', got {self.controller!r}")
-        if self.law_class is None and self.controller == "nni":
+        if self.controller not in TUNABLE_CONTROLLERS:
+            raise NniquadError(f"controller must be one of {', '.join(TUNABLE_CONTROLLERS)}, got {self.controller!r}")
+        if self.law_class is None and self.controller in NI_LAWS:
             object.__setattr__(self, "law_class", "paper")
         if self.law_class is not None and self.law_class not in LAW_CLASSES:
             raise NniquadError(f"law class must be one of {', '.join(LAW_CLASSES)}, got {self.law_class!r}")
@@ -214,7 +220,7 @@ class TuneOptions:
             raise GainError(f"gamma_max must lie in (0, 1), got {self.gamma_max!r}")
         if self.roa_radius_m is None:  # the reduced loop's reach is the paper class's statement
             object.__setattr__(self, "roa_radius_m", DEFAULT_ROA_RADIUS_M if self.law_class == "paper"
-                               and self.controller == "nni" else 0.0)
+                               and self.controller in NI_LAWS else 0.0)
         r = _finite("roa radius", self.roa_radius_m)
         if r < 0:
             raise NniquadError(f"roa radius must not be negative, got {self.roa_radius_m!r}")
@@ -256,7 +262,7 @@ class TuneOptions:
         object.__setattr__(self, "require_margins", bool(self.require_margins))
         object.__setattr__(self, "gamma_max", g)
         # the PD laws have no sector bound, hence no certified region: the reach check does not apply
-        object.__setattr__(self, "roa_radius_m", r if self.controller == "nni" else 0.0)
+        object.__setattr__(self, "roa_radius_m", r if self.controller in NI_LAWS else 0.0)
 
     @property
     def dims(self) -> int:
@@ -267,8 +273,9 @@ class TuneOptions:
 
     @property
     def nni_image(self) -> bool:
-        """Whether the candidates are NNI designs of a class: the NNI law, or a filtered PD in a class (its image)."""
-        return self.controller == "nni" or (self.controller == "pd_filtered" and self.law_class is not None)
+        """Whether the candidates are designs of the NI structure in a class: the NNI or ``sni2`` law, or a filtered
+        PD in a class (its NNI image)."""
+        return self.controller in NI_LAWS or (self.controller == "pd_filtered" and self.law_class is not None)
 
     @property
     def robust(self) -> bool:

@@ -11,7 +11,7 @@ from typing import Callable
 
 import numpy as np
 
-from nniquad.analysis.linear import ReducedLoop
+from nniquad.analysis.sni_loop import reduced_loop
 from nniquad.analysis.lmi.roa import certified_reach
 from nniquad.analysis.verdicts import Metrics
 from nniquad.model.vehicle import Vehicle
@@ -72,12 +72,13 @@ class _Search:
         """Certified reach check (cached); always true with ``roa_radius_m = 0``."""
         if self.options.roa_radius_m <= 0:
             return True
-        key = tuple(np.round(cand.q[:3], 9))
+        law = law_of(self.options.controller, self.options.law_class)
+        key = tuple(np.round(cand.q[:law.dims], 9))
         if key not in self._reach:
             gains, _ = decode(cand.q, self.vehicle.m, self.options.gamma_max, controller=self.options.controller,
                               law_class=self.options.law_class)
             gains = nni_design(self.vehicle, gains, self.options)  # a filtered PD in a class: its NNI image
-            self._reach[key] = certified_reach(ReducedLoop.from_vehicle(self.vehicle, gains), self.options.tilt_limit_deg)
+            self._reach[key] = certified_reach(reduced_loop(self.vehicle, gains), self.options.tilt_limit_deg)
             self.n_lmi += 1
         cand.reach_m = self._reach[key]
         return cand.reach_m >= self.options.roa_radius_m

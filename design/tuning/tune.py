@@ -113,7 +113,8 @@ from nniquad.analysis.bound import BoundResult, time_optimal_bound
 from nniquad.analysis.linear import ReducedLoop
 from nniquad.analysis.lmi.roa import certified_reach
 from nniquad.analysis.verdicts import Metrics
-from nniquad.control.gains import ControllerGains, Gains, InnerLoopGains
+from nniquad.analysis.sni_loop import reduced_loop
+from nniquad.control.gains import NI_LAWS, ControllerGains, Gains, InnerLoopGains
 from nniquad.config import BAND_FRACTION, XI0_NORM_M
 from nniquad.errors import NniquadError
 from nniquad.model.vehicle import PAPER_VEHICLE, Vehicle
@@ -244,7 +245,12 @@ class TuneResult:
 
     @property
     def gamma(self) -> float:
-        """Smallest γ the gains satisfy the sector bound with (``nan`` for a PD law: no sector bound)."""
+        """Smallest γ the gains satisfy the sector bound with: the DC loop gain (``nan`` for a PD law: no sector
+        bound)."""
+        from nniquad.control.gains import SNI2Gains
+
+        if isinstance(self.gains, SNI2Gains):
+            return self.gains.dc_loop_gain(self.vehicle.m)
         if not isinstance(self.gains, Gains):
             return math.nan
         return ReducedLoop.from_vehicle(self.vehicle, self.gains).smallest_gamma
@@ -286,7 +292,7 @@ class TuneResult:
             "law_class": self.options.law_class,
             "nni_image": self.nni_image(),
             "sector": ({"gamma": self.gamma, "gamma_max": self.options.gamma_max}
-                       if isinstance(self.gains, Gains) else None),
+                       if math.isfinite(self.gamma) else None),
             "roa_radius_m": self.roa_radius_m,
             "certified_reach_m": self.certified_reach_m if math.isfinite(self.certified_reach_m) else None,
             "start_certified": bool(self.certified_reach_m >= DEFAULT_ROA_RADIUS_M),
@@ -432,12 +438,12 @@ def tune(vehicle: Vehicle = PAPER_VEHICLE, options: TuneOptions | None = None,
         say(f"the design misses GM >= 6 dB / PM >= 45 deg at a break point (PM {pms} deg; "
             + ("smallest shortfall kept)" if options.require_pm else "gain margins enforced, PM reported)"))
     robust_info = _robust_summary(vehicle, options, details)
-    if options.controller != "nni":
-        reach = math.nan  # not an NNI design: no certified region
+    if options.controller not in NI_LAWS:
+        reach = math.nan  # not a design of the NI structure: no certified region
     elif best.reach_m is not None:
         reach = best.reach_m
     else:
-        reach = certified_reach(ReducedLoop.from_vehicle(vehicle, gains), options.tilt_limit_deg)
+        reach = certified_reach(reduced_loop(vehicle, gains), options.tilt_limit_deg)
     reruns = []
     for seed, cand in results:
         g, inn = decode(cand.q, vehicle.m, options.gamma_max, alpha_avail=alpha, tau_motor_s=_tau_cap(vehicle, options),

@@ -1,5 +1,13 @@
 """Closed-loop decay LMIs: the nominal loop, and every true mass in an interval.
 
+The LMIs are posed in a diagonally scaled state ``x = T x~`` (the loop's ``axis_scaling``: for the
+NNI law ``diag(1, sqrt(kp), Γ)``, the velocity in units of the inner loop's natural frequency and the
+controller state in units of Γ); without it the fast controller pole next to the slow, lightly
+damped pair makes Clarabel stall on infeasible instances.  A congruence, so it changes no answer:
+``P = T^{-T} P~ T^{-1}``.  Any reduced loop with the methods of
+:class:`nniquad.analysis.linear.ReducedLoop` used here is accepted (the ``sni2`` law's
+:class:`nniquad.analysis.sni_loop.SNI2Loop` too).
+
 ``P > 0``, ``A' P + P A <= -eps P`` with ``eps`` maximised by bisection; the
 robust versions use one common ``P`` or a parameter-dependent ``P(1/m)``.  Every
 answer is re-checked with :func:`nniquad.analysis.lmi.checks.certified_rate`:
@@ -25,18 +33,6 @@ def _cp():
     import cvxpy as cp
 
     return cp
-
-
-def _axis_scaling(kp: float, Gamma: float) -> np.ndarray:
-    """Diagonal state scaling ``x = T x~`` used inside the decay LMIs of one axis.
-
-    ``T = diag(1, sqrt(kp), Gamma)`` measures the velocity in units of the inner
-    loop's natural frequency and the controller state in units of Γ; without it
-    the fast controller pole (-Γδ) next to the slow, lightly damped pair makes
-    Clarabel stall on infeasible instances.  A congruence, so it changes no answer:
-    ``P = T^{-T} P~ T^{-1}``.
-    """
-    return np.diag([1.0, math.sqrt(kp), Gamma])
 
 
 def _bisect(prob, eps, recheck, eps_max: float, name: str, rtol: float):
@@ -219,7 +215,7 @@ def closed_loop_decay(loop: ReducedLoop, rtol: float = 1e-3, name: str = "closed
     for label, kp in loop.axes:
         A = loop.closed_loop_A_axis(label)
         As.append(A)
-        per_axis.append((label, _common_decay([A], _axis_scaling(kp, loop.Gamma), name, rtol)))
+        per_axis.append((label, _common_decay([A], loop.axis_scaling(label), name, rtol)))
     note = f"P>0, A'P+PA <= -eps P per axis, eps maximised by bisection (rel. {rtol:g}); margin = eps (1/s)"
     return _combine_axes(name, per_axis, note, {"decay_rate_poles": _pole_decay(As), "decay_rate_trace_bound": _trace_bound(As)})
 
@@ -275,26 +271,24 @@ def robust_mass_decay(loop: ReducedLoop, m_lo: float, m_hi: float, *, parameter_
     m_lo, m_hi = float(m_lo), float(m_hi)
     if not (math.isfinite(m_lo) and math.isfinite(m_hi) and 0 < m_lo <= m_hi):
         raise VehicleError(f"mass range must satisfy 0 < m_lo <= m_hi, got [{m_lo}, {m_hi}]")
-    gains = loop.gains
     per_axis, As = [], []
     for label, kp in loop.axes:
         A_lo = loop.with_mass(m_lo, thrust_model=thrust_model).closed_loop_A_axis(label)
         A_hi = loop.with_mass(m_hi, thrust_model=thrust_model).closed_loop_A_axis(label)
         As += [A_lo, A_hi]
-        T = _axis_scaling(kp, gains.Gamma)
+        T = loop.axis_scaling(label)
         if parameter_dependent and m_hi > m_lo:
             out = _pdlf_decay(A_hi, A_lo, 1.0 / m_hi, 1.0 / m_lo, T, name, rtol)
         else:
             out = _common_decay([A_lo, A_hi], T, name, rtol)
         per_axis.append((label, out))
-    kmin = min(gains.axes())
     grid = 1.0 / np.linspace(1.0 / m_hi, 1.0 / m_lo, 41)
     pointwise = _pole_decay([loop.with_mass(mm, thrust_model=thrust_model).closed_loop_A_axis(label)
                              for mm in grid for label, _ in loop.axes])
     if not thrust_model:
-        m_min = 1.0 / (kmin * gains.delta)
+        m_min = loop.min_stable_mass()
     else:
-        m_min = 0.0 if loop.m * kmin * gains.delta > 1.0 else math.inf
+        m_min = 0.0 if loop.stable else math.inf
     values = {"m_lo": m_lo, "m_hi": m_hi, "m_min_exact": m_min,
               "decay_rate_poles_vertices": _pole_decay(As), "decay_rate_poles_pointwise_min": pointwise}
     how = "P(theta)=P0+theta P1, theta=1/m, multiconvex" if parameter_dependent else "one common P at both vertices"

@@ -115,7 +115,24 @@ def ni_lemma_paper(A, B, C, name: str = "ni_lemma_paper") -> LMIResult:
 # ----------------------------------------------------------------------------- 2. NI lemma as the literature states it
 
 
-def ni_lemma_dissipation(A, B, C, D=None, name: str = "ni_lemma_dissipation") -> LMIResult:
+def _polish_equality(P: np.ndarray, B: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """The symmetric ``P + Δ`` nearest ``P`` (Frobenius) with ``(P + Δ) B = R`` (least squares if inconsistent)."""
+    n, m = B.shape
+    iu = np.triu_indices(n)
+    basis = []
+    for i, j in zip(*iu):
+        E = np.zeros((n, n))
+        E[i, j] = E[j, i] = 1.0
+        basis.append(E)
+    # Δ = Σ c_k E_k: the equations (Σ c_k E_k) B = R - P B, minimum-norm c (off-diagonals weighted for the Frobenius norm)
+    w = np.array([1.0 if i == j else np.sqrt(2.0) for i, j in zip(*iu)])
+    M = np.stack([(E @ B).ravel() for E in basis], axis=1) / w
+    c = np.linalg.lstsq(M, (R - P @ B).ravel(), rcond=None)[0] / w
+    return K.sym(P + sum(ck * E for ck, E in zip(c, basis)))
+
+
+def ni_lemma_dissipation(A, B, C, D=None, name: str = "ni_lemma_dissipation",
+                         scaling: np.ndarray | None = None) -> LMIResult:
     """NI lemma in dissipation (KYP) form: ``D = D^T``, ``P > 0``, :func:`ni_dissipation_matrix` ``<= 0``.
 
     This is the statement of Xiong, Petersen & Lanzon (2010) / Mabrok et al. (2014)
@@ -123,15 +140,51 @@ def ni_lemma_dissipation(A, B, C, D=None, name: str = "ni_lemma_dissipation") ->
     ``V = x^T P x / 2``.  For ``CB = 0`` it is ``PA + A^TP <= 0``, ``PB = A^TC^T``.
     ``P > 0`` is imposed as ``P >= t I``, ``t >= 1e-6 |A||C|/|B|``, ``t`` maximised.
 
+    With ``CB = 0`` and more than one state (the ``sni2`` controller) the LMI has a single
+    feasible point (``P = diag(ω², 1)/k`` for ``k/(s² + 2ζωs + ω²)``), which an interior-point
+    solver reaches only to about the square root of its tolerance; the answer is then
+    *polished*: moved to the nearest symmetric matrix that satisfies the equality
+    ``PB = A^TC^T`` exactly (:func:`_polish_equality`), and re-checked as it is.
+
+    Parameters
+    ----------
+    A, B, C, D
+        The system (``D = 0`` when not given).
+    name
+        Name of the result.
+    scaling
+        A state similarity ``T`` (``x = T x~``) in which the LMI is solved: the solver sees
+        ``(T^{-1} A T, T^{-1} B, C T)``, ``P = T^{-T} P~ T^{-1}`` is returned (an exact congruence of
+        the dissipation matrix, so it changes no answer; it only keeps the solver's numbers near 1).
+        ``None``: the identity.
+
     Returns
     -------
     LMIResult
-        ``margin`` = min eig P.  Residuals: ``min_eig_P``, ``dissipation_max_eig``
-        (relative), ``equality_PB_AtCt`` (``|PB - A^TC^T|`` relative; zero is forced
-        only when ``CB = 0``), ``D_asymmetry``.
+        ``margin`` = min eig P.  Residuals (in the solved coordinates): ``min_eig_P``,
+        ``dissipation_max_eig`` (relative), ``equality_PB_AtCt`` (``|PB - A^TC^T|`` relative; zero is
+        forced only when ``CB = 0``), ``D_asymmetry``; ``dissipation_max_eig_original``: the same
+        residual of the returned ``P`` in the original coordinates (what ``verify`` recomputes).
     """
+    A0, B0, C0, Dm = _system(name, A, B, C, D)
+    if scaling is None:
+        return _ni_lemma_dissipation(A0, B0, C0, Dm, name)
+    T = np.atleast_2d(np.asarray(scaling, dtype=float))
+    Ti = np.linalg.inv(T)
+    res = _ni_lemma_dissipation(Ti @ A0 @ T, Ti @ B0, C0 @ T, Dm, name)
+    data = {"A": A0, "B": B0, "C": C0, "D": Dm}
+    if not res.feasible or "P" not in res.matrices:
+        return LMIResult(res.name, res.feasible, res.status, data, res.residuals, res.margin, res.tolerance,
+                         res.note + "; solved in scaled coordinates", res.values)
+    P = K.sym(Ti.T @ res.matrices["P"] @ Ti)
+    residuals = {**res.residuals, "dissipation_max_eig_original": K.dissipation_residual(P, A0, B0, C0)}
+    return LMIResult(res.name, res.feasible, res.status, {"P": P, **data}, residuals, K.eigmin(P), res.tolerance,
+                     res.note + "; solved in scaled coordinates x = T x~, P = T^-T P~ T^-1", res.values)
+
+
+def _ni_lemma_dissipation(A: np.ndarray, B: np.ndarray, C: np.ndarray, Dm: np.ndarray, name: str) -> LMIResult:
+    """:func:`ni_lemma_dissipation` in the coordinates given."""
     cp = _cp()
-    A, B, C, Dm = _system(name, A, B, C, D)
     n = A.shape[0]
     asym = float(np.linalg.norm(Dm - Dm.T))
     note = ("NI lemma, dissipation form (Xiong-Petersen-Lanzon 2010): D=D', P>0, "
@@ -149,6 +202,10 @@ def ni_lemma_dissipation(A, B, C, D=None, name: str = "ni_lemma_dissipation") ->
     if not solved(status):
         return result_fail(name, status, data, note + f"; solver: {status}", K.RTOL)
     Pv = K.sym(P.value)
+    cb_zero = bool(np.allclose(C @ B, 0.0, atol=K.RTOL * K.norm(C) * K.norm(B)))
+    if cb_zero and n > 1:
+        Pv = _polish_equality(Pv, B, A.T @ C.T)
+        note += "; polished onto PB = A'C'"
     res = {
         "min_eig_P": K.eigmin(Pv) / K.norm(Pv),
         "dissipation_max_eig": K.dissipation_residual(Pv, A, B, C),
@@ -156,7 +213,7 @@ def ni_lemma_dissipation(A, B, C, D=None, name: str = "ni_lemma_dissipation") ->
         "D_asymmetry": asym,
     }
     ok = res["min_eig_P"] > 0.5 * t_min / K.norm(Pv) and res["dissipation_max_eig"] <= K.RTOL
-    if np.allclose(C @ B, 0.0, atol=K.RTOL * K.norm(C) * K.norm(B)):
+    if cb_zero:
         ok = ok and res["equality_PB_AtCt"] <= K.RTOL
         note += "; CB = 0 so the block reduces to PA+A'P<=0, PB=A'C'"
     if not ok:

@@ -166,7 +166,7 @@ def _frequency(loop: ReducedLoop) -> dict[str, dict[str, Any]]:
 
     out: dict[str, dict[str, Any]] = {}
     for label, _ in loop.axes:
-        ic = ni_interconnection_check(loop.plant_ss(label), loop.controller_ss())
+        ic = ni_interconnection_check(loop.plant_system(label), loop.controller_system())
         out[label] = {
             "plant_ni": ic.plant.is_ni, "plant_sni": ic.plant.is_sni,
             "plant_residues": [[w, float(K.real.ravel()[0])] for w, K in ic.plant.residues],

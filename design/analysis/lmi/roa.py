@@ -93,7 +93,9 @@ def roa_scalings(A_cl: np.ndarray, B: np.ndarray, K: np.ndarray,
       (``sqrt(kp)``); ``psi = u0``.  The reach is then of order 1 in these units.
     * ``'physical'``: the same position unit and time scale, the velocity in units
       of ``omega d[0]`` and the controller state in units of ``|K[0]/K[2]| d[0]``
-      (``m kp`` times the position: the state whose term ``z/m`` balances ``kp xi``).
+      (``m kp`` times the position: the state whose term ``z/m`` balances ``kp xi``);
+      for the ``sni2`` law's fourth state ``z'``, that unit times the controller's
+      natural frequency ``sqrt(|A_cl[3, 2]|)``.
     * ``'none'``: the original variables (``d = 1``, ``omega = 1``, ``psi = 1``).
 
     Parameters
@@ -119,14 +121,20 @@ def roa_scalings(A_cl: np.ndarray, B: np.ndarray, K: np.ndarray,
     omega = math.sqrt(k_pos * abs(float(B[1, 0])))
     _, (s, _) = matrix_balance(A_cl, permute=False, separate=True)
     balanced = np.asarray(s, dtype=float) / float(s[0]) * length
-    k_z = abs(float(K[0, 2]))
-    physical = length * np.array([1.0, omega, k_pos / k_z if k_z > 0 else 1.0])
+    if A_cl.shape[0] == 3:
+        k_z = abs(float(K[0, 2]))
+        physical = length * np.array([1.0, omega, k_pos / k_z if k_z > 0 else 1.0])
+    else:  # the sni2 law's [xi, xi', z, z']: z balances kp xi, z' is z at the controller's own frequency
+        k_z = abs(float(K[0, 2]))
+        z_unit = k_pos / k_z if k_z > 0 else 1.0
+        w_c = math.sqrt(abs(float(A_cl[3, 2]))) if abs(float(A_cl[3, 2])) > 0 else omega
+        physical = length * np.array([1.0, omega, z_unit, z_unit * w_c])
     return {"balanced": (balanced, omega, u0), "physical": (physical, omega, u0),
             "none": (np.ones(A_cl.shape[0]), 1.0, 1.0)}
 
 
 def _roa_scaled(A_cl: np.ndarray, B: np.ndarray, Kc: np.ndarray, u0: float, d: np.ndarray, omega: float,
-                psi: float, r_cap: float, eta: float, name: str):
+                psi: float, r_cap: float, eta: float, name: str, start: np.ndarray):
     """Solve the region-of-attraction LMI in one scaling; the answer in the original variables, or None.
 
     Returns ``(status, answer)`` with ``answer = (W, Z, S, r)`` (``W = P^{-1}``,
@@ -145,12 +153,12 @@ def _roa_scaled(A_cl: np.ndarray, B: np.ndarray, Kc: np.ndarray, u0: float, d: n
     Bt = psi * (Di @ B) / omega
     Kt = (Kc @ D) / psi
     ut = u0 / psi
-    e1 = np.zeros((n, 1))
-    e1[0, 0] = 1.0
+    # the start state per metre, in the scaled state and in units of d[0] (its position entry is 1)
+    e1 = (float(d[0]) * np.asarray(start, float) / d).reshape(n, 1)
     W = cp.Variable((n, n), symmetric=True, name="W")
     Z = cp.Variable((1, n), name="Z")
     S = cp.Variable((1, 1), name="S")
-    rho = cp.Variable(name="rho")  # the reach in units of d[0]: x~(0) = rho e1
+    rho = cp.Variable(name="rho")  # the reach in units of d[0]: x~(0) = rho e1 (e1: the scaled start direction)
     dec = cp.bmat([[At @ W + W @ At.T, -Bt @ S + Z.T], [Z - S @ Bt.T, -2 * S]])
     inc = cp.bmat([[W, (Kt @ W - Z).T], [Kt @ W - Z, np.array([[ut**2]])]])
     start = cp.bmat([[W, rho * e1], [rho * e1.T, np.ones((1, 1))]])
@@ -167,14 +175,15 @@ def _roa_scaled(A_cl: np.ndarray, B: np.ndarray, Kc: np.ndarray, u0: float, d: n
         if q > 0 and St[0, 0] > 0:
             c = (1.0 - 1e-9) * ut**2 / q
             Wt, Zt, St = c * Wt, c * Zt, c * St
-            rho_v = min((1.0 - 1e-9) / math.sqrt(float(np.linalg.solve(Wt, e1)[0, 0])), rho_cap)
+            rho_v = min((1.0 - 1e-9) / math.sqrt(float((e1.T @ np.linalg.solve(Wt, e1))[0, 0])), rho_cap)
     # back to the original variables: W = D W~ D, G = psi G~ D^{-1} (so Z = G W = psi Z~ D),
     # T = omega T~ / psi^2 (so S = psi^2 S~ / omega); the decrease matrix is a congruence of the scaled one
     return status, (K.sym(D @ Wt @ D), psi * (Zt @ D), (psi**2 / omega) * St, rho_v * float(d[0]))
 
 
 def region_of_attraction(loop: ReducedLoop, u0: float, *, axis: str = "x", name: str = "region_of_attraction",
-                         r_cap: float = 1e4, scaling: str | Sequence[str] = ROA_SCALINGS) -> LMIResult:
+                         r_cap: float = 1e4, scaling: str | Sequence[str] = ROA_SCALINGS,
+                         start: Sequence[float] | None = None) -> LMIResult:
     """Certified ellipsoidal region of attraction of one axis under acceleration saturation.
 
     Model (one axis): ``x = [xi, xi_dot, z]``, ``x' = A0 x + B sat_u0(K x)`` with
@@ -188,7 +197,8 @@ def region_of_attraction(loop: ReducedLoop, u0: float, *, axis: str = "x", name:
 
     * ``[[A_cl W + W A_cl', -B S + Z'], [Z - S B', -2 S]] <= -eta I``  (decrease),
     * ``[[W, (K W - Z)'], [K W - Z, u0^2]] >= 0``  (ellipsoid inside the GSC region),
-    * ``[[W, r e1], [r e1', 1]] >= 0``  (start ``x0 = [r, 0, 0]`` inside ``x'Px <= 1``),
+    * ``[[W, r v], [r v', 1]] >= 0``  (start ``x0 = r v`` inside ``x'Px <= 1``; ``v = e1 = [1, 0, 0]``,
+      controller state 0, unless ``start`` says otherwise),
 
     and ``r`` is maximised: the largest initial displacement from rest (with
     ``z(0) = 0``) that is certified to converge.  A Hurwitz ``A_cl`` always has a
@@ -216,6 +226,10 @@ def region_of_attraction(loop: ReducedLoop, u0: float, *, axis: str = "x", name:
     scaling
         One name or a sequence of names of :data:`ROA_SCALINGS` (default: all,
         in that order); ``'none'`` is the unscaled problem.
+    start
+        The start state per metre of displacement ``v`` (position entry 1); default the
+        loop's ``start_direction()`` (the NNI law: ``e1``, at rest with controller state 0;
+        ``sni2``: ``[1, 0, C(0), 0]``, its controller at its DC value).
 
     Returns
     -------
@@ -234,9 +248,10 @@ def region_of_attraction(loop: ReducedLoop, u0: float, *, axis: str = "x", name:
     if unknown or not names:
         raise GainError(f"scaling must be one or more of {', '.join(ROA_SCALINGS)}; got {scaling!r}")
     n = A_cl.shape[0]
-    e1 = np.zeros((n, 1))
-    e1[0, 0] = 1.0
-    data = {"A_cl": A_cl, "B": B, "K": Kc}
+    v = np.asarray(loop.start_direction() if start is None else start, float).ravel()
+    if v.shape != (n,) or v[0] != 1.0 or not np.all(np.isfinite(v)):
+        raise GainError(f"start direction must be {n} finite numbers with position entry 1, got {v.tolist()}")
+    data = {"A_cl": A_cl, "B": B, "K": Kc, "start": v.reshape(n, 1)}
     note = (f"generalised sector condition, saturation at u0 = {u0:.4g} m/s^2; "
             "ellipsoid x'Px <= 1 invariant and attractive; margin = max initial displacement from rest (m)")
     last: LMIResult | None = None
@@ -247,7 +262,7 @@ def region_of_attraction(loop: ReducedLoop, u0: float, *, axis: str = "x", name:
         # (1e-7 absolute in the original variables, as before, when unscaled)
         eta = 1e-7 if label == "none" else 1e-6
         try:
-            status, answer = _roa_scaled(A_cl, B, Kc, u0, d, omega, psi, r_cap, eta, name)
+            status, answer = _roa_scaled(A_cl, B, Kc, u0, d, omega, psi, r_cap, eta, name, v)
         except SolverError as exc:
             error = exc
             continue
@@ -267,10 +282,7 @@ def region_of_attraction(loop: ReducedLoop, u0: float, *, axis: str = "x", name:
 def _roa_recheck(name: str, status: str, answer, data: dict[str, np.ndarray], u0: float, r_cap: float,
                  note: str) -> LMIResult:
     """The numpy re-check of one answer ``(W, Z, S, r)`` in the original variables (:func:`region_of_attraction`)."""
-    A_cl, B, Kc = data["A_cl"], data["B"], data["K"]
-    n = A_cl.shape[0]
-    e1 = np.zeros((n, 1))
-    e1[0, 0] = 1.0
+    A_cl, B, Kc, e1 = data["A_cl"], data["B"], data["K"], data["start"]
     Wv, Zv, Sv, rv = answer
     if not (np.all(np.isfinite(Wv)) and np.all(np.isfinite(Zv)) and np.all(np.isfinite(Sv))) or K.eigmin(Wv) <= 0 \
             or Sv[0, 0] == 0:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 
 from nniquad.config import CONTROL_RATE_HZ
@@ -17,7 +18,9 @@ HELP = "tune, then write a certified gain set (JSON)"
 DESCRIPTION = """Tune (as 'nniquad tune'), then certify the result and write it to --out.
 
 With --kp, --Gamma and --delta the given gains are certified instead of tuned
-(the inner loops are then the defaults unless --attitude-wn etc. are given).
+(the inner loops are then the defaults unless --attitude-wn etc. are given);
+with --controller sni2, --kp, --k, --omega and --zeta (the NNI structure with
+the second-order SNI controller k/(s^2 + 2 zeta omega s + omega^2)).
 
 The certificate holds the vehicle, the gains, the sector bound (smallest gamma
 and gamma_max), the stability margin and poles, the LMI matrices (plant and
@@ -35,10 +38,18 @@ as well: no file is written.  Check a certificate with 'nniquad verify'."""
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_tuning_options(parser)
+    parser.add_argument("--controller", choices=("nni", "sni2"), default="nni",
+                        help="law to certify (default nni, the paper's; sni2: the NNI structure with a second-order "
+                             "strictly negative-imaginary controller, its DC loop gain k/(m kp omega^2) the sector "
+                             "constant)")
     g = parser.add_argument_group("certify given gains instead of tuning")
     g.add_argument("--kp", type=float, default=None, metavar="K", help="inner-loop gain kp [1/s^2]")
     g.add_argument("--Gamma", type=float, default=None, metavar="G", help="controller gain Gamma")
     g.add_argument("--delta", type=float, default=None, metavar="D", help="controller parameter delta")
+    g.add_argument("--k", type=float, default=None, metavar="K",
+                   help="sni2: gain k of C(s) = k/(s^2 + 2 zeta omega s + omega^2) [N/(m s^2)]")
+    g.add_argument("--omega", type=float, default=None, metavar="RAD_S", help="sni2: natural frequency omega of C(s)")
+    g.add_argument("--zeta", type=float, default=None, metavar="Z", help="sni2: damping ratio zeta of C(s) (> 0)")
     g.add_argument("--attitude-wn", type=float, default=None, metavar="RAD_S", help="attitude natural frequency")
     g.add_argument("--attitude-zeta", type=float, default=None, metavar="Z", help="attitude damping ratio")
     g.add_argument("--attitude-accel", type=float, default=None, metavar="RAD_S2",
@@ -63,7 +74,7 @@ def run(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
     from nniquad.certificates.job import certify
-    from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains
+    from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, SNI2Gains
     from nniquad.progress import Progress
     from nniquad.tuning.tune import tune
     from .common import finite_positive, vehicle_from_args
@@ -77,9 +88,6 @@ def run(args: argparse.Namespace) -> int:
     rate = check_rate_hz(CONTROL_RATE_HZ if args.rate is None else args.rate, DT_S, error=CertificateError)
     if args.warm_start and (args.kp is not None or args.gains_from is not None):
         raise NniquadError("--warm-start seeds the tuning: it cannot be given with --kp/--Gamma/--delta or --gains-from")
-    if args.gains_from is not None and any(v is not None for v in (args.kp, args.Gamma, args.delta, args.attitude_wn,
-                                                                   args.attitude_zeta, args.attitude_accel)):
-        raise NniquadError("give --gains-from or --kp/--Gamma/--delta (and the attitude options), not both")
     box = None
     if args.box_scale is not None:
         from nniquad.analysis.robust_cascade import ParameterBox
@@ -89,8 +97,16 @@ def run(args: argparse.Namespace) -> int:
         box = ParameterBox.monte_carlo_default().scaled(finite_positive("--box-scale", args.box_scale))
     vehicle = vehicle_from_args(args)
     options = tune_options_from_args(args)
-    given = [args.kp, args.Gamma, args.delta]
+    law = options.controller
+    names = ("kp", "k", "omega", "zeta") if law == "sni2" else ("kp", "Gamma", "delta")
+    others = ("Gamma", "delta") if law == "sni2" else ("k", "omega", "zeta")
+    given = [getattr(args, n) for n in names]
     progress = Progress("certify")
+    if any(getattr(args, n) is not None for n in others):
+        raise NniquadError(f"--{' --'.join(others)} are not gains of the {law} law (--controller)")
+    if args.gains_from is not None and any(getattr(args, n) is not None for n in (*names, "attitude_wn",
+                                                                                 "attitude_zeta", "attitude_accel")):
+        raise NniquadError("give --gains-from or the gains (and the attitude options), not both")
     if args.gains_from is not None:
         from .tune import designs_from_files
 
@@ -99,18 +115,22 @@ def run(args: argparse.Namespace) -> int:
                        box=box, widest_box=args.widest_box)
     elif any(v is not None for v in given):
         if any(v is None for v in given):
-            raise NniquadError("give all of --kp, --Gamma and --delta to certify given gains")
-        gains = Gains(*(finite_positive(n, v) for n, v in zip(("kp", "Gamma", "delta"), given)))
+            raise NniquadError(f"give all of --{', --'.join(names)} to certify given gains")
+        block = SNI2Gains if law == "sni2" else Gains
+        gains = block(*(finite_positive(f"--{n}", v) for n, v in zip(names, given)))
         changes = {k: v for k, v in (("attitude_wn_rad_s", args.attitude_wn), ("attitude_zeta", args.attitude_zeta),
                                      ("attitude_accel_limit_rad_s2", args.attitude_accel)) if v is not None}
         inner = replace(DEFAULT_INNER_LOOP_GAINS, **changes)
-        from nniquad.config import DT_S
-        from nniquad.errors import SimulationError
-        from nniquad.validate import check_rk4_step, inner_loop_poles
+        from nniquad.certificates.certificate import reference_run_options
+        from nniquad.config import XI0_M
+        from nniquad.sim import SimParams
+        from nniquad.sim.step import check_step
 
-        # the certificate's full-model runs use motor lag with the vehicle's time constant and the RK4 step DT_S
-        check_rk4_step(inner_loop_poles(inner, tau_motor_s=vehicle.tau_motor), DT_S, error=SimulationError,
-                       hint={"attitude": "--attitude-wn", "motor lag": "the vehicle's tau_motor"})
+        # the runner's step check on the certificate's full-model reference run, before any LMI is solved
+        run = reference_run_options("full", inner, tilt_limit_deg=options.tilt_limit_deg, xi0=XI0_M)
+        check_step(SimParams.from_options(vehicle, gains, run), "full",
+                   hint={"NNI controller (Gamma*delta)": "--Gamma or --delta", "SNI controller (omega, zeta)":
+                         "--omega or --zeta", "attitude": "--attitude-wn", "motor lag": "the vehicle's tau_motor"})
         cert = certify(vehicle, gains, inner=inner, options=options, progress=progress.message, rate_hz=rate,
                        box=box, widest_box=args.widest_box)
     else:
@@ -125,8 +145,13 @@ def run(args: argparse.Namespace) -> int:
     gains, perf = cert.gains, cert.performance
     print(f"certificate: {path}")
     gamma, gamma_max = cert.sector["gamma"], cert.sector["gamma_max"]
-    print(f"  gains kp = {fmt(gains.kp, '1/s^2', 6)}, Gamma = {fmt(gains.Gamma, digits=6)}, "
-          f"delta = {fmt(gains.delta, digits=6)}; gamma = {fmt(gamma)} {'<=' if gamma <= gamma_max else '>'} "
+    from dataclasses import fields
+
+    from nniquad.control.gains import field_unit
+
+    listed = ", ".join(f"{f.name} = {fmt(getattr(gains, f.name), digits=6)} {field_unit(f)[0]}".rstrip(" -")
+                       for f in fields(gains) if getattr(gains, f.name) is not None)
+    print(f"  {cert.controller} gains {listed}; gamma = {fmt(gamma)} {'<=' if gamma <= gamma_max else '>'} "
           f"{gamma_max:g}")
     print(f"  law class {cert.law_class['name']}: certified by {cert.law_class['theorem']}")
     for model in ("reduced", "full"):
@@ -143,7 +168,11 @@ def run(args: argparse.Namespace) -> int:
               f"motor tau x{bx['tau_motor_factor'][0]:.3g}-{bx['tau_motor_factor'][1]:.3g} "
               f"(covers the Monte Carlo ranges: {cas['covers_monte_carlo_default']}); decay "
               f"{fmt(cas['decay_rate_1_s'], '1/s')}, grid {cas['grid']['size']} points worst rho "
-              f"{cas['grid']['worst_rho']:.6f}, cascade reach {fmt(cas['region_of_attraction']['max_displacement_m'], 'm')}")
+              f"{cas['grid']['worst_rho']:.6f}")
+        roa = cas["region_of_attraction"]
+        start = math.hypot(*cert.xi0_m)
+        print(f"  cascade region of attraction ({roa['method']}): reach {fmt(roa['max_displacement_m'], 'm')} beside "
+              f"the start {fmt(start, 'm')}: start certified {fmt(cas['start_certified'])}")
         search = cas.get("box_search")
         if search:
             failed = search["first_failed_scale"]

@@ -10,6 +10,8 @@ from pathlib import Path
 from typing import Any
 
 from nniquad.config import CONTROL_RATE_HZ, MC_STALL_TIMEOUT_S
+from nniquad.control.gains import gains_text
+from nniquad.errors import EXIT_INTERRUPTED, EXIT_TERMINATED
 from nniquad.io import atomic_write_json
 from nniquad.resources import usable_cpu_count
 
@@ -63,10 +65,12 @@ Same seed, same results on either.  Progress goes to stderr.
 Nothing finished is lost.  Ctrl-C stops the study and keeps the finished
 scenarios in FILE.partial.json (montecarlo-seedS.partial.json without
 --json), marked "partial": true with the reason ("stopped"); a second Ctrl-C
-while it saves is ignored; exit status 130.  A fault -- a worker process that
-dies (local pool), a Dask batch whose workers keep dying, a lost scheduler, or
-no batch finished for --stall-timeout seconds (every worker gone, or hung) --
-saves the same way and exits with status 4 and a one-line message naming it.
+while it saves is ignored; exit status 130.  SIGTERM (kill, timeout, a batch
+scheduler ending the job) does the same, marked "terminated", exit status 143.
+A fault -- a worker process that dies (local pool), a Dask batch whose workers
+keep dying, a lost scheduler, or no batch finished for --stall-timeout seconds
+(every worker gone, or hung) -- saves the same way and exits with status 4 and
+a one-line message naming it.
 A Dask worker that dies once is no fault: its batch runs again elsewhere."""
 
 
@@ -235,11 +239,11 @@ def _rerun(args: argparse.Namespace, setup, ranges) -> int:
 
 
 def run(args: argparse.Namespace) -> int:
-    from nniquad.certificates.certificate import certificate_inner_loop, load_certificate
+    from nniquad.certificates.certificate import load_certificate
     from nniquad.io import check_output_paths
     from nniquad.resources import check_estimate, montecarlo_estimate
-    from nniquad.validate import check_rk4_step, inner_loop_poles
-    from nniquad.study import MonteCarloError, close_client, cluster_threads, connect_scheduler, study_setup
+    from nniquad.study import (MonteCarloError, check_study_step, close_client, cluster_threads, connect_scheduler,
+                               study_setup)
 
     if args.rerun is None:
         _positive("--samples", args.samples)
@@ -261,13 +265,9 @@ def run(args: argparse.Namespace) -> int:
     cert = load_certificate(args.certificate)
     ranges, region = _ranges(args, cert)
     setup = study_setup(cert, ranges, horizon_s=args.horizon, region_m=region)
-    # RK4 step against the fastest inner-loop pole the ranges can draw (strongest attitude gain, fastest motor)
-    tau_lo = (ranges.tau_motor_s[0] if ranges.tau_motor_s is not None
-              else setup.base.plant.tau_motor * ranges.tau_motor_factor[0])
-    check_rk4_step(inner_loop_poles(certificate_inner_loop(cert), attitude_gain_scale=ranges.attitude_gain_factor[1],
-                                    tau_motor_s=tau_lo),
-                   setup.dt_s, error=MonteCarloError,
-                   hint={"attitude": "--attitude-gain-range", "motor lag": "--tau-motor-range or --tau-motor-factor-range"})
+    # the RK4 step against the fastest scenario the ranges can draw (strongest attitude gain, fastest motor)
+    check_study_step(setup, ranges,
+                     hint={"attitude": "--attitude-gain-range", "motor lag": "--tau-motor-range or --tau-motor-factor-range"})
     if args.rerun is not None:
         return _rerun(args, setup, ranges)
     workers = 1 if args.scheduler else (args.workers or usable_cpu_count())
@@ -278,7 +278,7 @@ def run(args: argparse.Namespace) -> int:
                    error=MonteCarloError)
 
     from nniquad.progress import Progress
-    from nniquad.study import StudyFailedError, catch_interrupts
+    from nniquad.study import STOP_SIGNALS, StudyFailedError, catch_interrupts
     from nniquad.study.job import montecarlo
 
     client = None
@@ -299,9 +299,9 @@ def run(args: argparse.Namespace) -> int:
             where = f"{args.workers or usable_cpu_count()} local worker(s)"
         progress = Progress("montecarlo")
         progress.note(f"{args.samples} scenarios of {setup.horizon_s:g} s on {where}")
-        # From here until the finished scenarios are on disk, Ctrl-C only asks the study to stop: a second
-        # one cannot cut the cancelling or the writing short.
-        with catch_interrupts() as stop:
+        # From here until the finished scenarios are on disk, Ctrl-C or SIGTERM only asks the study to stop:
+        # a second signal cannot cut the cancelling or the writing short.
+        with catch_interrupts(signals=STOP_SIGNALS) as stop:
             try:
                 result = montecarlo(setup, args.samples, args.seed, ranges=ranges, workers=args.workers,
                                     client=client, batch_size=args.batch_size, n_worst=args.worst,
@@ -315,15 +315,17 @@ def run(args: argparse.Namespace) -> int:
             data["rerun"] = hint
             if result.partial:
                 saved = _save_partial(partial_path(args.json, args.seed), data)
+            elif args.json:  # a complete study is written under the same guard: a signal now cannot lose it
+                atomic_write_json(args.json, data)
     finally:
         if client is not None:
             close_client(client)
     study = result.run
-    progress.close("done" if not study.partial else "interrupted" if failure is None else f"stopped ({failure.kind})")
+    progress.close("done" if not study.partial else study.stopped if failure is None else f"stopped ({failure.kind})")
     if result.summary is not None:
         print(f"certificate: {args.certificate}  {setup.label}")
         g = setup.base.gains
-        print(f"gains: kp={g.kp:g} kpy={g.kp_y:g} Gamma={g.Gamma:g} delta={g.delta:g}   horizon {setup.horizon_s:g} s, "
+        print(f"gains: {gains_text(g)}   horizon {setup.horizon_s:g} s, "
               f"displacement up to {setup.region_m:.3g} m, settling band {setup.band_m:.3g} m")
         print(result.table(rerun_hint=hint))
         print(f"{study.executor}, {study.workers} worker(s), batches of {study.batch_size}: "
@@ -331,16 +333,15 @@ def run(args: argparse.Namespace) -> int:
     if study.partial:
         kept = (f"{len(study.results)} of {study.n_requested} scenarios finished, saved in {saved} "
                 f"(marked \"partial\": true)")
-        if failure is None:
-            print(f"nniquad montecarlo: interrupted; {kept}", file=sys.stderr)
-            return 130
+        if failure is None:  # stopped by a signal
+            print(f"nniquad montecarlo: {study.stopped}; {kept}", file=sys.stderr)
+            return EXIT_TERMINATED if study.stopped == "terminated" else EXIT_INTERRUPTED
         if failure.kind == "error" and failure.__cause__ is not None:
             print(f"[montecarlo] {kept}", file=sys.stderr)
             raise failure.__cause__  # a bug: shown with its traceback
         print(f"nniquad montecarlo: error: {failure.reason}; {kept}", file=sys.stderr)
         return failure.exit_code
     if args.json:
-        atomic_write_json(args.json, data)
         print(f"wrote {args.json}", file=sys.stderr)
     if args.within_certificate:
         return _within_certificate_verdict(study.results, hint)

@@ -21,6 +21,9 @@ Prints a table (id, verdict, one-line reason).  --json writes
 {"claims": [{"id", "paper_ref", "verdict", "statement", "evidence",
 "counterexample", "correction", "method", ...}], "summary": {...}};
 --markdown writes a report a reader can follow without running code.
+The claims run in --workers processes (default: the usable CPUs), one paper
+section per process at a time; the verdicts and evidence do not depend on it.
+
 Exit status 0 when the audit ran, whatever the verdicts; with --strict, 1 when
 any claim is not 'holds'; 2 on a usage error (e.g. an unknown claim id)."""
 
@@ -34,6 +37,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="comma-separated claim ids to run (default: all; see --list)")
     parser.add_argument("--list", action="store_true", help="list the claim ids and exit")
     parser.add_argument("--strict", action="store_true", help="exit 1 when any claim is not 'holds'")
+    parser.add_argument("--workers", type=int, default=None, metavar="N",
+                        help="processes to run the claims in, one paper section each (default: the usable CPUs)")
 
 
 def _ids(text: str | None) -> list[str] | None:
@@ -45,12 +50,16 @@ def run(args: argparse.Namespace) -> int:
     from nniquad.proofs.audit import audit
     from nniquad.proofs.claims import HOLDS, claim_ids
 
+    from nniquad.errors import NniquadError
     from nniquad.io import atomic_write_json, atomic_write_text, output_transaction
+    from nniquad.resources import usable_cpu_count
 
     if args.list:
         print("\n".join(claim_ids()))
         return 0
-    results = audit(_ids(args.only))
+    if args.workers is not None and args.workers < 1:
+        raise NniquadError(f"--workers must be a positive integer, got {args.workers}")
+    results = audit(_ids(args.only), workers=args.workers or usable_cpu_count())
     print(results.table())
     with output_transaction():  # both files or neither
         if args.json:

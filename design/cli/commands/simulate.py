@@ -6,7 +6,8 @@ import argparse
 import sys
 from pathlib import Path
 
-from nniquad.config import ALTITUDE_LIMIT_M, CONTROL_RATE_HZ, XI0_M
+from nniquad.config import ALTITUDE_LIMIT_M, CONTROL_RATE_HZ, DIVERGENCE_FACTOR, XI0_M
+from nniquad.control.gains import gains_text
 from nniquad.errors import GainError, NniquadError
 from nniquad.format import fmt
 from nniquad.progress import Progress
@@ -37,9 +38,12 @@ attitude loop, motors and altitude loop stay continuous.  Defaults are
 the paper's gains (kp = 5, Gamma = 160, delta = 0.6) and initial state.
 
 Prints settling time (2 % band, last exit), overshoot, peak tilt, whether
-the run diverged or lost altitude, and the verdict.  --json writes them with the trajectory file (.npz next to
-the JSON, or --trajectory FILE with .npz or .csv).  Runs that take more than a
-few seconds show progress on stderr."""
+the vehicle was lost ("diverged": it blew up -- a non-finite state or a distance
+beyond {DIVERGENCE_FACTOR:g} x its start -- or lost its altitude by more than {ALTITUDE_LIMIT_M:g} m), whether it lost
+its altitude, and the verdict, which names the cause ("diverged" for a blow-up,
+"altitude lost", "not settled").  --json writes them with the trajectory file
+(.npz next to the JSON, or --trajectory FILE with .npz or .csv).  Runs that take
+more than a few seconds show progress on stderr."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -182,7 +186,8 @@ def run(args: argparse.Namespace) -> int:
     from nniquad.errors import SimulationError
     from nniquad.io import check_output_paths, output_transaction
     from nniquad.resources import check_estimate, simulation_estimate
-    from nniquad.validate import check_rk4_step, inner_loop_poles
+    from nniquad.sim import SimParams
+    from nniquad.sim.step import check_step
 
     traj_path = args.trajectory
     if traj_path is None and args.json:
@@ -191,10 +196,12 @@ def run(args: argparse.Namespace) -> int:
         check_output_paths([("--json", args.json), ("--json's trajectory file", traj_path), ("--plot", args.plot)])
     if traj_path is not None and Path(traj_path).suffix.lower() not in (".npz", ".csv"):
         raise NniquadError(f"--trajectory must end in .npz or .csv, got {traj_path}")
-    if options.model == "full":
-        tau = (options.tau_motor_s or vehicle.tau_motor) if options.motor_lag else None
-        check_rk4_step(inner_loop_poles(options.inner, tau_motor_s=tau), options.dt_s, error=SimulationError,
-                       hint={"attitude": "--attitude-wn or --dt", "motor lag": "--tau-motor or --dt"})
+    # the runner's step check, before the estimate, naming this command's options
+    check_step(SimParams.from_options(vehicle, gains, options), options.model,
+               hint={"NNI controller (Gamma*delta)": "--Gamma, --delta or --dt",
+                     "SNI controller (omega, zeta)": "the certificate's omega or zeta, or --dt",
+                     "attitude": "--attitude-wn or --dt",
+                     "yaw": "--dt", "altitude": "--dt", "motor lag": "--tau-motor or --dt"})
     check_estimate(simulation_estimate(options.model, options.horizon_s, options.dt_s, options.output_dt_s),
                    option=f"--horizon {options.horizon_s:g}", error=SimulationError)
 
@@ -205,7 +212,7 @@ def run(args: argparse.Namespace) -> int:
     m = traj.metrics()
 
     print(f"vehicle: {vehicle.name}")
-    print(f"model: {args.model}   gains: kp={gains.kp:g} kpy={gains.kp_y:g} Gamma={gains.Gamma:g} delta={gains.delta:g}")
+    print(f"model: {args.model}   gains: {gains_text(gains)}")
     rows = [
         ("settling time (2 % band)", fmt(m.settling_s, "s"), "not settled" if m.settling_s is None else ""),
         ("overshoot along xi0", fmt(m.overshoot_pct, "%"), ""),
@@ -216,7 +223,7 @@ def run(args: argparse.Namespace) -> int:
         ("peak rotor speed", fmt(m.peak_rotor_speed_rad_s, "rad/s"), ""),
         ("peak altitude deviation", fmt(m.altitude_dev_m, "m"), ""),
         ("tilt RMS after settling", fmt(m.tilt_jitter_rms_deg, "deg"), ""),
-        ("diverged", fmt(m.diverged), ""),
+        ("diverged", fmt(m.diverged), "(vehicle lost)" if m.diverged else ""),
         ("altitude lost", fmt(m.altitude_lost), "" if m.altitude_lost is None else f"(> {ALTITUDE_LIMIT_M:g} m)"),
         ("verdict", m.failure or "settled", ""),
         ("horizon", fmt(m.horizon_s, "s"), ""),

@@ -109,8 +109,10 @@ def tune_options_from_args(args: argparse.Namespace):
 
     # before any work: a bad rate fails at once
     rate = check_rate_hz(CONTROL_RATE_HZ if args.rate is None else args.rate, DT_S, error=NniquadError)
-    controller = getattr(args, "controller", "nni")  # tune only: certify certifies the NNI law
-    in_class = controller == "nni" or (controller == "pd_filtered" and args.law_class is not None)
+    from nniquad.control.gains import NI_LAWS
+
+    controller = getattr(args, "controller", "nni")  # certify: its own --controller (an NI law)
+    in_class = controller in NI_LAWS or (controller == "pd_filtered" and args.law_class is not None)
     return TuneOptions(model=args.model, gamma_max=args.gamma_max, roa_radius_m=args.roa_radius,
                        law_class=args.law_class, rate_hz=rate,
                        mass_range=None if args.mass_range is None else tuple(args.mass_range),
@@ -178,8 +180,9 @@ def print_tune_result(res) -> None:
     if res.options.law_class is not None:
         rows.append(("law class", res.options.law_class, "(sector bound " + ("required)" if res.options.law_class
                                                                               == "paper" else "dropped)")))
-    if res.options.controller == "nni":
-        rows.append(("smallest gamma (sector)", fmt(res.gamma, digits=5),
+    if res.options.controller in ("nni", "sni2"):
+        rows.append(("smallest gamma (sector)" if res.options.controller == "nni" else "DC loop gain gamma (sector)",
+                     fmt(res.gamma, digits=5),
                      f"{'<=' if res.gamma <= res.options.gamma_max else '>'} gamma_max {res.options.gamma_max:g}"))
     image = res.nni_image()
     if image is not None:
@@ -199,7 +202,7 @@ def print_tune_result(res) -> None:
         ("overshoot", fmt(m.overshoot_pct, digits=3), "%"),
         ("peak actual tilt", fmt(m.peak_tilt_deg, digits=4), "deg"),
         ("peak rotor speed", fmt(m.peak_rotor_speed_rad_s, digits=4), "rad/s"),
-        ("certified reach (ROA LMI)", fmt(res.certified_reach_m, digits=4) if res.options.controller == "nni"
+        ("certified reach (ROA LMI)", fmt(res.certified_reach_m, digits=4) if res.options.controller in ("nni", "sni2")
          else "none (not an NNI design)", f"m (required {res.roa_radius_m:g})"),
         ("best settling per seed", ", ".join(f"{r['seed']}: {r['settling_s']:.4g}" for r in res.reruns), "s"),
         ("simulations / LMI solves", f"{res.n_simulations} / {res.n_lmi}", ""),
@@ -236,7 +239,12 @@ def run(args: argparse.Namespace) -> int:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_tuning_options(parser)
-    parser.add_argument("--controller", choices=("nni", "pd_velocity", "pd_filtered"), default="nni",
-                        help="horizontal law to tune (default nni, the paper's; the PD comparison laws are tuned "
-                             "on the same inner loops and scenarios, have no sector bound and no certificate)")
+    from nniquad.tuning.options import TUNABLE_CONTROLLERS
+
+    parser.add_argument("--controller", choices=TUNABLE_CONTROLLERS, default="nni",
+                        help="horizontal law to tune (default nni, the paper's; sni2: the NNI structure with a "
+                             "second-order strictly negative-imaginary controller k/(s^2 + 2 zeta omega s + omega^2), "
+                             "the same law classes with its DC loop gain k/(m kp omega^2) as the sector constant; "
+                             "the PD comparison laws are tuned on the same inner loops and scenarios, have no sector "
+                             "bound and no certificate)")
     add_json_option(parser, "tuned gains, metrics, per-seed optima and search statistics")
