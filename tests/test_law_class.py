@@ -27,7 +27,7 @@ from nniquad.tuning.coordinates import decode, encode, gain_limits, search_box, 
 from nniquad.tuning.laws import law_of
 from nniquad.tuning.options import TuneOptions
 
-# issue 14's tuned filtered PD and its inner loops (notebooks/data/designs/pd_filtered.json): outside gamma = 0.8
+# issue 14's tuned filtered PD and its inner loops (notebooks/data/designs/pd_filtered_held.json): outside gamma = 0.8
 PD = PDFilteredGains(kp=9.111984627754474, kd=4.426807306344244, tau_f=0.05246651970835971)
 PD_INNER = InnerLoopGains(attitude_wn_rad_s=20.499630377601115, attitude_zeta=0.8199852151040445,
                           attitude_accel_limit_rad_s2=29.867503481638387)
