@@ -4,9 +4,9 @@
     .venv/bin/python notebooks/data/make_data.py families       # some steps
 
 Every step but the last is one ``nniquad`` command, printed before it runs, run from this folder; each writes
-its file atomically, so a stopped run leaves the old file.  The same commands give the same files (the tuner
-is seeded; only the timing and software records differ).  On 2 idle cores a tuning step takes 3-5 minutes,
-``families`` about 5.  The steps, in order (later ones read earlier ones):
+its file atomically, so a stopped run leaves the old file.  The tuner and the studies are seeded, so the same
+commands should give the same designs (the timing and software records differ); the committed files were made
+once, not regenerated to check this.  On 2 idle cores a tuning step takes 3-5 minutes, ``families`` about 5.  The steps, in order (later ones read earlier ones):
 
 ``pd_velocity``, ``pd_filtered``
     The two PD comparison laws tuned by the same tuner on the same 20 robust scenarios (robust default, the
@@ -23,8 +23,8 @@ is seeded; only the timing and software records differ).  On 2 idle cores a tuni
     sampled cascade certificate certify it?).
 ``nni_paper``, ``nni_cascade``, ``sni2_cascade``
     The certified designs (``nni_paper`` is not the committed ``full_model_certificate.json`` of
-    ``nniquad certify --model full``, which the tests and notebooks 01-03 read): the NNI law in each class and the second-order SNI law in the cascade class, each
-    seeded with the image of a filtered PD of the class (``nni_cascade`` and ``sni2_cascade``: issue 14's
+    ``nniquad certify --model full``, which the tests and notebooks 01-03 read): the NNI law in each class
+    and the second-order SNI law in the cascade class, each seeded with the image of a filtered PD of the class (``nni_cascade`` and ``sni2_cascade``: issue 14's
     unrestricted filtered PD, whose image lies in the cascade class).
 ``nni_cascade_seeded``
     The cascade-class NNI design seeded with the image of the filtered PD of step ``pd_filtered`` (ranked as
