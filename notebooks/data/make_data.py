@@ -29,6 +29,9 @@ once, not regenerated to check this.  On 2 idle cores a tuning step takes 3-5 mi
 ``nni_cascade_seeded``
     The cascade-class NNI design seeded with the image of the filtered PD of step ``pd_filtered`` (ranked as
     it flies; its image lies in the class and meets the gain margins), so it is never slower than that PD.
+``sni2_cascade_seeded``
+    The sni2 law in the cascade class seeded with the same PD's image (through the NNI law behind a fast
+    low-pass, :func:`nniquad.control.sni.sni2_from_nni`).
 ``nni_cascade_no_margins``
     The cascade-class NNI design tuned without the gain-margin requirement, as the unrestricted filtered PD
     is (item 2: what the margins cost; a certificate of the class, not a design the notebooks recommend).
@@ -72,6 +75,9 @@ STEPS: dict[str, list[str]] = {
     "nni_cascade_seeded": ["certify", "--model", "full", "--law-class", "cascade",
                            "--warm-start", "designs/pd_filtered.json",
                            "--out", "designs/nni_cascade_seeded_certificate.json"],
+    "sni2_cascade_seeded": ["certify", "--model", "full", "--controller", "sni2", "--law-class", "cascade",
+                            "--warm-start", "designs/pd_filtered.json",
+                            "--out", "designs/sni2_cascade_seeded_certificate.json"],
     "nni_cascade_no_margins": ["certify", "--model", "full", "--law-class", "cascade", "--no-margins",
                                "--warm-start", "designs/pd_filtered_held.json",
                                "--out", "designs/nni_cascade_no_margins_certificate.json"],
