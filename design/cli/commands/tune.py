@@ -203,7 +203,7 @@ def print_tune_result(res) -> None:
         ("peak actual tilt", fmt(m.peak_tilt_deg, digits=4), "deg"),
         ("peak rotor speed", fmt(m.peak_rotor_speed_rad_s, digits=4), "rad/s"),
         ("certified reach (ROA LMI)", fmt(res.certified_reach_m, digits=4) if res.options.controller in ("nni", "sni2")
-         else "none (not an NNI design)", f"m (required {res.roa_radius_m:g})"),
+         else "none (not an NNI design: no sector bound)", f"m (required {res.roa_radius_m:g})"),
         ("best settling per seed", ", ".join(f"{r['seed']}: {r['settling_s']:.4g}" for r in res.reruns), "s"),
         ("simulations / LMI solves", f"{res.n_simulations} / {res.n_lmi}", ""),
         ("time taken", fmt(res.elapsed_s, digits=3), "s"),
