@@ -46,6 +46,9 @@ def _export(module: str, *names: str, **renamed: str) -> None:
 _export("nniquad.model.vehicle", "Vehicle", "PAPER_VEHICLE", "load_vehicle")
 _export("nniquad.control.gains", "Gains", "PAPER_GAINS", "PDGains", "PDFilteredGains", "InnerLoopGains",
         "DEFAULT_INNER_LOOP_GAINS", "DEFAULT_TAU_F_S")
+_export("nniquad.control.law_classes", "LAW_CLASSES", "DEFAULT_LAW_CLASS", "LawClass")
+_export("nniquad.tuning.coordinates", "gain_limits")
+_export("nniquad.analysis.fast_margins", "design_margins", "margin_shortfall")
 _export("nniquad.control.pd_equivalence", "nni_from_filtered_pd", "filtered_pd_from_nni", "nni_start_state",
         "filtered_pd_gamma", "filtered_pd_in_sector")
 _export("nniquad.certificates.certificate", "Certificate", "read_certificate", "write_certificate")

@@ -19,8 +19,18 @@
 # horizontal controllers are compared on the `full` vehicle (inner loops,
 # rotor saturation, motor lag), all choosing from the same inner loops:
 #
-# * **NNI** -- the paper's structure a = −k_p ξ + z/m with the integral
-#   resonant controller, gains under the sector bound (certified);
+# * **NNI, paper class** -- the paper's structure a = −k_p ξ + z/m with the
+#   integral resonant controller, gains under the sector bound (certified by
+#   the paper's theorem and the sampled-data cascade certificate);
+# * **NNI, cascade class** -- the same law without the sector bound, certified
+#   by the sampled-data cascade certificate alone.  This class *contains* the
+#   filtered-derivative PD below: a PD with the derivative filtered by
+#   s/(τ_f s + 1) is the NNI law with k_p' = k_p + k_d/τ_f, Γ = m k_d/τ_f²,
+#   δ = τ_f/(m k_d) (notebook 3, section 6);
+# * **SNI2, cascade class** -- a second-order strictly negative-imaginary
+#   controller k/(s² + 2ζωs + ω²) in place of the integral resonant one (law
+#   `"sni2"`), certified the same way; its tuned certificate and that design run
+#   faster and slower (`time_scaled`) are its candidates;
 # * **PD, true velocity** -- a = −k_p ξ − k_d ξ' with a perfect velocity
 #   sensor (gains `PDGains`, law `"pd_velocity"`), the best a PD law can do;
 # * **PD, filtered derivative** -- the same law with the velocity estimated
@@ -60,6 +70,8 @@ from nniquad import (
     TuneOptions,
 )
 
+from nniquad.control.gains import SNI2Gains
+
 T_START = time.perf_counter()
 V = PAPER_VEHICLE
 GAMMA_MAX = TuneOptions().gamma_max
@@ -67,9 +79,11 @@ HORIZON_S = 8.0
 JITTER_FROM_S = HORIZON_S / 2  # tilt jitter is measured over [JITTER_FROM_S, HORIZON_S] ...
 MAX_SETTLING_S = JITTER_FROM_S  # ... so only designs settled by then are compared
 NOISE = dict(noise_sigma_m=0.01, noise_rate_hz=100.0)
-CTRL_LABEL = {"nni": "NNI (velocity-free, certified)", "pd_velocity": "PD, true velocity",
+CTRL_LABEL = {"nni": "NNI, paper class", "nni_cascade": "NNI, cascade class",
+              "sni2": "SNI2, cascade class", "pd_velocity": "PD, true velocity",
               "pd_filtered": "PD, filtered derivative"}
-CTRL_COLOR = {"nni": "tab:blue", "pd_velocity": "tab:green", "pd_filtered": "tab:orange"}
+CTRL_COLOR = {"nni": "tab:blue", "nni_cascade": "tab:purple", "sni2": "tab:red", "pd_velocity": "tab:green",
+              "pd_filtered": "tab:orange"}
 
 
 
@@ -92,9 +106,14 @@ from pathlib import Path
 
 # written by `nniquad certify --model full --out notebooks/data/full_model_certificate.json`;
 # load_certificate checks its schema and SHA-256 digest
-CERT = read_certificate(Path("data") / "full_model_certificate.json" if Path("data").is_dir()
-                        else Path("notebooks") / "data" / "full_model_certificate.json")
+DATA = Path("data") if Path("data").is_dir() else Path("notebooks") / "data"
+CERT = read_certificate(DATA / "full_model_certificate.json")
+# written by `nniquad certify --model full --law-class cascade ...` (notebooks/data/make_data.py)
+CASCADE_CERT = read_certificate(DATA / "cascade_model_certificate.json")
 NNI_REF = CERT.gains
+NNI_CASCADE_REF = CASCADE_CERT.gains
+# written by `nniquad certify --model full --controller sni2 --law-class cascade ...` (make_data.py, sni2_cascade)
+SNI2_REF = read_certificate(DATA / "sni2_cascade_certificate.json").gains
 INNER = CERT.inner_loop
 BASE = SimOptions(model="full", horizon_s=HORIZON_S, motor_lag=True, inner=INNER)
 TILT_CAP = BASE.tilt_limit_deg + TILT_SLACK_DEG
@@ -122,9 +141,16 @@ print(f"inner loops: ω_a = {INNER.attitude_wn_rad_s:.4g} rad/s, ζ_a = {INNER.a
 # Grids: PD over k_p and the damping ratio of its nominal loop,
 # k_d = 2ζ√k_p (the filtered PD also over τ_f); NNI in the tuner's coordinates
 # (`nniquad.tuning.tune.decode`: k_p, m k_p δ on or above the sector bound, and the
-# controller pole Γδ, here in units of √k_p as in notebook 2), so every NNI
-# candidate is certified.  Every grid is run for three attitude-loop
-# bandwidths shared by all controllers, the tuned one and two slower ones:
+# controller pole Γδ, here in units of √k_p as in notebook 2), so every paper-class
+# NNI candidate satisfies the sector bound; the cascade-class grid takes m k_p δ
+# below it (1.05 and 1.15), where the filtered PDs' images lie.  The
+# cascade class's proof is the sampled-data cascade certificate, computed
+# per design: here only the two tuned certificates are certified designs
+# (the cascade grid points and the time-scaled SNI2 designs are members of
+# the class's coordinates, not certified one by one; notebook 3 section 6
+# gives the certified designs' robust figures).  Every grid
+# is run for three attitude-loop bandwidths shared by all controllers, the
+# tuned one and two slower ones:
 # noise enters every law through the position term, and a fast attitude loop
 # passes it on to the tilt.
 
@@ -137,14 +163,23 @@ PF_TAU = (0.01, 0.03, 0.1)  # τ_f [s]
 NNI_KP = np.geomspace(1.0, 60.0, 12)
 NNI_MARGIN = (1.0, 1.25)  # m kp δ in units of the sector bound 1/γ_max
 NNI_R = (0.75, 1.0, 1.35, 1.8)  # controller pole Γδ in units of √k_p
+NNI_CASCADE_MKD = (1.05, 1.15)  # m kp δ below the sector bound's 1/γ_max = 1.25 (cascade class only)
+SNI2_LAMBDA = (0.6, 0.8, 0.9, 1.1, 1.25, 1.6)  # the certified SNI2 design run λ times faster (time_scaled)
 
 CANDIDATES = {
     "pd_velocity": [PDGains(kp, 2 * z * math.sqrt(kp)) for kp in PD_KP for z in PD_ZETA],
     "pd_filtered": [PDFilteredGains(kp, 2 * z * math.sqrt(kp), tf) for kp in PF_KP for z in PF_ZETA for tf in PF_TAU],
     "nni": [decode([math.log(kp), math.log(mg), math.log(r * math.sqrt(kp))], V.m, GAMMA_MAX)[0]
             for kp in NNI_KP for mg in NNI_MARGIN for r in NNI_R] + [NNI_REF],
+    # cascade class: v = ln(m kp delta - 1) (nniquad.tuning.laws); the paper-class grid is a subset of the class
+    "nni_cascade": [decode([math.log(kp), math.log(mkd - 1.0), math.log(r * math.sqrt(kp))], V.m, GAMMA_MAX,
+                           law_class="cascade")[0]
+                    for kp in NNI_KP for mkd in NNI_CASCADE_MKD for r in NNI_R] + [NNI_CASCADE_REF],
+    "sni2": [SNI2_REF.time_scaled(lam) for lam in SNI2_LAMBDA] + [SNI2_REF],
 }
+CONTROLLER_OF = {"nni_cascade": "nni"}  # the candidate set's law where its name is not the law's
 assert all(ReducedLoop.from_vehicle(V, g).smallest_gamma <= GAMMA_MAX + 1e-12 for g in CANDIDATES["nni"])
+assert all(GAMMA_MAX < ReducedLoop.from_vehicle(V, g).smallest_gamma < 1 for g in CANDIDATES["nni_cascade"][:-1])
 
 
 def score(controller, options, gains_list):
@@ -167,6 +202,8 @@ def fmt_gains(g):
         return f"k_p = {g.kp:.3g}, k_d = {g.kd:.3g}"
     if isinstance(g, PDFilteredGains):
         return f"k_p = {g.kp:.3g}, k_d = {g.kd:.3g}" + (f", τ_f = {g.tau_f:.3g}" if g.tau_f != DEFAULT_TAU_F_S else "")
+    if isinstance(g, SNI2Gains):
+        return f"k_p = {g.kp:.3g}, k = {g.k:.3g}, ω = {g.omega:.3g}, ζ = {g.zeta:.3g}"
     return f"k_p = {g.kp:.3g}, Γ = {g.Gamma:.3g}, δ = {g.delta:.3g}"
 
 
@@ -186,7 +223,7 @@ def score_all(base):
     for wa in WA_GRID:
         opt_wa = base.with_(inner=replace(INNER, attitude_wn_rad_s=wa))
         for c in CANDIDATES:
-            out[c] += score(c, opt_wa, CANDIDATES[c])
+            out[c] += score(CONTROLLER_OF.get(c, c), opt_wa, CANDIDATES[c])
     return out
 
 
@@ -194,7 +231,8 @@ t0 = time.perf_counter()
 clean = score_all(BASE)
 clean_time = time.perf_counter() - t0
 n_clean = sum(len(v) for v in clean.values())
-best_clean = {c: min((r for r in rows if r["ok"]), key=lambda r: r["settling"]) for c, rows in clean.items()}
+best_clean = {c: min((r for r in rows if r["ok"]), key=lambda r: r["settling"]) for c, rows in clean.items()
+              if any(r["ok"] for r in rows)}
 ref_clean = [r for r in clean["nni"] if r["gains"] is NNI_REF and r["options"].inner == INNER][0]
 md_table(["controller", "best gains on the grid", "ω_a [rad/s]", "settling [s]", "peak tilt [deg]", "admissible / tried"],
          [[CTRL_LABEL[c], fmt_gains(r["gains"]), f"{r['options'].inner.attitude_wn_rad_s:.0f}", f"{r['settling']:.3f}",
@@ -329,13 +367,25 @@ md_table(["controller", f"gains (jitter ≤ {CHECK_CAP:g}°)", "ω_a [rad/s]", "
 # %%
 # conclusion -- every number below was computed in this notebook
 elapsed = time.perf_counter() - T_START
-nni_c, pdv_c, pdf_c = (best_clean[c]["settling"] for c in ("nni", "pd_velocity", "pd_filtered"))
+nni_c, nnic_c, pdv_c, pdf_c = (best_clean[c]["settling"] for c in ("nni", "nni_cascade", "pd_velocity", "pd_filtered"))
+ref_cascade = [r for r in clean["nni_cascade"] if r["gains"] is NNI_CASCADE_REF and r["options"].inner == INNER][0]
+ref_sni2 = [r for r in clean["sni2"] if r["gains"] is SNI2_REF and r["options"].inner == INNER][0]
+sni2_c = best_clean["sni2"]["settling"] if "sni2" in best_clean else math.nan
+certified_best = min(("nni", "nni_cascade", "sni2"), key=lambda c: best_clean[c]["settling"] if c in best_clean
+                     else math.inf)
 print("Conclusion")
-print(f"- Without noise (same inner-loop candidates for all): NNI {nni_c:.2f} s (the tuned "
-      f"certified set: {ref_clean['settling']:.2f} s), PD with true velocity {pdv_c:.2f} s, PD with a filtered "
-      f"derivative {pdf_c:.2f} s. The velocity sensor buys {100 * (1 - pdv_c / nni_c):.0f} % over NNI; the "
-      f"velocity-free NNI is {'faster' if nni_c < pdf_c else 'slower'} than the filtered PD by "
-      f"{abs(pdf_c - nni_c):.2f} s.")
+print(f"- Without noise (same inner-loop candidates for all): NNI paper class {nni_c:.2f} s (the tuned "
+      f"certified set: {ref_clean['settling']:.2f} s), NNI cascade class {nnic_c:.2f} s (its certified set on these "
+      f"inner loops: {ref_cascade['settling']:.2f} s), PD with true velocity {pdv_c:.2f} s, PD with a filtered "
+      f"derivative {pdf_c:.2f} s. The velocity sensor buys {100 * (1 - pdv_c / min(nni_c, nnic_c)):.0f} % over the "
+      f"faster NNI class; the cascade-class NNI is {'faster' if nnic_c < pdf_c else 'slower'} than the filtered PD "
+      f"by {abs(pdf_c - nnic_c):.2f} s on these grids (the class contains every filtered PD), the paper class "
+      f"{'faster' if nni_c < pdf_c else 'slower'} by {abs(pdf_c - nni_c):.2f} s. SNI2 cascade class: "
+      f"{sni2_c:.2f} s over its time-scaled certified design (the certified design itself "
+      f"{'not admissible here' if ref_sni2['settling'] is None else format(ref_sni2['settling'], '.2f') + ' s'}). "
+      f"Fastest law of the NI structure without noise: {CTRL_LABEL[certified_best]}; "
+      f"{'it beats' if best_clean[certified_best]['settling'] < pdf_c else 'it does not beat'} the filtered PD and "
+      f"{'beats' if best_clean[certified_best]['settling'] < pdv_c else 'does not beat'} the PD with true velocity.")
 pick_wa = sorted({b[c]["options"].inner.attitude_wn_rad_s for b in picks.values() for c in b})
 slow_wa, fast_wa = min(WA_GRID), max(WA_GRID)
 # "not <=" so that no admissible design at the slowest ω_a (nan) counts as needing the fast loop
@@ -366,7 +416,7 @@ for cap in JITTER_CAPS:
     missing = [CTRL_LABEL[c] for c in CANDIDATES if c not in b]
     print(f"- Jitter ≤ {cap:g}° RMS: {parts}" + (f" ({', '.join(missing)}: none admissible)" if missing else "")
           + (f" → {CTRL_LABEL[winners[cap]]} wins." if winners[cap] else "."))
-vf = {cap: [c for c in ("nni", "pd_filtered") if c in picks[cap]] for cap in JITTER_CAPS}
+vf = {cap: [c for c in ("nni", "nni_cascade", "sni2", "pd_filtered") if c in picks[cap]] for cap in JITTER_CAPS}
 vf_win = {cap: min(vf[cap], key=lambda c: picks[cap][c]["settling"]) for cap in JITTER_CAPS if vf[cap]}
 print("- Among the velocity-free laws: " + "; ".join(f"≤ {cap:g}°: {CTRL_LABEL[c]}" for cap, c in vf_win.items()) + ".")
 print(f"(notebook ran in {elapsed:.0f} s)")

@@ -27,7 +27,7 @@ from nniquad.tuning.coordinates import decode, encode, gain_limits, search_box, 
 from nniquad.tuning.laws import law_of
 from nniquad.tuning.options import TuneOptions
 
-# issue 14's tuned filtered PD and its inner loops (notebooks/data/designs/pd_filtered.json): outside gamma = 0.8
+# issue 14's tuned filtered PD and its inner loops (notebooks/data/designs/pd_filtered_held.json): outside gamma = 0.8
 PD = PDFilteredGains(kp=9.111984627754474, kd=4.426807306344244, tau_f=0.05246651970835971)
 PD_INNER = InnerLoopGains(attitude_wn_rad_s=20.499630377601115, attitude_zeta=0.8199852151040445,
                           attitude_accel_limit_rad_s2=29.867503481638387)
@@ -224,3 +224,33 @@ def test_verify_rejects_a_resigned_edit_of_the_law_class(cascade_doc):
         c["schema_version"] = 1
 
     assert _verify_edited(cascade_doc, strip) == (False, "law_class")
+
+
+def test_certify_gains_from_a_filtered_pd_file_maps_it_to_its_image(run_cli, tmp_path):
+    """``certify --gains-from`` reads a 'tune --json' file of a filtered PD and certifies its NNI image: under the
+    paper class the image of this PD (gamma = k_d/(k_p tau_f + k_d) = 0.90 by hand, above 0.8) is refused in one
+    line with exit 2 and no file; mixing --gains-from with given gains, or a file that is not a design, is a user
+    error; the gamma the refusal states is the hand formula's."""
+    import json
+
+    design = tmp_path / "pd.json"
+    design.write_text(json.dumps({"controller": "pd_filtered", "gains": {"kp": PD.kp, "kd": PD.kd, "tau_f": PD.tau_f},
+                                  "inner_loop": {"attitude_wn_rad_s": PD_INNER.attitude_wn_rad_s,
+                                                 "attitude_zeta": PD_INNER.attitude_zeta,
+                                                 "attitude_accel_limit_rad_s2": PD_INNER.attitude_accel_limit_rad_s2}}))
+    out = tmp_path / "c.json"
+    code, _, err = run_cli("certify", "--model", "full", "--gains-from", str(design), "--out", str(out))
+    gamma_by_hand = PD.kd / (PD.kp * PD.tau_f + PD.kd)
+    assert gamma_by_hand > 0.8 + 1e-3
+    assert code == 2 and len(err.strip().splitlines()) == 1 and "sector bound" in err, err
+    assert f"{gamma_by_hand:.3g}" in err or f"{gamma_by_hand:.4g}" in err, err
+    assert not out.exists()
+    code, _, err = run_cli("certify", "--model", "full", "--gains-from", str(design), "--kp", "3", "--out", str(out))
+    assert code == 2 and "not both" in err and not out.exists()
+    code, _, err = run_cli("certify", "--model", "full", "--gains-from", str(design), "--warm-start", str(design),
+                           "--out", str(out))
+    assert code == 2 and "--warm-start" in err and not out.exists()
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps({"gains": {"kp": 1.0}}))
+    code, _, err = run_cli("certify", "--model", "full", "--gains-from", str(bad), "--out", str(out))
+    assert code == 2 and err.startswith("nniquad certify: error: --gains-from") and not out.exists()

@@ -169,3 +169,29 @@ def test_a_fault_in_a_batch_reaches_the_caller(method):
     with pytest.raises(KeyboardInterrupt):
         minimise(search, _starts(search), method=method, max_evals=5000, seed=0)
     assert len(search.batches) == 2
+
+
+def test_the_optimiser_tells_the_search_its_incumbent_and_clears_it():
+    """Before each batch the search's prune_above is the incumbent's cost (the best admissible so far), and it
+    is None once the optimiser returns (starts and reports are never evaluated in part)."""
+
+    class Recording(FakeSearch):
+        def __init__(self, *a, **k):
+            super().__init__(*a, **k)
+            self.prune_above = None
+            self.seen: list[tuple[float | None, float]] = []
+
+        def evaluate(self, pts):
+            best_so_far = min((float(self.f(q)) for q in self.points), default=np.inf)
+            self.seen.append((self.prune_above, best_so_far))
+            return super().evaluate(pts)
+
+    search = Recording(quadratic, [-3.0] * 3, [3.0] * 3)
+    starts = _starts(search)
+    search.seen.clear()
+    found = minimise(search, starts, method="cma", max_evals=80, seed=1)
+    assert search.prune_above is None and search.seen
+    for told, best in search.seen:
+        assert told is not None and told >= best - 1e-12  # never below a cost seen: nothing better is pruned
+    assert search.seen[0][0] == pytest.approx(starts[0].cost)
+    assert found[0].cost <= search.seen[-1][0] + 1e-12

@@ -204,3 +204,47 @@ def test_margin_penalty_ranks_between_admissible_designs_and_simulation_failures
     by_hand = sum(max(0.0, 1.0 - x.gm_db / 6.0) + max(0.0, 1.0 + x.gm_lower_db / 6.0) for x in m.values())
     assert gm_only == pytest.approx(by_hand, abs=1e-12) and gm_only < short
     assert 0 < MARGIN_PENALTY_WIDTH_S < 1.0
+
+
+def test_the_lower_bound_of_the_robust_cost():
+    """Unsimulated scenarios (nan) set to 0 bound the p95 from below; with them below the second-largest known
+    cost the bound is the p95 itself (the p95 of 20 values depends on the two largest only)."""
+    from nniquad.tuning.objective import robust_cost, robust_lower_bound
+
+    rng = np.random.default_rng(9)
+    for _ in range(200):
+        c = rng.uniform(0.5, 4.0, 20)
+        partial = c.copy()
+        partial[9:] = np.nan
+        lb = robust_lower_bound(partial, 10.0)
+        assert lb <= robust_cost(c, 10.0) + 1e-12
+        top2 = np.sort(c[:9])[-2]
+        if np.all(c[9:] <= top2):
+            assert lb == pytest.approx(robust_cost(c, 10.0), rel=1e-12)
+    # a failing scenario among the known ones: the penalty, as robust_cost
+    bad = np.r_[1.0, 2.0, 13.0, [np.nan] * 5]
+    assert robust_lower_bound(bad, 10.0) == robust_cost(np.r_[1.0, 2.0, 13.0], 10.0)
+
+
+def test_a_candidate_that_cannot_beat_the_incumbent_skips_the_random_draws():
+    """prune_above: the random draws are not run when the nominal run and corners already cost more; the cost
+    is the lower bound (no more than the full cost, and here equal to it); without it every scenario runs."""
+    from nniquad.tuning import objective as O
+    from nniquad.tuning.coordinates import attitude_accel_headroom, encode
+
+    opts = TuneOptions(model="full", require_margins=False, roa_radius_m=0.0)
+    q = encode(NEW_GAINS, V.m, opts.gamma_max, NEW_INNER, attitude_accel_headroom(V, opts.tilt_limit_deg))[None]
+    horizon = 13.85
+    runs = O.simulations_run()
+    full = O.evaluate_details(V, q, opts, horizon)[0]
+    n_full = O.simulations_run() - runs
+    assert n_full == 20 and not full["robust_lower_bound"] and full["cost"] < horizon
+    runs = O.simulations_run()
+    cut = O.evaluate_details(V, q, opts, horizon, prune_above=full["cost"] - 0.5)[0]
+    assert O.simulations_run() - runs == 1 + 8  # the nominal run and the corners
+    assert cut["robust_lower_bound"] and cut["cost"] <= full["cost"] + 1e-12
+    assert cut["cost"] > full["cost"] - 0.5  # above the incumbent: it cannot become the incumbent
+    assert sum(c is None for c in cut["scenario_costs"]) == 11
+    # an incumbent it might beat: every scenario runs
+    same = O.evaluate_details(V, q, opts, horizon, prune_above=full["cost"] + 0.5)[0]
+    assert not same["robust_lower_bound"] and same["cost"] == pytest.approx(full["cost"], abs=1e-12)

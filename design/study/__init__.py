@@ -15,8 +15,8 @@ inertia                each axis × U[0.8, 1.2]                 true ``Jx, Jy, J
 attitude-loop gain     × U[0.7, 1.3]                           ``att_scale`` (torques)
 motor time constant    nominal × U[0.5, 2], lag on             ``tau_motor``
 position noise σ       U[0, 2] cm, sampled and held at 100 Hz  exogenous input
-                       (the NNI controller runs in discrete
-                       time at that rate)
+                       (the law runs in discrete time at
+                       that rate)
 wind force             magnitude U[0, 0.3] N,                  ``wind_x, wind_y``
                        direction U[0°, 360°)
 initial displacement   uniform over the disk of radius         ``xi0``, at rest

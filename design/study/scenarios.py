@@ -81,8 +81,8 @@ class ScenarioRanges:
         Standard deviation of the position noise [m] (default 0-0.02).
     noise_rate_hz
         Position-sensor sample rate [Hz], also the control rate (default 100; the
-        measurement is sampled and held, and an NNI controller runs in discrete
-        time at this rate unless the study setup says otherwise).
+        measurement is sampled and held, and the law runs in discrete time at
+        this rate unless the study setup says otherwise).
     wind_weight_fraction
         Magnitude of the constant horizontal wind force as a fraction of the
         nominal weight ``m g`` (default :data:`nniquad.config.WIND_WEIGHT_FRACTION_RANGE`,
@@ -171,9 +171,9 @@ class StudySetup:
         ``"pd_filtered"``, ``"sni2"``: :data:`nniquad.sim.CONTROLLERS`); it fixes the layout
         of the parameter vector.
     controller_sampling
-        ``"discrete"`` (the NNI law in discrete time at the sample rate, what
+        ``"discrete"`` (the law in discrete time at the sample rate, what
         flies) or ``"held"`` (the controller integrated continuously on the held
-        measurement; the PD laws): :attr:`nniquad.sim.SimOptions.controller_sampling`.
+        measurement): :attr:`nniquad.sim.SimOptions.controller_sampling`.
     """
 
     base_params: tuple[float, ...]
@@ -252,9 +252,9 @@ def study_setup_from(vehicle: Any, gains: Any, *, inner: Any = None, tilt_limit_
     label
         Identification of the design for the report.
     controller_sampling
-        ``"discrete"`` or ``"held"``; default ``"discrete"`` for the laws of the NI
-        structure (NNI, ``sni2``: their discrete-time controller at ``ranges.noise_rate_hz``),
-        ``"held"`` for the PD laws.
+        ``"discrete"`` or ``"held"``; default ``"discrete"`` for every law (NNI, ``sni2`` and the PD laws: the
+        discrete-time controller at ``ranges.noise_rate_hz``: what flies, and what the
+        tuner ranks; the PD laws' discrete forms are in :mod:`nniquad.sim.models`).
 
     Returns
     -------
@@ -276,7 +276,7 @@ def study_setup_from(vehicle: Any, gains: Any, *, inner: Any = None, tilt_limit_
     except (TypeError, ValueError):
         raise MonteCarloError(f"initial position xi0_m must be a non-zero pair of numbers, got {xi0_m!r}") from None
     block = gains if hasattr(gains, "controller") else to_gains(gains, "nni")
-    sampling = controller_sampling or ("discrete" if block.controller in NI_LAWS else "held")
+    sampling = controller_sampling or "discrete"
     if sampling not in ("discrete", "held"):
         raise MonteCarloError(f"controller sampling of a study must be 'discrete' or 'held', got {sampling!r}")
     if sampling == "discrete":

@@ -136,7 +136,8 @@ def _tau_cap(vehicle: Vehicle, options: TuneOptions) -> float | None:
 
 
 def evaluate(vehicle: Vehicle, points: np.ndarray, options: TuneOptions, horizon_s: float,
-             inner: InnerLoopGains = DEFAULT_INNER_LOOP_GAINS) -> tuple[np.ndarray, list[Metrics]]:
+             inner: InnerLoopGains = DEFAULT_INNER_LOOP_GAINS, *,
+             prune_above: float | None = None) -> tuple[np.ndarray, list[Metrics]]:
     """Cost and nominal metrics of many points in search coordinates, batched simulations.
 
     Nominal objective: the worst :func:`_cost` over the nominal scenario and the
@@ -155,8 +156,10 @@ def evaluate(vehicle: Vehicle, points: np.ndarray, options: TuneOptions, horizon
         penalty lies above the horizon).
     metrics : list of Metrics
         Of the nominal scenario.
+
+    ``prune_above`` (robust objective): see :func:`evaluate_details`.
     """
-    details = evaluate_details(vehicle, points, options, horizon_s, inner)
+    details = evaluate_details(vehicle, points, options, horizon_s, inner, prune_above=prune_above)
     return np.array([d["cost"] for d in details]), [d["metrics"] for d in details]
 
 
@@ -196,7 +199,8 @@ def nni_design(vehicle: Vehicle, gains, options: TuneOptions):
 
 
 def evaluate_details(vehicle: Vehicle, points: np.ndarray, options: TuneOptions, horizon_s: float,
-                     inner: InnerLoopGains = DEFAULT_INNER_LOOP_GAINS, *, full_report: bool = False) -> list[dict]:
+                     inner: InnerLoopGains = DEFAULT_INNER_LOOP_GAINS, *, full_report: bool = False,
+                     prune_above: float | None = None) -> list[dict]:
     """What :func:`evaluate` computes, per candidate, as a dictionary.
 
     Keys: ``cost``, ``metrics`` (nominal), ``nominal_cost`` (worst of the
@@ -205,6 +209,14 @@ def evaluate_details(vehicle: Vehicle, points: np.ndarray, options: TuneOptions,
     (the quantile, or ``None``), ``margins`` (``None`` if not computed).
     ``full_report`` simulates the robust set and computes the margins even for
     a candidate that fails earlier (for the report of the winner).
+
+    ``prune_above`` (robust objective; the search's incumbent cost): a candidate
+    whose nominal run and box corners already put its robust cost above this
+    (:func:`robust_costs`) is not simulated on the random draws; its cost is then
+    that lower bound (``robust_lower_bound`` is true), which is exact whenever the
+    random draws settle before its second-slowest corner (they usually do: the heavy
+    corners are the slowest).  It cannot become the incumbent either way, and the
+    incumbent is always fully evaluated.
     """
     from nniquad.sim import simulate
 
@@ -240,12 +252,15 @@ def evaluate_details(vehicle: Vehicle, points: np.ndarray, options: TuneOptions,
     if options.robust:
         todo = [b for b in range(len(pts)) if full_report or worst[b] < horizon_s]
         if todo:
-            costs = robust_costs(vehicle, [decoded[b] for b in todo], options, horizon_s)
-            for b, c in zip(todo, costs):
+            costs, pruned = robust_costs(vehicle, [decoded[b] for b in todo], options, horizon_s,
+                                         prune_above=None if full_report else prune_above,
+                                         nominal_costs=[worst[b] for b in todo], return_pruned=True)
+            for b, c, cut in zip(todo, costs, pruned):
                 allc = np.concatenate([[worst[b]], c])
                 out[b]["scenario_costs"] = [float(worst[b])] + [None if np.isnan(v) else float(v) for v in c]
-                out[b]["cost"] = robust_cost(allc, horizon_s)
-                out[b]["robust_settling_s"] = out[b]["cost"] if out[b]["cost"] < horizon_s else None
+                out[b]["cost"] = robust_lower_bound(allc, horizon_s) if cut else robust_cost(allc, horizon_s)
+                out[b]["robust_lower_bound"] = bool(cut)
+                out[b]["robust_settling_s"] = out[b]["cost"] if out[b]["cost"] < horizon_s and not cut else None
                 out[b]["cost_without_margins"] = out[b]["cost"]
     if options.require_margins:
         for b in range(len(pts)):
@@ -304,7 +319,9 @@ def robust_scenarios(vehicle: Vehicle, options: TuneOptions) -> list:
 ROBUST_BATCH_RUNS = 240
 
 
-def robust_costs(vehicle: Vehicle, designs: list, options: TuneOptions, horizon_s: float) -> np.ndarray:
+def robust_costs(vehicle: Vehicle, designs: list, options: TuneOptions, horizon_s: float, *,
+                 prune_above: float | None = None, nominal_costs: list[float] | None = None,
+                 return_pruned: bool = False) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
     """:func:`_cost` of every design on every perturbed scenario of the tuning set (the nominal one excluded).
 
     A scenario's settling is measured as in the Monte Carlo study: from the static
@@ -324,11 +341,16 @@ def robust_costs(vehicle: Vehicle, designs: list, options: TuneOptions, horizon_
 
     The corners run first; the other scenarios only for designs that pass every
     corner (a design that fails one pays the penalty whatever the rest give), so
-    their entries stay ``nan`` otherwise.
+    their entries stay ``nan`` otherwise.  With ``prune_above`` (and the designs'
+    ``nominal_costs``), also not for a design whose nominal run and corners put
+    :func:`robust_lower_bound` above it (it cannot beat that cost).
 
     Returns
     -------
     ndarray (len(designs), n_scenarios - 1)
+        The costs (``nan``: not simulated).
+    ndarray of bool (len(designs),), with ``return_pruned``
+        Which designs were pruned by ``prune_above``.
     """
 
     scen = robust_scenarios(vehicle, options)[1:]
@@ -339,8 +361,13 @@ def robust_costs(vehicle: Vehicle, designs: list, options: TuneOptions, horizon_
     _simulate_scenarios(vehicle, designs, options, horizon_s, scen, [(d, s) for d in range(len(designs))
                                                                     for s in corners], out)
     alive = [d for d in range(len(designs)) if np.all(out[d, corners] < horizon_s)]
+    pruned = np.zeros(len(designs), dtype=bool)
+    if prune_above is not None and nominal_costs is not None:
+        for d in alive:
+            pruned[d] = robust_lower_bound(np.concatenate([[nominal_costs[d]], out[d]]), horizon_s) > prune_above
+        alive = [d for d in alive if not pruned[d]]
     _simulate_scenarios(vehicle, designs, options, horizon_s, scen, [(d, s) for d in alive for s in rest], out)
-    return out
+    return (out, pruned) if return_pruned else out
 
 
 def _simulate_scenarios(vehicle: Vehicle, designs: list, options: TuneOptions, horizon_s: float, scen: list,
@@ -390,6 +417,18 @@ def robust_cost(costs: np.ndarray, horizon_s: float, quantile: float = ROBUST_QU
     return float(np.quantile(c, quantile))
 
 
+def robust_lower_bound(costs: np.ndarray, horizon_s: float, quantile: float = ROBUST_QUANTILE) -> float:
+    """A lower bound of :func:`robust_cost` when some scenarios (``nan``) are not simulated yet.
+
+    Every cost is at least 0 and the quantile is non-decreasing in each cost, so the
+    costs with the missing ones set to 0 bound it from below; with the default
+    quantile it depends on the two largest costs only, so it is exact when no missing
+    scenario would exceed the second-largest known one.
+    """
+    c = np.asarray(costs, float)
+    return robust_cost(np.where(np.isnan(c), 0.0, c), horizon_s, quantile)
+
+
 # ----------------------------------------------------------------------------- margins
 
 
@@ -417,7 +456,7 @@ def margin_penalty(vehicle: Vehicle, gains, inner: InnerLoopGains, options: Tune
     from nniquad.errors import CascadeError
 
     try:
-        margins = design_margins(vehicle, gains, inner, tilt_limit_deg=options.tilt_limit_deg)
+        margins = design_margins(vehicle, gains, inner, tilt_limit_deg=options.tilt_limit_deg, rate_hz=options.rate_hz)
     except CascadeError:
         return 12.0 * horizon_s, None
     short = margin_shortfall(margins, include_pm=options.require_pm)

@@ -99,6 +99,8 @@ class _Tracker:
         xs = np.atleast_2d(xs)
         if len(xs) == 1 and self._key(xs[0]) in self.known:
             return [self.known[self._key(xs[0])]]
+        # a candidate that cannot beat the incumbent need not run every scenario (its cost is then a lower bound)
+        self.search.prune_above = None if self.best is None else self.best.cost
         cands = self.search.evaluate(self.to_q(xs))
         self.evals += len(cands)
         costs = [float(c.cost) for c in cands]
@@ -125,7 +127,9 @@ def minimise(search: "_Search", starts: list["Candidate"], *, method: str, max_e
     ----------
     search
         Provides ``lo``, ``hi`` (the box), ``evaluate(points) -> list[Candidate]`` (one batch),
-        ``admissible(candidate) -> bool``, ``horizon_s`` (the penalty) and ``progress(str)``.
+        ``admissible(candidate) -> bool``, ``horizon_s`` (the penalty) and ``progress(str)``;
+        its ``prune_above`` attribute is set to the incumbent's cost before each batch
+        (a candidate that cannot beat it may be evaluated in part) and cleared at the end.
     starts
         Admissible evaluated points, best first (the first starts the first run).
     method
@@ -151,7 +155,10 @@ def minimise(search: "_Search", starts: list["Candidate"], *, method: str, max_e
         raise NniquadError("the optimiser needs at least one start")
     starts = sorted(starts, key=lambda c: c.cost)
     tr = _Tracker(search, starts, max_evals)
-    (_cma if method == "cma" else _nomad)(tr, starts, seed)
+    try:
+        (_cma if method == "cma" else _nomad)(tr, starts, seed)
+    finally:
+        search.prune_above = None  # evaluations outside the optimiser (starts, reports) are never pruned
     tr.end_run()
     return sorted(tr.run_bests, key=lambda c: c.cost)
 

@@ -44,6 +44,8 @@ class _Search:
         self.n_sim = 0
         self.n_lmi = 0
         self._reach: dict[tuple, float] = {}
+        #: The optimiser's incumbent cost while it runs (:func:`nniquad.tuning.optimizers.minimise`), else None.
+        self.prune_above: float | None = None
         self.progress = progress or (lambda msg: None)
 
     def evaluate(self, pts: np.ndarray, screen: bool = False) -> list[Candidate]:
@@ -51,13 +53,17 @@ class _Search:
 
         The sweep screens (a robust candidate costs the 20 tuning scenarios, a
         nominal one a single run); its best points are evaluated again in full
-        before the optimiser starts from them.
+        before the optimiser starts from them.  While the optimiser runs,
+        :attr:`prune_above` holds its incumbent's cost: a robust candidate whose
+        nominal run and corners already cost more is not run on the random draws
+        (:func:`nniquad.tuning.objective.evaluate_details`).
         """
         pts = np.clip(np.atleast_2d(pts), self.lo, self.hi)
         options = self.options
         if screen and (options.robust or options.require_margins):
             options = replace(options, objective="nominal", require_margins=False, require_pm=False)
-        cost, mets = evaluate(self.vehicle, pts, options, self.horizon_s)
+        cost, mets = evaluate(self.vehicle, pts, options, self.horizon_s,
+                              prune_above=None if screen else self.prune_above)
         self.n_sim += len(pts) * len(_scenario_options(self.options, simulation_options(self.options, 1.0),
                                                         self.vehicle))
         return [Candidate(q.copy(), float(c), m) for q, c, m in zip(pts, cost, mets)]

@@ -54,6 +54,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--attitude-zeta", type=float, default=None, metavar="Z", help="attitude damping ratio")
     g.add_argument("--attitude-accel", type=float, default=None, metavar="RAD_S2",
                    help="deceleration of the attitude error shaping in rad/s^2")
+    g.add_argument("--gains-from", metavar="FILE", default=None,
+                   help="certify the gains and inner loops of a 'tune --json' file or a certificate (a filtered PD "
+                        "is certified as its NNI image: kp' = k_p + k_d/tau_f, Gamma = m k_d/tau_f^2, "
+                        "delta = tau_f/(m k_d))")
     b = parser.add_argument_group("parameter box of the sampled-data cascade section")
     b.add_argument("--box-scale", type=float, default=None, metavar="S",
                    help="certify the Monte Carlo default ranges scaled by S about nominal in log space "
@@ -82,8 +86,8 @@ def run(args: argparse.Namespace) -> int:
 
     # before any tuning: a bad rate fails at once
     rate = check_rate_hz(CONTROL_RATE_HZ if args.rate is None else args.rate, DT_S, error=CertificateError)
-    if args.warm_start and args.kp is not None:
-        raise NniquadError("--warm-start seeds the tuning: it cannot be given with --kp/--Gamma/--delta")
+    if args.warm_start and (args.kp is not None or args.gains_from is not None):
+        raise NniquadError("--warm-start seeds the tuning: it cannot be given with --kp/--Gamma/--delta or --gains-from")
     box = None
     if args.box_scale is not None:
         from nniquad.analysis.robust_cascade import ParameterBox
@@ -100,7 +104,16 @@ def run(args: argparse.Namespace) -> int:
     progress = Progress("certify")
     if any(getattr(args, n) is not None for n in others):
         raise NniquadError(f"--{' --'.join(others)} are not gains of the {law} law (--controller)")
-    if any(v is not None for v in given):
+    if args.gains_from is not None and any(getattr(args, n) is not None for n in (*names, "attitude_wn",
+                                                                                 "attitude_zeta", "attitude_accel")):
+        raise NniquadError("give --gains-from or the gains (and the attitude options), not both")
+    if args.gains_from is not None:
+        from .tune import designs_from_files
+
+        (gains, inner), = designs_from_files([args.gains_from], "--gains-from")
+        cert = certify(vehicle, gains, inner=inner, options=options, progress=progress.message, rate_hz=rate,
+                       box=box, widest_box=args.widest_box)
+    elif any(v is not None for v in given):
         if any(v is None for v in given):
             raise NniquadError(f"give all of --{', --'.join(names)} to certify given gains")
         block = SNI2Gains if law == "sni2" else Gains

@@ -126,7 +126,19 @@ def tune_options_from_args(args: argparse.Namespace):
 
 
 def warm_starts_from_args(args: argparse.Namespace) -> list:
-    """The ``(gains, inner loops)`` of every ``--warm-start`` file: a ``tune --json`` file or a certificate.
+    """The ``(gains, inner loops)`` of every ``--warm-start`` file (:func:`designs_from_files`)."""
+    return designs_from_files(getattr(args, "warm_start", None) or [], "--warm-start")
+
+
+def designs_from_files(paths, option: str) -> list:
+    """The ``(gains, inner loops)`` of ``tune --json`` files or certificates (the law is the file's).
+
+    Parameters
+    ----------
+    paths
+        The files.
+    option
+        The option that named them, for the messages.
 
     Raises
     ------
@@ -139,8 +151,8 @@ def warm_starts_from_args(args: argparse.Namespace) -> list:
     from nniquad.io import parse_data, read_text_file
 
     out = []
-    for path in getattr(args, "warm_start", None) or []:
-        data = parse_data(read_text_file(Path(path), what="warm start"), "json", where=f"warm start {path}")
+    for path in paths:
+        data = parse_data(read_text_file(Path(path), what=option), "json", where=f"{option} {path}")
         try:
             if isinstance(data, dict) and data.get("schema") is not None:  # a certificate (digest checked)
                 check_form(data, str(path))
@@ -151,7 +163,7 @@ def warm_starts_from_args(args: argparse.Namespace) -> list:
                 if law == "nni" else CONTROLLER_GAINS[law](**data["gains"])
             out.append((gains, InnerLoopGains(**data["inner_loop"])))
         except (KeyError, TypeError, CertificateError, NniquadError) as exc:
-            raise NniquadError(f"--warm-start {path}: not a 'tune --json' file or a certificate ({exc})") from None
+            raise NniquadError(f"{option} {path}: not a 'tune --json' file or a certificate ({exc})") from None
     return out
 
 
@@ -191,7 +203,7 @@ def print_tune_result(res) -> None:
         ("peak actual tilt", fmt(m.peak_tilt_deg, digits=4), "deg"),
         ("peak rotor speed", fmt(m.peak_rotor_speed_rad_s, digits=4), "rad/s"),
         ("certified reach (ROA LMI)", fmt(res.certified_reach_m, digits=4) if res.options.controller in ("nni", "sni2")
-         else "none (not an NNI design)", f"m (required {res.roa_radius_m:g})"),
+         else "none (not an NNI design: no sector bound)", f"m (required {res.roa_radius_m:g})"),
         ("best settling per seed", ", ".join(f"{r['seed']}: {r['settling_s']:.4g}" for r in res.reruns), "s"),
         ("simulations / LMI solves", f"{res.n_simulations} / {res.n_lmi}", ""),
         ("time taken", fmt(res.elapsed_s, digits=3), "s"),
