@@ -31,6 +31,7 @@ __all__ = [
     "SETTLING_HOLD_FACTOR",
     "MC_STALL_TIMEOUT_S",
     "MC_STARTUP_GRACE_S",
+    "MC_WITHIN_RIM_FRACTION",
     "INPUT_MAX_BYTES",
     "INPUT_MAX_DEPTH",
     "INPUT_MAX_INT_DIGITS",
@@ -118,6 +119,9 @@ MC_STALL_TIMEOUT_S: float = 120.0
 #: Until its first batch finishes, a study waits at least this long before calling the pool or cluster
 #: stalled [s]: workers start, import nniquad and build the simulator (a few seconds each, more when loaded).
 MC_STARTUP_GRACE_S: float = 60.0
+#: Fraction of ``montecarlo --within-certificate`` starts drawn on the rim of the certified disk (the others
+#: uniformly over it): the certified region is closed, and its boundary is where a false claim would show first.
+MC_WITHIN_RIM_FRACTION: float = 0.1
 
 #: Points per coordinate of the numpy grid check inside a cascade certificate's parameter box
 #: (nniquad.analysis.robust_cascade.grid_check; six coordinates, so 4 gives 4096 points).

@@ -104,7 +104,9 @@ CTRL_COLOR = {"nni": "tab:blue", "nni_cascade": "tab:purple", "sni2": "tab:red",
 # %%
 from pathlib import Path
 
-# written by `nniquad certify --model full --out notebooks/data/full_model_certificate.json`;
+# tuned and written by `nniquad certify --model full --out notebooks/data/full_model_certificate.json`,
+# re-certified with the current code (same gains and tuning record) by `nniquad certify --model full
+# --gains-from notebooks/data/full_model_certificate.json --out notebooks/data/full_model_certificate.json`;
 # load_certificate checks its schema and SHA-256 digest
 DATA = Path("data") if Path("data").is_dir() else Path("notebooks") / "data"
 CERT = read_certificate(DATA / "full_model_certificate.json")

@@ -534,7 +534,7 @@ def test_schema_2_cascade_section_is_checked_by_robust_cascade(certificate, monk
 
     seen = {}
 
-    def stub(section, vehicle, gains, inner, *, tilt_limit_deg):
+    def stub(section, vehicle, gains, inner, *, tilt_limit_deg, **_):
         seen.update(section=section, vehicle=vehicle, gains=gains, inner=inner, tilt=tilt_limit_deg)
         return [("lyapunov", True, "stub"), ("grid", section.get("grid_ok", True), "stub")]
 

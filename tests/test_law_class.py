@@ -10,6 +10,7 @@ tuner's cost, and ``verify`` recomputing a certificate whose law class was edite
 from __future__ import annotations
 
 import copy
+import json
 import math
 
 import numpy as np
@@ -254,3 +255,32 @@ def test_certify_gains_from_a_filtered_pd_file_maps_it_to_its_image(run_cli, tmp
     bad.write_text(json.dumps({"gains": {"kp": 1.0}}))
     code, _, err = run_cli("certify", "--model", "full", "--gains-from", str(bad), "--out", str(out))
     assert code == 2 and err.startswith("nniquad certify: error: --gains-from") and not out.exists()
+
+
+def test_gains_from_keeps_the_record_of_the_tune_that_found_them(monkeypatch):
+    """``certify --gains-from FILE``: the certificate's ``tuning`` record is the file's (a certificate's ``tuning``
+    section, a ``tune --json`` document), when that tune ran on the certified model; otherwise only the source."""
+    from pathlib import Path
+
+    import nniquad.certificates.job as job
+    from nniquad.certificates import read_certificate
+    from nniquad.cli.commands.tune import designs_from_files
+    from nniquad.tuning.tune import TuneOptions
+
+    data = Path(__file__).resolve().parents[1] / "notebooks" / "data"
+    committed = data / "full_model_certificate.json"
+    records: list = []
+    (gains, inner), (pd, _) = designs_from_files([committed, data / "designs" / "pd_filtered.json"], "--gains-from",
+                                                 records)
+    stated = json.loads(committed.read_text())["tuning"]
+    assert records[0] == stated and records[1] == json.loads((data / "designs" / "pd_filtered.json").read_text())
+    captured = []
+    monkeypatch.setattr(job, "build_certificate", lambda *a, **k: captured.append(k["tuning"]) or
+                        read_certificate(committed))
+    job.certify(V, gains, inner=inner, options=TuneOptions(model="full"), tuning_record=records[0])
+    assert captured[-1]["settling_s"] == stated["settling_s"] and captured[-1]["model"] == "full"
+    assert captured[-1]["source"].startswith("given gains, with the record")
+    job.certify(V, gains, inner=inner, options=TuneOptions(model="reduced"), tuning_record=records[0])
+    assert captured[-1] == {"source": "given gains"}  # a record of another model is not this certificate's
+    job.certify(V, gains, inner=inner, options=TuneOptions(model="full"))
+    assert captured[-1] == {"source": "given gains"}

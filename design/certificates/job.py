@@ -17,7 +17,8 @@ __all__ = ["certify", "verify", "unsettled_reference_run"]
 
 def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLoopGains | None = None,
             options: Any = None, progress: Callable[[str], None] | None = None,
-            rate_hz: float | None = None, box: Any = None, widest_box: bool = False) -> Certificate:
+            rate_hz: float | None = None, box: Any = None, widest_box: bool = False,
+            tuning_record: Mapping[str, Any] | None = None) -> Certificate:
     """Tune (unless gains are given), solve every LMI, simulate the reference runs and sign.
 
     The certificate is verified independently (:func:`verify`) before it is
@@ -57,6 +58,11 @@ def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLo
     rate_hz
         Control rate of the certificate [Hz] (default ``options.rate_hz``, the rate the
         tuner ranked the candidates at; :func:`build_certificate`).
+    tuning_record
+        With given ``gains``: the record of the tune that found them (the ``tuning``
+        section of the certificate or ``tune --json`` file they come from), kept as
+        this certificate's ``tuning`` record when it was tuned on ``options.model``
+        (a record, never checked but for its model; ``certify --gains-from``).
 
     Returns
     -------
@@ -96,6 +102,8 @@ def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLo
     else:
         inner = DEFAULT_INNER_LOOP_GAINS if inner is None else inner
         tuning = {"source": "given gains"}
+        if isinstance(tuning_record, Mapping) and tuning_record.get("model") == options.model:
+            tuning = {**tuning_record, "source": "given gains, with the record of the tune that found them"}
     if isinstance(gains, PDFilteredGains):  # the filtered PD is the NNI law with these gains
         tuning["certified_as_nni_image_of"] = {"pd_filtered": gains.as_dict()}
         gains = nni_from_filtered_pd(gains, vehicle.m)

@@ -12,8 +12,8 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from nniquad.config import (ALTITUDE_LIMIT_M, BAND_FRACTION, CONTROL_RATE_HZ, DT_S, OUTPUT_DT_S, TAU_MOTOR_FACTOR_RANGE, TILT_LIMIT_DEG,
-                             WIND_WEIGHT_FRACTION_RANGE, XI0_M)
+from nniquad.config import (ALTITUDE_LIMIT_M, BAND_FRACTION, CONTROL_RATE_HZ, DT_S, MC_WITHIN_RIM_FRACTION, OUTPUT_DT_S,
+                             TAU_MOTOR_FACTOR_RANGE, TILT_LIMIT_DEG, WIND_WEIGHT_FRACTION_RANGE, XI0_M)
 from nniquad.errors import MonteCarloError
 from nniquad.control.gains import NI_LAWS
 from nniquad.sim import SimOptions, SimParams, to_gains
@@ -95,6 +95,9 @@ class ScenarioRanges:
     altitude_limit_m
         An altitude deviation beyond this [m] is "altitude lost" (default
         :data:`nniquad.config.ALTITUDE_LIMIT_M`).
+    rim_fraction
+        Fraction of the starts drawn on the rim of the displacement disk, the others uniformly over it
+        (default 0; ``--within-certificate``: :data:`nniquad.config.MC_WITHIN_RIM_FRACTION`).
     """
 
     mass_factor: tuple[float, float] = (0.8, 1.2)
@@ -108,6 +111,7 @@ class ScenarioRanges:
     wind_N: tuple[float, float] | None = None
     max_displacement_m: float = 5.0
     altitude_limit_m: float = ALTITUDE_LIMIT_M
+    rim_fraction: float = 0.0
 
     def __post_init__(self) -> None:
         set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731
@@ -132,6 +136,10 @@ class ScenarioRanges:
             set_(name, fv)
         if self.noise_rate_hz > 1000.0:
             raise MonteCarloError(f"noise_rate_hz {self.noise_rate_hz:g} exceeds the 1 kHz integration rate")
+        rim = self.rim_fraction
+        if isinstance(rim, bool) or not isinstance(rim, (int, float)) or not 0.0 <= rim < 1.0:
+            raise MonteCarloError(f"rim_fraction must be a number in [0, 1), got {rim!r}")
+        set_("rim_fraction", float(rim))
 
     def with_(self, **changes: Any) -> "ScenarioRanges":
         """Copy with some ranges changed (validated again)."""
@@ -470,7 +478,8 @@ def draw_scenario(index: int, seed: int, ranges: ScenarioRanges, setup: StudySet
 
     Draw order from the scenario's stream: mass factor, inertia factors (x, y,
     z), attitude-gain factor, motor time constant, noise σ, wind magnitude,
-    wind direction, displacement radius (``R √u``, uniform over the disk),
+    wind direction, displacement radius (``R √u``, uniform over the disk; with a rim fraction ``f``,
+    ``R √min(1, u / (1 - f))``: the same draw puts a fraction ``f`` on the rim, the rest uniform),
     displacement direction, noise seed.
     """
     seed = _check_seed(seed)
@@ -492,7 +501,7 @@ def draw_scenario(index: int, seed: int, ranges: ScenarioRanges, setup: StudySet
     wind = u(ranges.wind_N if ranges.wind_N is not None
              else tuple(weight * f for f in ranges.wind_weight_fraction))  # same stream position either way
     wdir = float(rng.uniform(0.0, 2 * math.pi))
-    radius = setup.region_m * math.sqrt(float(rng.uniform(0.0, 1.0)))
+    radius = setup.region_m * math.sqrt(min(1.0, float(rng.uniform(0.0, 1.0)) / (1.0 - ranges.rim_fraction)))
     rdir = float(rng.uniform(0.0, 2 * math.pi))
     noise_seed = int(rng.integers(0, 2**63 - 1))
     plant = base.plant
@@ -563,7 +572,8 @@ def within_certificate_ranges(cert: Mapping[str, Any]) -> tuple[ScenarioRanges, 
 
     The mass, inertia (each axis), attitude-gain and motor time-constant
     factors are drawn from ``cascade.box``; the initial displacement from the
-    disk of radius ``cascade.region_of_attraction.max_displacement_m``; the
+    disk of radius ``cascade.region_of_attraction.max_displacement_m``, a fraction
+    :data:`nniquad.config.MC_WITHIN_RIM_FRACTION` of them on its rim; the
     rate is ``cascade.rate_hz`` (the NNI controller in discrete time).  Noise
     and wind are off: the certificate covers neither.  The capped ``Jz``
     (``min(f_z Jz, f_x Jx + f_y Jy)``) stays inside the box too, since
@@ -578,7 +588,8 @@ def within_certificate_ranges(cert: Mapping[str, Any]) -> tuple[ScenarioRanges, 
     -------
     ranges : ScenarioRanges
         The box, no noise, no wind, ``noise_rate_hz`` the certified rate,
-        ``max_displacement_m`` the certified radius.
+        ``max_displacement_m`` the certified radius, ``rim_fraction``
+        :data:`nniquad.config.MC_WITHIN_RIM_FRACTION`.
     region_m : float
         The certified initial-displacement radius [m] (pass it to :func:`study_setup`).
     rate_hz : float
@@ -610,5 +621,6 @@ def within_certificate_ranges(cert: Mapping[str, Any]) -> tuple[ScenarioRanges, 
     if rate is None:
         raise MonteCarloError("the certificate's cascade section states no rate_hz")
     ranges = ScenarioRanges(**factors, tau_motor_s=None, noise_sigma_m=(0.0, 0.0), noise_rate_hz=rate,
-                            wind_weight_fraction=(0.0, 0.0), wind_N=None, max_displacement_m=region)
+                            wind_weight_fraction=(0.0, 0.0), wind_N=None, max_displacement_m=region,
+                            rim_fraction=MC_WITHIN_RIM_FRACTION)
     return ranges, region, rate

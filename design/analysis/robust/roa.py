@@ -280,10 +280,13 @@ def scaled_eig_margins(M: np.ndarray, M_abs: np.ndarray, n_inner: int,
     d = 1.0 / np.sqrt(np.asarray(scale, float))
     Ms = M * d[..., :, None] * d[..., None, :]
     Es = np.abs(M_abs) * d[..., :, None] * d[..., None, :]
-    ev = np.linalg.eigvalsh(Ms)
+    finite = np.all(np.isfinite(Ms), axis=(-2, -1)) & np.all(np.isfinite(Es), axis=(-2, -1))
+    ev = np.linalg.eigvalsh(np.where(finite[..., None, None], Ms, 0.0))
     bound = lmi_checks.ROUNDING_SAFETY * lmi_checks.EPS * (
-        int(n_inner) * np.linalg.norm(Es, 2, axis=(-2, -1)) + M.shape[-1] * np.max(np.abs(ev), axis=-1))
-    return ev[..., -1], bound
+        int(n_inner) * np.linalg.norm(np.where(finite[..., None, None], Es, 0.0), 2, axis=(-2, -1))
+        + M.shape[-1] * np.max(np.abs(ev), axis=-1))
+    # a non-positive diagonal of P (no metric, and P not positive definite) is a failure, never a margin
+    return np.where(finite, ev[..., -1], np.inf), bound
 
 
 def margin_scale(P: np.ndarray, m: int) -> np.ndarray:

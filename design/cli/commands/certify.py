@@ -57,7 +57,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--gains-from", metavar="FILE", default=None,
                    help="certify the gains and inner loops of a 'tune --json' file or a certificate (a filtered PD "
                         "is certified as its NNI image: kp' = k_p + k_d/tau_f, Gamma = m k_d/tau_f^2, "
-                        "delta = tau_f/(m k_d))")
+                        "delta = tau_f/(m k_d)); the record of the tune that found them is kept as the "
+                        "certificate's tuning record when it was tuned on the same --model (re-certifying a "
+                        "certificate with a newer version keeps its design and its record)")
     b = parser.add_argument_group("parameter box of the sampled-data cascade section")
     b.add_argument("--box-scale", type=float, default=None, metavar="S",
                    help="certify the Monte Carlo default ranges scaled by S about nominal in log space "
@@ -110,9 +112,10 @@ def run(args: argparse.Namespace) -> int:
     if args.gains_from is not None:
         from .tune import designs_from_files
 
-        (gains, inner), = designs_from_files([args.gains_from], "--gains-from")
+        records: list = []
+        (gains, inner), = designs_from_files([args.gains_from], "--gains-from", records)
         cert = certify(vehicle, gains, inner=inner, options=options, progress=progress.message, rate_hz=rate,
-                       box=box, widest_box=args.widest_box)
+                       box=box, widest_box=args.widest_box, tuning_record=records[0])
     elif any(v is not None for v in given):
         if any(v is None for v in given):
             raise NniquadError(f"give all of --{', --'.join(names)} to certify given gains")

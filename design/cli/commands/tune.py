@@ -130,7 +130,7 @@ def warm_starts_from_args(args: argparse.Namespace) -> list:
     return designs_from_files(getattr(args, "warm_start", None) or [], "--warm-start")
 
 
-def designs_from_files(paths, option: str) -> list:
+def designs_from_files(paths, option: str, records: list | None = None) -> list:
     """The ``(gains, inner loops)`` of ``tune --json`` files or certificates (the law is the file's).
 
     Parameters
@@ -139,6 +139,9 @@ def designs_from_files(paths, option: str) -> list:
         The files.
     option
         The option that named them, for the messages.
+    records
+        When given, the record of the tune behind each file is appended to it: a
+        certificate's ``tuning`` section, or the ``tune --json`` document itself.
 
     Raises
     ------
@@ -157,11 +160,15 @@ def designs_from_files(paths, option: str) -> list:
             if isinstance(data, dict) and data.get("schema") is not None:  # a certificate (digest checked)
                 check_form(data, str(path))
                 out.append((certificate_gains(data), certificate_inner_loop(data)))
+                if records is not None:
+                    records.append(data.get("tuning"))
                 continue
             law = data["controller"]
             gains = CONTROLLER_GAINS[law].from_values({**data["gains"], "kpy": data["gains"].get("kpy")}) \
                 if law == "nni" else CONTROLLER_GAINS[law](**data["gains"])
             out.append((gains, InnerLoopGains(**data["inner_loop"])))
+            if records is not None:
+                records.append(data)
         except (KeyError, TypeError, CertificateError, NniquadError) as exc:
             raise NniquadError(f"{option} {path}: not a 'tune --json' file or a certificate ({exc})") from None
     return out
