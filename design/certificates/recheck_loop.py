@@ -106,9 +106,10 @@ def poles_check(cert: Certificate) -> Check:
 def same_multiset(stated: np.ndarray, computed: np.ndarray, tol: float) -> bool:
     """Whether stated ``[re, im]`` rows and computed complex numbers are the same multiset within ``tol``.
 
-    The rows are matched by an optimal assignment, never by position: the eigenvalues of the two identical axes
-    (and the two members of a conjugate pair) tie in any sort key, and another machine's LAPACK returns tied
-    values in another order.
+    True iff the stated values can be paired one to one with the computed ones, every pair closer than ``tol``
+    (a perfect matching of the bipartite graph of close pairs; Kuhn's augmenting paths), never by position: the
+    eigenvalues of the two identical axes (and the two members of a conjugate pair) tie in any sort key, and
+    another machine's LAPACK returns tied values in another order.
 
     Parameters
     ----------
@@ -119,14 +120,22 @@ def same_multiset(stated: np.ndarray, computed: np.ndarray, tol: float) -> bool:
     tol
         Largest distance of a matched pair.
     """
-    from scipy.optimize import linear_sum_assignment
-
     got = np.asarray(computed, complex).ravel()
     if stated.ndim != 2 or stated.shape != (got.size, 2) or not np.all(np.isfinite(stated)):
         return False
-    dist = np.abs((stated[:, 0] + 1j * stated[:, 1])[:, None] - got[None, :])
-    rows, cols = linear_sum_assignment(dist)
-    return bool(np.all(dist[rows, cols] <= tol))
+    close_to = np.abs((stated[:, 0] + 1j * stated[:, 1])[:, None] - got[None, :]) <= tol
+    match_of: list[int] = [-1] * got.size  # computed value -> the stated row it is paired with
+
+    def augment(row: int, seen: list[bool]) -> bool:
+        for col in np.flatnonzero(close_to[row]):
+            if not seen[col]:
+                seen[col] = True
+                if match_of[col] < 0 or augment(match_of[col], seen):
+                    match_of[col] = row
+                    return True
+        return False
+
+    return all(augment(row, [False] * got.size) for row in range(got.size))
 
 
 def ni_checks(cert: Certificate, tol: Mapping[str, float], which: str) -> Check:
