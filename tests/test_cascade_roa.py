@@ -194,3 +194,18 @@ def test_committed_certificate_boundary_converges_in_the_full_simulator():
     results = run_scenarios(scenarios)
     assert len(results) == 128
     assert all(r.success for r in results), [(r.index, r.failure) for r in results if not r.success]
+
+
+@pytest.mark.parametrize("widened", ["deeper saturation", "wider box"])
+def test_the_region_lmi_certifies_less_when_the_saturation_or_the_box_is_widened(section, widened):
+    """The whole region search (LMI and cutting planes, then its numpy check) run again with the tilt limit
+    lowered to 10 deg (every start saturates three times deeper) or the mass range widened to 0.5-2: it cannot
+    certify the stated region there (a smaller Lur'e reach, or no Lur'e region at all)."""
+    stated = section["region_of_attraction"]["max_displacement_m"]
+    tilt, box = (10.0, BOX) if widened == "deeper saturation" else (TILT, RC.ParameterBox(
+        mass_factor=(0.5, 2.0), inertia_factor=BOX.inertia_factor, attitude_gain_factor=BOX.attitude_gain_factor,
+        tau_motor_factor=BOX.tau_motor_factor))
+    wide = RC.cascade_section(V, GAINS, INNER, tilt_limit_deg=tilt, rate_hz=RATE, box=box, grid_points_per_axis=2)
+    reach = wide["region_of_attraction"]["max_displacement_m"]
+    assert section["region_of_attraction"]["method"] == "lure"
+    assert reach < 0.5 * stated, (wide["region_of_attraction"]["method"], reach, stated)
