@@ -1,7 +1,8 @@
 # Two commands do all set-up on a fresh machine (see README):
 #   make demo   creates .venv, installs, runs `nniquad report` on the paper's vehicle into out/
 #   make test   installs if needed, runs the whole test suite (notebooks included)
-# make mutation [MODULE=metrics]: mutation score of the verdict modules (tests/mutation/, mutmut)
+# make mutation [MODULE=metrics] [SURVIVORS=1]: mutation score of the verdict modules (tests/mutation/, mutmut);
+#   SURVIVORS=1 runs again only the last full run's survivors, against the current tests
 # make planted: the planted bugs of issue 16, each in a staged copy, must fail the tests meant to catch them
 PYTHON ?= python3
 VENV   ?= .venv
@@ -29,7 +30,7 @@ bench: $(STAMP)
 	MPLBACKEND=Agg $(PY) benchmarks/run.py --json benchmarks/results/latest.json
 
 mutation: $(STAMP)
-	MPLBACKEND=Agg $(PY) tests/mutation/run.py --jobs $(JOBS) $(if $(MODULE),--module $(MODULE))
+	MPLBACKEND=Agg $(PY) tests/mutation/run.py --jobs $(JOBS) $(if $(MODULE),--module $(MODULE)) $(if $(SURVIVORS),--survivors)
 
 planted: $(STAMP)
 	MPLBACKEND=Agg $(PY) tests/mutation/planted.py --jobs $(JOBS)

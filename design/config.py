@@ -39,6 +39,7 @@ __all__ = [
     "MEMORY_FRACTION",
     "RUN_TIME_LIMIT_S",
     "CASCADE_GRID_POINTS_PER_AXIS",
+    "CASCADE_GRID_MAX_POINTS_PER_AXIS",
     "CASCADE_ROA_DECAY_FRACTION",
     "CASCADE_LURE_LEVELS",
     "CASCADE_LURE_MARGIN",
@@ -126,6 +127,9 @@ MC_WITHIN_RIM_FRACTION: float = 0.1
 #: Points per coordinate of the numpy grid check inside a cascade certificate's parameter box
 #: (nniquad.analysis.robust_cascade.grid_check; six coordinates, so 4 gives 4096 points).
 CASCADE_GRID_POINTS_PER_AXIS: int = 4
+#: The most points per coordinate a cascade grid may have (6**6 = 46,656 rebuilt 29-state loops, about 0.3 GB):
+#: ``certify`` refuses more, and ``verify`` refuses a certificate that asks for more (an absurd resource request).
+CASCADE_GRID_MAX_POINTS_PER_AXIS: int = 6
 #: The cascade's saturated region of attraction (nniquad.analysis.robust.roa) is certified with a decrease
 #: ``V(x+) - V(x) <= -(1 - rho^2) x'Px``, rho = exp(-fraction * the horizontal blocks' linear decay * T):
 #: a strict decrease, so the trajectories converge. 0.1 left the LMI 5 times further from feasible between

@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 import shutil
 import tempfile
+from pathlib import Path
 
 import pytest
 
@@ -12,6 +13,8 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 
 #: Set by the controlling process for this session (before xdist starts its workers, which inherit it).
 _SESSION_CACHE = "NNIQUAD_TEST_SESSION_CACHE"
+#: A folder for :func:`shared_json` kept between sessions (set by ``tests/mutation/run.py``).
+_SHARED_DIR = "NNIQUAD_TEST_SHARED_DIR"
 
 
 def pytest_configure(config):
@@ -57,21 +60,28 @@ def run_cli(capsys):
 
 
 @pytest.fixture(scope="session")
-def shared_json(tmp_path_factory, worker_id):
+def shared_json(tmp_path_factory, pytestconfig):
     """``shared_json(name, make)``: the JSON document ``make()`` returns, built once for the whole test session.
 
     Expensive inputs (a certificate with its cascade section takes 10-20 s) are built by the first pytest-xdist
     worker that asks and read by the others: the document is written atomically into the session's shared
     temporary folder under an exclusive ``flock``, so the others wait for it instead of building it again.  Only
-    JSON crosses workers, which is also how a certificate travels between machines.
+    JSON crosses workers, which is also how a certificate travels between machines.  ``NNIQUAD_TEST_SHARED_DIR``
+    names a folder kept between sessions instead (``make mutation`` sets it: the documents are built once, by the
+    unmutated code of mutmut's first run, and every mutant's session reads them).
     """
     import fcntl
     import json
     import os
 
-    root = tmp_path_factory.getbasetemp()
-    if worker_id != "master":
-        root = root.parent  # shared by every worker of this session
+    kept = os.environ.get(_SHARED_DIR)
+    if kept:  # kept between sessions: `make mutation` builds each document once, not once per mutant
+        root = Path(kept)
+        root.mkdir(parents=True, exist_ok=True)
+    else:
+        root = tmp_path_factory.getbasetemp()
+        if hasattr(pytestconfig, "workerinput"):
+            root = root.parent  # shared by every worker of this session
     made: dict[str, object] = {}
 
     def get(name: str, make):

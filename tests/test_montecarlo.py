@@ -45,10 +45,15 @@ MIXED = ["--mass-range", "1.0", "2.4", "--tau-motor-range", "0.005", "0.03", "--
 
 
 def build_mc_certificate() -> dict:
-    """A real certificate of the tuned gains over :data:`SMALL_BOX` (JSON)."""
-    from nniquad.certificates.certificate import build_certificate
+    """A real certificate of the tuned gains over :data:`SMALL_BOX` (JSON): test_certificate's, shared with it
+    (:data:`MC_CERTIFICATE` names it for ``shared_json``), so the session builds one certificate, not two."""
+    from tests.test_certificate import build_small_certificate
 
-    return build_certificate(PAPER_VEHICLE, GAINS, inner=INNER, model="full", box=SMALL_BOX).to_json()
+    return build_small_certificate()
+
+
+#: The ``shared_json`` name of :func:`build_mc_certificate`'s document (test_certificate's small certificate).
+MC_CERTIFICATE = "small-certificate"
 
 
 @pytest.fixture(scope="session")
@@ -56,7 +61,7 @@ def cert_path(tmp_path_factory, shared_json):
     """A real certificate of the tuned gains, built once per test session (:func:`build_mc_certificate`)."""
     from nniquad.certificates.certificate import write_certificate
 
-    return write_certificate(shared_json("mc-certificate", build_mc_certificate),
+    return write_certificate(shared_json(MC_CERTIFICATE, build_mc_certificate),
                              tmp_path_factory.mktemp("mc") / "cert.json")
 
 

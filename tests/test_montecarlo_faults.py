@@ -28,7 +28,7 @@ import pytest
 import nniquad.study as mc
 from nniquad.errors import EXIT_STUDY_FAILED
 from nniquad.progress import Progress
-from test_montecarlo import build_mc_certificate
+from test_montecarlo import MC_CERTIFICATE, build_mc_certificate
 
 HORIZON = "2"
 
@@ -38,7 +38,7 @@ def cert_path(tmp_path_factory, shared_json):
     """test_montecarlo's certificate of its tuned gains, built once per test session."""
     from nniquad.certificates.certificate import write_certificate
 
-    return write_certificate(shared_json("mc-certificate", build_mc_certificate),
+    return write_certificate(shared_json(MC_CERTIFICATE, build_mc_certificate),
                              tmp_path_factory.mktemp("mcfaults") / "cert.json")
 
 

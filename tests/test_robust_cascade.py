@@ -220,6 +220,21 @@ def test_tampered_matrix_and_perturbed_P_fail(section):
     assert "Lyapunov LMI [x]" in _failed(sec)
 
 
+def test_fail_fast_rows_are_the_full_rows_up_to_the_first_failure(section, checked):
+    """``fail_fast`` changes when the re-check stops, never a row: on the true section every row runs (the same
+    rows), and on an edited one the rows are the full run's, cut after its first failure."""
+    assert RC.check_cascade_section(section, V, GAINS, INNER, tilt_limit_deg=TILT, fail_fast=True) == checked
+    for edit in (lambda s: s["lyapunov"]["subsystems"]["x"].update(rho=s["lyapunov"]["subsystems"]["x"]["rho"] * 0.999),
+                 lambda s: s["grid"].update(worst_rho=s["grid"]["worst_rho"] * (1 + 1e-6)),
+                 lambda s: s["margins"]["worst"]["horizontal"].update(pm_deg=s["margins"]["worst"]["horizontal"]["pm_deg"] + 1)):
+        sec = copy.deepcopy(section)
+        edit(sec)
+        full = RC.check_cascade_section(sec, V, GAINS, INNER, tilt_limit_deg=TILT)
+        fast = RC.check_cascade_section(sec, V, GAINS, INNER, tilt_limit_deg=TILT, fail_fast=True)
+        first = next(i for i, (_, ok, _) in enumerate(full) if not ok)
+        assert fast == full[:first + 1] and not fast[-1][1]
+
+
 @pytest.mark.parametrize("scale", [0.13, 1.0])
 def test_box_wider_than_certified_fails(section, scale):
     """A wider box (still stable at 0.13, unstable at the Monte Carlo box) is not certified by the stored P."""

@@ -188,8 +188,18 @@ def read_certificate(path: str | Path) -> "Certificate":
 # ----------------------------------------------------------------------------- the typed certificate
 
 
+#: JSON's scalar types, returned as they are by :func:`_freeze` and :func:`_thaw` (tested by exact type first:
+#: ``isinstance`` against ``typing.Mapping`` costs a microsecond per value, and a certificate has 10^5 of them).
+_SCALARS = frozenset((float, int, str, bool, type(None)))
+
+
 def _freeze(value: Any) -> Any:
     """JSON data as read-only data: objects become mapping proxies, arrays tuples."""
+    t = type(value)
+    if t in _SCALARS:
+        return value
+    if t is list or t is tuple:
+        return tuple(_freeze(v) for v in value)
     if isinstance(value, Mapping):
         return MappingProxyType({k: _freeze(v) for k, v in value.items()})
     if isinstance(value, (list, tuple)):
@@ -199,6 +209,11 @@ def _freeze(value: Any) -> Any:
 
 def _thaw(value: Any) -> Any:
     """The inverse of :func:`_freeze` (plain dicts and lists, JSON ready)."""
+    t = type(value)
+    if t in _SCALARS:
+        return value
+    if t is tuple:
+        return [_thaw(v) for v in value]
     if isinstance(value, Mapping):
         return {k: _thaw(v) for k, v in value.items()}
     if isinstance(value, tuple):

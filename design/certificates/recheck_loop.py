@@ -11,7 +11,7 @@ inequality must hold with a margin above its rounding bound.  The schema-2
 from __future__ import annotations
 
 import math
-from typing import Mapping
+from typing import Any, Mapping
 
 import numpy as np
 
@@ -170,7 +170,20 @@ def closed_loop_check(cert: Certificate, tol: Mapping[str, float]) -> Check:
 
 
 def robust_mass_check(cert: Certificate, tol: Mapping[str, float]) -> Check:
+    """``P0 + P1/m`` certifies the stated decay on 201 masses of the stated interval (cached by its exact inputs:
+    the loop's vehicle and gains, the stated section and the tolerance)."""
     part = stated_part(cert.lmi, "robust_mass", "lmi")
+    inputs = [thaw_json(part), cert.vehicle.as_dict(), gains_key(cert), tol["rate_relative"]]
+    name, ok, detail = memo("robust_mass", inputs, lambda: _robust_mass_check(cert, part, tol))
+    return Check(name, ok, detail)
+
+
+def _robust_mass_check(cert: Certificate, part: Mapping[str, Any], tol: Mapping[str, float]) -> tuple[str, bool, str]:
+    check = _robust_mass_recheck(cert, part, tol)
+    return check.name, check.ok, check.detail
+
+
+def _robust_mass_recheck(cert: Certificate, part: Mapping[str, Any], tol: Mapping[str, float]) -> Check:
     n = cert.loop.closed_loop_A_axis().shape[0]
     P0 = stated_array(part, "P0", (n, n), "lmi.robust_mass")
     P1 = stated_array(part, "P1", (n, n), "lmi.robust_mass")
@@ -244,8 +257,9 @@ def bound_check(cert: Certificate) -> Check:
                               + ", ".join(ratios))
 
 
-def cascade_checks(cert: Certificate) -> list[Check]:
-    """The schema-2 ``cascade`` section, rebuilt by :func:`nniquad.analysis.robust_cascade.check_cascade_section`."""
+def cascade_checks(cert: Certificate, fail_fast: bool = False) -> list[Check]:
+    """The schema-2 ``cascade`` section, rebuilt by :func:`nniquad.analysis.robust_cascade.check_cascade_section`
+    (with ``fail_fast``, up to its first failed row)."""
     try:
         from nniquad.analysis.robust_cascade import check_cascade_section
     except ImportError:
@@ -258,8 +272,9 @@ def cascade_checks(cert: Certificate) -> list[Check]:
             section["region_of_attraction"].pop("lure_search", None)  # a record too: how the region was found
     # a pure function of the section and the design: an edit elsewhere in the document does not re-run it
     rows = memo("cascade", [section, cert.vehicle.as_dict(), gains_key(cert), cert.inner_loop.as_dict(),
-                             cert.tilt_limit_deg, list(cert.xi0_m)],
+                             cert.tilt_limit_deg, list(cert.xi0_m), bool(fail_fast)],
                  lambda: check_cascade_section(section, cert.vehicle, cert.gains, cert.inner_loop,
-                                               tilt_limit_deg=cert.tilt_limit_deg, xi0_m=cert.xi0_m))
+                                               tilt_limit_deg=cert.tilt_limit_deg, xi0_m=cert.xi0_m,
+                                               fail_fast=fail_fast))
     checks = [Check(f"cascade.{name}", ok, detail) for name, ok, detail in rows]
     return checks or [Check("cascade", False, "the cascade check returned no checks")]

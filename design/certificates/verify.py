@@ -89,7 +89,7 @@ class Verification:
 
     def table(self) -> str:
         """One row per check: name, pass/FAIL, detail."""
-        w = max(len(c.name) for c in self.checks) if self.checks else 5
+        w = max([len("check")] + [len(c.name) for c in self.checks])
         lines = [f"{'check':<{w}}  result  detail", f"{'-' * w}  ------  ------"]
         lines += [f"{c.name:<{w}}  {'pass' if c.ok else 'FAIL':<6}  {c.detail}" for c in self.checks]
         lines += [f"note: {n}" for n in self.notes]
@@ -234,7 +234,7 @@ def _verify(cert: Certificate, simulate: bool, say: Callable[[str], None], fail_
     if cert.margins is not None:
         steps.append(lambda: margins_check(cert, tol))
     if cert.cascade is not None:
-        steps.append(lambda: cascade_checks(cert))
+        steps.append(lambda: cascade_checks(cert, fail_fast))
     if simulate:
         def runs() -> list[Check]:
             say("re-simulating the reference runs")

@@ -59,6 +59,9 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 HERE = Path(__file__).resolve().parent
 STAGE_ROOT = ROOT / "build" / "mutation"
+#: The tests' expensive shared documents (certificates), built by the first, unmutated run and read by the
+#: sessions of every mutant (``shared_json`` in tests/conftest.py).  Emptied at the start of every ``make mutation``.
+SHARED = STAGE_ROOT / "shared"
 #: Decorators rewritten as ``name = decorator(name)`` after the definition.
 LOWERABLE = {"property", "cache", "lru_cache", "cached_property"}
 #: mutmut exit codes (mutmut.stats.status_by_exit_code) counted as a detected mutant.
@@ -213,6 +216,9 @@ def pytest_runtest_setup(item):
             clear = getattr(obj, "cache_clear", None)
             if callable(clear):
                 clear()
+        clear = vars(module).get("clear_cache")  # a module's own cache of results (certificates.check.memo)
+        if callable(clear):
+            clear()
 '''
 
 
@@ -319,13 +325,53 @@ def _diff_lines(diff: str) -> tuple[str, str]:
 def run_module(module: Module, jobs: int, equivalents: list[Equivalent], log) -> Score:
     d = stage(module)
     mutmut = Path(sys.executable).with_name("mutmut")
-    env = dict(os.environ, MPLBACKEND="Agg", PYTHONHASHSEED="0")
+    env = dict(os.environ, MPLBACKEND="Agg", PYTHONHASHSEED="0", NNIQUAD_TEST_SHARED_DIR=str(SHARED))
     cmd = [str(mutmut), "run", "--max-children", str(jobs), *mutant_globs(module)]
     print(f"== {module.name}: {module.file} ({', '.join(module.functions)}); tests: {' '.join(module.tests)}",
           flush=True)
+    return _run_and_score(module, d, cmd, env, equivalents, log)
+
+
+def rerun_survivors(module: Module, jobs: int, equivalents: list[Equivalent], log) -> Score:
+    """Run again only the mutants that survived the last full run of ``module``, against the current tests.
+
+    The loop of killing survivors: edit the tests, then re-run the survivors in minutes instead of every
+    mutant.  Refused (exit 2) when the module's source changed since that run (the mutants are of the old
+    source: run it in full).  The certificates the tests share are those the last full run built.
+    """
+    d = STAGE_ROOT / module.name
+    meta_path = d / "mutants" / (module.staged_file + ".meta")
+    staged = d / module.staged_file
+    if not meta_path.exists() or not staged.exists():
+        print(f"mutation: error: no earlier run of {module.name} to resume (run it without --survivors)",
+              file=sys.stderr)
+        raise SystemExit(2)
+    if staged.read_text(encoding="utf-8") != lower_decorators((ROOT / module.file).read_text(encoding="utf-8")):
+        print(f"mutation: error: {module.file} changed since its last full run (run it without --survivors)",
+              file=sys.stderr)
+        raise SystemExit(2)
+    ignore = shutil.ignore_patterns("__pycache__", "*.pyc", "mutation")
+    for dst in (d / "tests", d / "mutants" / "tests"):
+        shutil.copytree(ROOT / "tests", dst, ignore=ignore, dirs_exist_ok=True)
+    from mutmut.stats import status_by_exit_code
+
+    codes = json.loads(meta_path.read_text())["exit_code_by_key"]
+    again = sorted(k for k in codes if selected(module, k) and status_by_exit_code[codes[k]] not in DETECTED)
+    print(f"== {module.name}: {len(again)} survivors of the last run, against the current tests", flush=True)
+    if not again:
+        return _run_and_score(module, d, None, {}, equivalents, log)
+    mutmut = Path(sys.executable).with_name("mutmut")
+    env = dict(os.environ, MPLBACKEND="Agg", PYTHONHASHSEED="0", NNIQUAD_TEST_SHARED_DIR=str(SHARED))
+    return _run_and_score(module, d, [str(mutmut), "run", "--max-children", str(jobs), *again], env, equivalents, log)
+
+
+def _run_and_score(module: Module, d: Path, cmd: list[str] | None, env: dict, equivalents: list[Equivalent],
+                   log) -> Score:
     t0 = time.monotonic()
-    with open(d / "mutmut.log", "w") as out:
-        proc = subprocess.run(cmd, cwd=d, env=env, stdout=out, stderr=subprocess.STDOUT)
+    proc = subprocess.CompletedProcess([], 0)
+    if cmd is not None:
+        with open(d / "mutmut.log", "w") as out:
+            proc = subprocess.run(cmd, cwd=d, env=env, stdout=out, stderr=subprocess.STDOUT)
     elapsed = time.monotonic() - t0
     meta_path = d / "mutants" / (module.staged_file + ".meta")
     if proc.returncode != 0 or not meta_path.exists():
@@ -386,6 +432,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--jobs", type=int, default=2, help="mutants tested at once (default 2)")
     parser.add_argument("--list", action="store_true", help="list the modules and exit")
     parser.add_argument("--show", action="store_true", help="print the diff of every surviving mutant")
+    parser.add_argument("--survivors", action="store_true",
+                        help="run again only the survivors of each module's last full run, against the current "
+                             "tests (refused if the module's source changed since)")
     args = parser.parse_args(argv)
     modules = load_modules(HERE / "modules.toml")
     if args.list:
@@ -404,10 +453,12 @@ def main(argv: list[str] | None = None) -> int:
         print(f"mutation: error: equivalent.toml names unknown modules {[e.module for e in bad]}", file=sys.stderr)
         return 2
     STAGE_ROOT.mkdir(parents=True, exist_ok=True)
+    if not args.survivors:
+        shutil.rmtree(SHARED, ignore_errors=True)  # built again from this checkout's code, never an earlier one's
     scores = []
-    with open(STAGE_ROOT / "scores.jsonl", "w") as log:
+    with open(STAGE_ROOT / "scores.jsonl", "a" if args.survivors else "w") as log:
         for m in chosen:
-            scores.append(run_module(m, args.jobs, equivalents, log))
+            scores.append((rerun_survivors if args.survivors else run_module)(m, args.jobs, equivalents, log))
     print("\nmutation score (killed / (mutants - equivalent)):")
     for s in scores:
         flag = "ok" if s.ok else f"BELOW {100 * s.module.target:.0f} %"

@@ -7,7 +7,7 @@ recomputed with numpy and compared (values within their rounding bounds, never w
 from __future__ import annotations
 
 import math
-from typing import Any, Mapping, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -20,7 +20,7 @@ from nniquad.analysis.robust.roa import HORIZONTAL, check_lure_block, linear_zon
 from nniquad.analysis.robust.section import (LMI_POINTS_PER_AXIS, _COVERAGE, _FORM, _MARGIN_MODEL, _MARGIN_POINTS,
                                              _margin_fields, model_text)
 from nniquad.analysis.sampled import _period
-from nniquad.config import CASCADE_GRID_POINTS_PER_AXIS, XI0_M
+from nniquad.config import CASCADE_GRID_MAX_POINTS_PER_AXIS, CASCADE_GRID_POINTS_PER_AXIS, XI0_M
 from nniquad.control.gains import Gains, InnerLoopGains, SNI2Gains
 from nniquad.sim import CONTROLLER_STATES, state_names
 from nniquad.errors import CascadeError
@@ -38,11 +38,7 @@ def _close(a: Any, b: Any, rtol: float = 1e-9) -> bool:
         return False
     if not (np.all(np.isfinite(A)) and np.all(np.isfinite(B))):
         return bool(np.array_equal(A, B))
-    return bool(np.all(np.abs(A - B) <= rtol * np.maximum(np.abs(B), 1.0) + 1e-300)) if A.size else True
-
-
-def _num(v: Any) -> float:
-    return float(v) if not isinstance(v, str) else float(v)
+    return bool(np.all(np.abs(A - B) <= rtol * np.maximum(np.abs(B), 1.0) + 1e-300))  # True when empty
 
 
 def _same_worst(stated: Mapping[str, Any], gc: GridCheck, points: np.ndarray) -> bool:
@@ -60,6 +56,28 @@ def _same_worst(stated: Mapping[str, Any], gc: GridCheck, points: np.ndarray) ->
     return _is_number(stated.get("worst_margin")) and abs(float(stated["worst_margin"]) - (1.0 - gc.worst_rho)) <= tol
 
 
+#: A stated rounding bound equals the recomputed one within this relative tolerance.  The verdicts use the
+#: recomputed bound; a jitter of the stored ``P`` far below every tolerance (relative 1e-12) moves the bound of an
+#: ill-conditioned ``P`` (λ_min/λ_max ≈ 1e-8) by about 1e-4 of itself.
+BOUND_RTOL = 1e-3
+#: A stated smallest eigenvalue of a diagonally scaled ``P`` (unit diagonal: eigenvalues at most n) equals the
+#: recomputed one within this absolute tolerance: far above a relative 1e-12 jitter of ``P``, far below a margin.
+SCALED_EIG_ATOL = 1e-9
+
+
+def _stated_margin_ok(key: str, stated: Any, computed: float) -> bool:
+    """A stated rounding margin (:func:`nniquad.analysis.robust.section._margin_fields`) equals the recomputed one.
+
+    Each against its own scale, with no absolute floor of 1 (``_close`` has one, for matrix entries rebuilt by
+    finite differences; it would accept any stated bound below it).
+    """
+    if not _is_number(stated):
+        return False
+    if key == "min_eig_scaled":
+        return abs(float(stated) - computed) <= SCALED_EIG_ATOL
+    return abs(float(stated) - computed) <= BOUND_RTOL * abs(computed)
+
+
 def _is_number(v: Any) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
@@ -68,9 +86,13 @@ def _is_number(v: Any) -> bool:
 _N_RIGID_AND_INNER = 17
 
 
+class _FirstFailure(Exception):
+    """Raised by a ``fail_fast`` re-check at its first failed row (the rows so far are the answer)."""
+
+
 def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: Gains | SNI2Gains,
-                          inner: InnerLoopGains, *,
-                          tilt_limit_deg: float, xi0_m: Sequence[float] = XI0_M) -> list[tuple[str, bool, str]]:
+                          inner: InnerLoopGains, *, tilt_limit_deg: float, xi0_m: Sequence[float] = XI0_M,
+                          fail_fast: bool = False) -> list[tuple[str, bool, str]]:
     """Re-check a ``cascade`` section from the design alone (cheap checks first).
 
     Every system matrix is rebuilt from ``vehicle``, ``gains``, ``inner``, the
@@ -86,31 +108,53 @@ def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: G
     the margins are recomputed at the stated worst vertices.  The box search (``box_search``) is a record, not re-run: the
     certified box is what is checked.
 
+    With ``fail_fast`` the re-check stops at its first failed row (``verify --fail-fast`` and the tamper loop: a
+    refusal needs one failed check, and the grid, the region and the margins come last because they cost most).
+
     Returns
     -------
     list of (name, ok, detail)
+        Every row, in order; with ``fail_fast`` the rows up to and including the first failed one.
     """
     out: list[tuple[str, bool, str]] = []
-    expected = subsystems(state_names("full", gains.controller))
 
-    def add(name: str, ok: bool, detail: str = "") -> bool:
+    def add(name: str, ok: bool, detail: str) -> bool:
         out.append((name, bool(ok), detail))
+        if fail_fast and not ok:
+            raise _FirstFailure
         return bool(ok)
+
+    try:
+        _recheck(section, vehicle, gains, inner, tilt_limit_deg, xi0_m, add)
+    except _FirstFailure:
+        pass
+    return out
+
+
+def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: Gains | SNI2Gains, inner: InnerLoopGains,
+             tilt_limit_deg: float, xi0_m: Sequence[float], add: Callable[..., bool]) -> None:
+    """The rows of :func:`check_cascade_section`, each handed to ``add(name, ok, detail)``."""
+    expected = subsystems(state_names("full", gains.controller))
 
     need = ("rate_hz", "controller", "attitude_loop", "model", "box", "monte_carlo_default_box",
             "covers_monte_carlo_default", "lyapunov", "grid", "region_of_attraction", "margins", "matrices",
             "decay_rate_1_s", "start_certified")
     missing = [k for k in need if not isinstance(section, Mapping) or k not in section]
     if not add("section keys", not missing, f"missing {missing}" if missing else "all present"):
-        return out
+        return
     try:
         rate = float(section["rate_hz"])
         T = _period(rate)
         box = ParameterBox.from_json(section["box"])
         mc = ParameterBox.from_json(section["monte_carlo_default_box"])
-    except (CascadeError, TypeError, ValueError) as exc:
+        grid_n = section["grid"].get("points_per_axis", CASCADE_GRID_POINTS_PER_AXIS)
+        if isinstance(grid_n, bool) or not isinstance(grid_n, int) \
+                or not 2 <= grid_n <= CASCADE_GRID_MAX_POINTS_PER_AXIS:
+            raise ValueError(f"grid.points_per_axis must be an integer from 2 to {CASCADE_GRID_MAX_POINTS_PER_AXIS}, "
+                             f"got {grid_n!r}")
+    except (CascadeError, TypeError, ValueError, AttributeError) as exc:
         add("rate and box", False, str(exc))
-        return out
+        return
     add("controller variant", section["controller"] == "discrete" and section["attitude_loop"] == "continuous"
         and section["model"] == model_text(_N_RIGID_AND_INNER + len(CONTROLLER_STATES[gains.controller])),
         f"{section['controller']}, attitude {section['attitude_loop']}")
@@ -138,9 +182,8 @@ def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: G
         rhos = {name: float(subs[name]["rho"]) for name in SUBSYSTEMS}
     except (KeyError, TypeError, ValueError) as exc:
         add("lyapunov block", False, f"unreadable ({exc})")
-        return out
+        return
     # ---- rebuild every matrix in one batched call: nominal, relevance probes, LMI points, grid
-    grid_n = int(section["grid"].get("points_per_axis", CASCADE_GRID_POINTS_PER_AXIS))
     probes = _relevance_points(box)
     pts = {name: _subgrid(box, dims[name], LMI_POINTS_PER_AXIS) for name in SUBSYSTEMS}
     allp = np.vstack([np.ones((1, 6))] + list(pts.values()) + [box.grid(grid_n), probes])
@@ -148,7 +191,7 @@ def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: G
         big = family_cached(vehicle, gains, inner, allp, tilt_limit_deg, rate)
     except CascadeError as exc:
         add("rebuild", False, str(exc))
-        return out
+        return
     n_cert = 1 + sum(p.shape[0] for p in pts.values()) + box.grid(grid_n).shape[0]
     big.spectral_radius  # noqa: B018  once per rebuilt family (it is cached): every check below shares it
     fam = _take(big, np.arange(n_cert))
@@ -184,7 +227,7 @@ def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: G
             good = (wm.ok and abs(wm.rho - rho) <= tol and m == subs[name]["lmi_points"]
                     and _close(subs[name]["spectral_radius"], sr)
                     and _close(subs[name]["decay_rate_1_s"], -math.log(rho) / T)
-                    and all(_close(stated_margins[key], v, 1e-6) for key, v in _margin_fields(wm).items()))
+                    and all(_stated_margin_ok(key, stated_margins[key], v) for key, v in _margin_fields(wm).items()))
             detail = (f"{m} points, contraction {wm.rho:.10f} = rho {rho:.10f} < 1 by {1 - wm.rho:.3g} "
                       f"(rounding bound {wm.rho_bound:.2g}); min eig scaled P {wm.definite:.3g} "
                       f"(bound {wm.definite_bound:.2g})")
@@ -193,7 +236,7 @@ def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: G
                                         status="stored", ok=good)
         add(f"Lyapunov LMI [{name}]", good, detail)
     if len(lyap) != len(SUBSYSTEMS):
-        return out
+        return
     add("rho and decay rate", _close(lyap_s.get("rho"), max(rhos.values())) and _close(lyap_s.get("period_s"), T)
         and _close(section["decay_rate_1_s"], min(l.decay_rate_1_s for l in lyap.values())),
         f"decay {min(l.decay_rate_1_s for l in lyap.values()):.6g} 1/s")
@@ -203,8 +246,10 @@ def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: G
         g = section["grid"]
         ok = (gc.ok and g.get("size") == gc.size and g.get("ok") is True
               and _same_worst(g, gc, grid_fam.points)
-              and _close(g.get("rounding_bound"), gc.rounding_bound, 1e-6)
-              and _close(g.get("margin_over_bound"), gc.margin_over_bound, 1e-6))
+              and _stated_margin_ok("rounding_bound", g.get("rounding_bound"), gc.rounding_bound)
+              # (1 - rho) / bound is known to within the bound's own share of it: 1 (rho is, to the bound)
+              and _is_number(g.get("margin_over_bound"))
+              and abs(float(g["margin_over_bound"]) - gc.margin_over_bound) <= 1.0 + BOUND_RTOL * gc.margin_over_bound)
         add("grid check", ok, f"{gc.size} points, worst rho {gc.worst_rho:.8f} (1 - rho >= {gc.margin_over_bound:.3g} "
                               f"x its rounding bound, <= {gc.rounding_bound:.2g}), worst spectral radius "
                               f"{gc.worst_spectral_radius:.8f}")
@@ -253,10 +298,9 @@ def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: G
         got = {u: fast_cascade_margins(mf.cascade_at(i), rate) for i, u in enumerate(uniq)}
         mdims = set(dims["x"]) | set(dims["y"])
         lo, hi = box.bounds()
-        ok = all(_close(_num(v), getattr(got[tuple(p)][bp], key), 1e-6) for bp, key, v, p in wpts) and all(
+        ok = all(_close(float(v), getattr(got[tuple(p)][bp], key), 1e-6) for bp, key, v, p in wpts) and all(
             w["stable"] is True for w in worst.values()) and all(got[tuple(p)][bp].stable for bp, _, _, p in wpts) and all(
             all((p[j] == lo[j] or p[j] == hi[j]) if j in mdims else p[j] == 1.0 for j in range(6)) for *_, p in wpts)
         add("margins at the stated worst vertices", ok, f"{len(uniq)} vertices recomputed")
     except (KeyError, TypeError, ValueError, CascadeError) as exc:
         add("margins at the stated worst vertices", False, f"unreadable ({exc})")
-    return out

@@ -23,7 +23,7 @@ from nniquad.analysis.robust.lyapunov import (WitnessMargins, _assemble_P, _bloc
                                               witness_margins)
 from nniquad.analysis.robust.roa import linear_zone_reach, roa_note
 from nniquad.analysis.robust.roa_lmi import lure_section
-from nniquad.config import (CASCADE_GRID_POINTS_PER_AXIS, CASCADE_REACH_DECAY_FRACTION, CASCADE_SMALLEST_SCALE,
+from nniquad.config import (CASCADE_GRID_MAX_POINTS_PER_AXIS, CASCADE_GRID_POINTS_PER_AXIS, CASCADE_REACH_DECAY_FRACTION, CASCADE_SMALLEST_SCALE,
                             CASCADE_WIDEST_SCALE_MAX, CASCADE_WIDEST_STEPS, CONTROL_RATE_HZ, XI0_M)
 from nniquad.control.gains import Gains, InnerLoopGains
 from nniquad.errors import CascadeError, SolverError
@@ -274,8 +274,9 @@ def _cascade_section(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, t
     t0 = time.perf_counter()
     mc = ParameterBox.monte_carlo_default()
     grid_n = int(grid_points_per_axis)
-    if grid_n < 2:
-        raise CascadeError(f"the grid check needs at least 2 points per coordinate, got {grid_points_per_axis!r}")
+    if not 2 <= grid_n <= CASCADE_GRID_MAX_POINTS_PER_AXIS:
+        raise CascadeError(f"the grid check needs 2 to {CASCADE_GRID_MAX_POINTS_PER_AXIS} points per coordinate, "
+                           f"got {grid_points_per_axis!r}")
     timings: dict[str, float] = {}
     search = None
     if box is None or widest:
