@@ -10,8 +10,10 @@ need stops the re-check there.
 from __future__ import annotations
 
 import copy
+import math
 from typing import Any, Callable
 
+import numpy as np
 import pytest
 
 from nniquad.analysis import robust_cascade as RC
@@ -46,6 +48,21 @@ def test_a_true_section_gives_every_row_passing_with_a_detail(section):
     assert details["section keys"] == "all present"
     assert details["grid check"].startswith(f"{section['grid']['size']} points")
     assert details["margins at the stated worst vertices"].endswith("vertices recomputed")
+    # the rows whose detail is fixed, or is the stated value itself
+    from nniquad.analysis.robust.box import ParameterBox
+    from nniquad.analysis.robust.family import SUBSYSTEMS
+
+    assert details["Monte Carlo default box"] == str(ParameterBox.monte_carlo_default().to_json())
+    assert details["stated method texts and subsystem states"] == "form, coverage, notes, states"
+    assert details["nominal matrices rebuilt"] == "A_d, Phi, Gamma_d, A_kd, B_kd, C_k, D_k vs the design"
+    assert details["relevant coordinates"] == str({k: section["lyapunov"]["subsystems"][k]["dims"] for k in SUBSYSTEMS})
+    assert details["subsystems decoupled"].endswith(f"(stated {section['lyapunov']['coupling']})")
+    from nniquad.config import XI0_M
+
+    reach = section["region_of_attraction"]["max_displacement_m"]
+    assert details["region of attraction"].startswith(f"lure: stated reach {reach} m; ")
+    assert details["start certified"] == (f"start {math.hypot(*XI0_M):.6g} m, reach {reach} m: stated "
+                                          f"{section['start_certified']}")
 
 
 def _set(path: tuple, value: Any) -> Callable[[dict], None]:
@@ -119,6 +136,7 @@ ONE_ROW = {
     "a matrix entry that is text": (lambda s: s["matrices"]["A_d"][0].__setitem__(0, "one"),
                                     {"nominal matrices rebuilt"}),
     "a matrix row too short": (lambda s: s["matrices"]["C_k"][0].pop(), {"nominal matrices rebuilt"}),
+    "state names left out": (_drop("matrices", "state_names"), {"nominal matrices rebuilt"}),
     # the coupling is a finite-difference residual at rounding level (2.5e-9 here), compared within an absolute
     # 1e-6 (relative 1e-6 of max(|value|, 1)): another machine's arithmetic moves it by more than 1 %
     "coupling stated 2e-6 larger": (lambda s: s["lyapunov"].update(coupling=s["lyapunov"]["coupling"] + 2e-6),
@@ -183,6 +201,7 @@ def test_an_edit_fails_exactly_its_rows(section, name):
     rows = _rows(sec)
     assert [n for n, _, _ in rows] == ROWS, name
     assert {n for n, ok, _ in rows if not ok} == expected, name
+    assert all(isinstance(d, str) and d.strip() and "\n" not in d for _, _, d in rows), name
     fast = _rows(sec, fail_fast=True)
     assert fast == rows[:len(fast)] and not fast[-1][1] and fast[-1][0] == next(n for n in ROWS if n in expected)
 
@@ -212,6 +231,8 @@ STOPS = {
     "a subsystem missing": (_drop("lyapunov", "subsystems", "altitude"),
                             ["stated method texts and subsystem states", "lyapunov block"], "lyapunov block",
                             "form, coverage, notes, states"),
+    "x P with an entry that is text": (lambda s: s["lyapunov"]["subsystems"]["x"]["P"][0][0].__setitem__(0, "one"),
+                                       ["lyapunov block"], "lyapunov block", "unreadable"),
     # every block is still re-checked, then the re-check stops: the grid needs all four
     "x P of another shape": (lambda s: s["lyapunov"]["subsystems"]["x"]["P"].pop(), ["Lyapunov LMI [x]"],
                              "Lyapunov LMI [yaw]", "bad P shape"),
@@ -230,6 +251,8 @@ def test_an_unreadable_part_is_a_failed_row_and_stops_the_recheck(section, name)
     assert [n for n, ok, _ in rows if not ok] == failed, (name, rows)
     assert all(d.strip() for n, ok, d in rows if not ok)
     assert needle in next(d for n, ok, d in rows if not ok), (name, rows)
+    if name == "x P of another shape":  # a fixed text: the whole detail
+        assert rows[[n for n, _, _ in rows].index("Lyapunov LMI [x]")][2] == needle
     fast = _rows(sec, fail_fast=True)
     assert fast == rows[:[n for n, _, _ in rows].index(failed[0]) + 1]
 
@@ -259,6 +282,10 @@ def _within_tolerance(sec: dict) -> None:
     g["rounding_bound"] *= 1 + 0.5e-3
     g["margin_over_bound"] += 0.9  # within 1 + 1e-3 of itself
     sec["lyapunov"]["coupling"] += 0.5e-6  # an absolute 1e-6
+    for w in sec["margins"]["worst"].values():  # the margins within 1e-6 of max(|value|, 1)
+        for key in ("gm_db", "gm_lower_db", "pm_deg"):
+            if isinstance(w[key], float):
+                w[key] *= 1 + 0.5e-6
 
 
 def test_numbers_moved_within_their_tolerances_still_pass(section):
@@ -278,3 +305,280 @@ def test_the_largest_grid_allowed_is_allowed(section, monkeypatch):
     assert all(ok for _, ok, _ in _rows(section))
     monkeypatch.setattr(check, "CASCADE_GRID_MAX_POINTS_PER_AXIS", section["grid"]["points_per_axis"] - 1)
     assert [n for n, ok, _ in _rows(section) if not ok] == ["rate and box"]
+
+
+# ----------------------------------------------------------------------------- the comparison helpers, by hand
+# Each tolerance is inclusive (a value exactly at it passes, one twice as far fails): the numbers are dyadic or
+# exact multiples, so the differences below are exact in binary and sit on the tolerance itself.
+
+def test_close_by_hand():
+    from nniquad.analysis.robust.check import _close
+
+    assert _close(1.5, 1.0, rtol=0.5) and not _close(1.5 + 2.0 ** -40, 1.0, rtol=0.5)  # |a - b| = rtol max(|b|, 1)
+    assert _close(0.0, 0.0, rtol=0.0) and not _close(1e-290, 0.0, rtol=0.0)  # exact equality at rtol 0
+    assert _close(1e-10, 0.0) and not _close(2e-9, 0.0)  # an absolute floor of rtol below |b| = 1
+    assert _close(1e6 + 1e-4, 1e6) and not _close(1e6 + 1e-2, 1e6)  # relative above it
+    assert _close([[1.0, 2.0]], [[1.0, 2.0]]) and not _close([1.0, 2.0], [1.0, 2.0, 3.0]) and _close([], [])
+    # non-finite values are equal only to the same non-finite values (inf - inf is nan, and nan is never close)
+    assert _close(np.inf, np.inf) and _close([-np.inf, 1.0], [-np.inf, 1.0]) and not _close(np.nan, np.nan)
+    assert not _close(1.0, np.inf) and not _close(np.inf, 1.0) and not _close([np.inf, 1.0], [1.0, np.inf])
+    # anything unreadable, on either side, is not close (and never an exception)
+    for a, b in ((None, 1.0), ("x", 1.0), (1.0, "x"), ({"a": 1}, 1.0), (1.0, [1.0, "x"])):
+        assert not _close(a, b), (a, b)
+
+
+TOL = 2.0 ** -20  # a rounding bound above _same_worst's floor of 1e-9, exact in binary
+
+
+def _grid_check(rho: list[float], spectral: list[float]):
+    from nniquad.analysis.robust.lyapunov import GridCheck
+
+    pts = np.array([[1.0] * 6, [2.0] * 6])
+    i, j = int(np.argmax(rho)), int(np.argmax(spectral))
+    gc = GridCheck(size=2, points_per_axis=2, worst_rho=max(rho), worst_margin=1.0 - max(rho),
+                   worst_point=tuple(pts[i]), worst_spectral_radius=max(spectral), worst_spectral_point=tuple(pts[j]),
+                   rounding_bound=TOL, margin_over_bound=1e6, rho_all=np.array(rho), spectral_all=np.array(spectral))
+    return gc, pts
+
+
+def _stated(rho: float, rho_row: int, sr: float, sr_row: int, margin: float) -> dict:
+    from nniquad.analysis.robust.box import POINT_NAMES
+
+    point = lambda row: dict(zip(POINT_NAMES, [float(row + 1)] * 6))  # noqa: E731
+    return {"worst_rho": rho, "worst_point": point(rho_row), "worst_spectral_radius": sr,
+            "worst_spectral_point": point(sr_row), "worst_margin": margin}
+
+
+@pytest.mark.parametrize("k, ok", [(0, True), (1, True), (2, False)])
+def test_same_worst_compares_values_within_the_rounding_bound(k, ok):
+    """Every value that _same_worst compares, moved by k rounding bounds: up to one is the same worst."""
+    from nniquad.analysis.robust.check import _same_worst
+
+    gc, pts = _grid_check([0.5, 0.25], [0.25, 0.5])
+    d = k * TOL
+    assert _same_worst(_stated(0.5 + d, 0, 0.5, 1, 0.5), gc, pts) is ok  # the stated worst contraction
+    assert _same_worst(_stated(0.5, 0, 0.5 - d, 1, 0.5), gc, pts) is ok  # the stated worst spectral radius
+    assert _same_worst(_stated(0.5, 0, 0.5, 1, 0.5 + d), gc, pts) is ok  # the stated worst margin
+    # a stated point whose own value is k bounds below the worst (a tie to rounding when k <= 1)
+    gc, pts = _grid_check([0.5, 0.5 - d], [0.5 - d, 0.5])
+    assert _same_worst(_stated(0.5, 1, 0.5, 1, 0.5), gc, pts) is ok
+    assert _same_worst(_stated(0.5, 0, 0.5, 0, 0.5), gc, pts) is ok
+
+
+def test_same_worst_refuses_a_point_off_the_grid_and_a_value_that_is_no_number():
+    from nniquad.analysis.robust.check import _same_worst
+
+    gc, pts = _grid_check([0.5, 0.25], [0.25, 0.5])
+    assert _same_worst(_stated(0.5, 0, 0.5, 1, 0.5), gc, pts)
+    assert not _same_worst(_stated(0.5, 2, 0.5, 1, 0.5), gc, pts)  # the point (3, ..., 3) is not a grid point
+    for bad in ("0.5", True, float("nan"), None):
+        assert not _same_worst(_stated(bad, 0, 0.5, 1, 0.5), gc, pts), bad
+        assert not _same_worst(_stated(0.5, 0, 0.5, 1, bad), gc, pts), bad
+
+
+def test_a_stated_margin_is_compared_on_its_own_scale():
+    from nniquad.analysis.robust.check import BOUND_RTOL, SCALED_EIG_ATOL, _stated_margin_ok
+
+    assert BOUND_RTOL * 1000.0 == 1.0 and SCALED_EIG_ATOL == 1e-9  # the exact boundaries used below
+    # the scaled smallest eigenvalue: absolutely, within 1e-9
+    assert _stated_margin_ok("min_eig_scaled", 1e-9, 0.0) and not _stated_margin_ok("min_eig_scaled", 2e-9, 0.0)
+    assert _stated_margin_ok("min_eig_scaled", 0.5, 0.5 + 1e-10)
+    # a rounding bound: relatively, within 1e-3 of itself, with no absolute floor (a bound of 1e-14 stated as 0
+    # or as 1e-10 is refused)
+    for key in ("rho_rounding_bound", "min_eig_bound", "rounding_bound"):
+        assert _stated_margin_ok(key, 1001.0, 1000.0) and _stated_margin_ok(key, 999.0, 1000.0), key
+        assert not _stated_margin_ok(key, 1002.0, 1000.0) and not _stated_margin_ok(key, 998.0, 1000.0), key
+        assert not _stated_margin_ok(key, 0.0, 1e-14) and not _stated_margin_ok(key, 1e-10, 1e-14), key
+        assert _stated_margin_ok(key, 1e-14 * (1 + 1e-4), 1e-14), key
+    for bad in ("1000.0", True, None, float("nan"), float("inf")):
+        assert not _stated_margin_ok("rounding_bound", bad, 1000.0), bad
+        assert not _stated_margin_ok("min_eig_scaled", bad, 0.5), bad
+
+
+# ----------------------------------------------------------------------------- rows decided inside the re-check
+
+def test_a_family_that_cannot_be_rebuilt_is_a_failed_row_that_stops_the_recheck(section, monkeypatch):
+    import nniquad.analysis.robust.check as check
+    from nniquad.errors import CascadeError
+
+    def refuse(*args, **kwargs):
+        raise CascadeError("no family at these parameters")
+
+    monkeypatch.setattr(check, "family_cached", refuse)
+    rows = _rows(section)
+    before = ROWS[:ROWS.index("tilt limit and u0") + 1]
+    assert [n for n, _, _ in rows[:-1]] == before and all(ok for _, ok, _ in rows[:-1])
+    assert rows[-1] == ("rebuild", False, "no family at these parameters")
+
+
+def test_the_coupling_is_measured_on_the_nominal_loop_and_its_limit_is_inclusive(section, monkeypatch):
+    import nniquad.analysis.robust.check as check
+
+    sizes: list[int] = []
+    real = check.coupling
+    monkeypatch.setattr(check, "coupling", lambda fam: sizes.append(len(fam)) or real(fam))
+    assert all(ok for _, ok, _ in _rows(section)) and sizes == [1]
+    # a coupling exactly at the limit is decoupled (the stated value the same number); one just above it is not
+    at = 2.0 ** -30
+    sec = copy.deepcopy(section)
+    sec["lyapunov"]["coupling"] = at
+    monkeypatch.setattr(check, "coupling", lambda fam: at)
+    monkeypatch.setattr(check, "COUPLING_TOL", at)
+    assert all(ok for _, ok, _ in _rows(sec))
+    monkeypatch.setattr(check, "COUPLING_TOL", at / 2)
+    assert [n for n, ok, _ in _rows(sec) if not ok] == ["subsystems decoupled"]
+
+
+def _state_rho(sec: dict, rho: dict[str, float]) -> None:
+    """Blocks' stated rho set to ``rho``, with every number stated from them (each block's decay rate, the
+    section's rho and decay rate) set consistently: only the comparison with the recomputed contraction sees it."""
+    subs, T = sec["lyapunov"]["subsystems"], sec["lyapunov"]["period_s"]
+    for name, value in rho.items():
+        subs[name]["rho"] = value
+        subs[name]["decay_rate_1_s"] = -math.log(value) / T
+    sec["lyapunov"]["rho"] = max(b["rho"] for b in subs.values())
+    sec["decay_rate_1_s"] = min(b["decay_rate_1_s"] for b in subs.values())
+
+
+def test_a_stated_rho_equals_the_contraction_within_its_rounding_bound(section, monkeypatch):
+    """The tolerance of a stated rho is max(1e-9, the contraction's rounding bound), inclusive.
+
+    At this section's bounds (about 1e-12), 4.8e-7 away is refused.  With the recomputed contraction and its bound
+    replaced by dyadic numbers (0.5 and B = 9.5e-7 at every block), a stated rho k B / 2 away passes for k <= 2 and
+    fails for k = 3: the differences are exact in binary.
+    """
+    import dataclasses
+
+    import nniquad.analysis.robust.check as check
+
+    sec = copy.deepcopy(section)
+    x = sec["lyapunov"]["subsystems"]["x"]["rho"]
+    _state_rho(sec, {"x": x + 2.0 ** -21})
+    assert [n for n, ok, _ in _rows(sec) if not ok] == ["Lyapunov LMI [x]"]
+    B = 2.0 ** -20
+    real = check.witness_margins
+    monkeypatch.setattr(check, "witness_margins", lambda *a: dataclasses.replace(real(*a), rho=0.5, rho_bound=B))
+    sec = copy.deepcopy(section)
+    for block in sec["lyapunov"]["subsystems"].values():
+        block["rho_rounding_bound"] = B
+    for k, ok in ((0, True), (1, True), (2, True), (3, False)):
+        _state_rho(sec, {name: 0.5 for name in sec["lyapunov"]["subsystems"]} | {"x": 0.5 + k * B / 2})
+        rows = _rows(sec)
+        assert [n for n, good, _ in rows if not good] == ([] if ok else ["Lyapunov LMI [x]"]), k
+    yaw = dict((n, d) for n, _, d in rows)["Lyapunov LMI [yaw]"]
+    assert f"contraction 0.5000000000 = rho 0.5000000000 < 1 by 0.5 (rounding bound {B:.2g});" in yaw
+
+
+def test_a_stated_margin_over_its_bound_is_known_to_one_plus_a_share_of_itself(section, monkeypatch):
+    """The grid's stated ``margin_over_bound`` within ``1 + 1e-3 x`` the recomputed one, inclusive: with the
+    recomputed ratio replaced by 1000 (dyadic offsets below are exact), 1000 +- 2 passes and 1000 +- 2.5 fails."""
+    import dataclasses
+
+    import nniquad.analysis.robust.check as check
+
+    real = check.grid_check
+    monkeypatch.setattr(check, "grid_check", lambda *a: dataclasses.replace(real(*a), margin_over_bound=1000.0))
+    sec = copy.deepcopy(section)
+    for stated, ok in ((1000.0, True), (1002.0, True), (998.0, True), (1002.5, False), (997.5, False),
+                       ("1000", False), (True, False)):
+        sec["grid"]["margin_over_bound"] = stated
+        assert [n for n, good, _ in _rows(sec) if not good] == ([] if ok else ["grid check"]), stated
+
+
+def test_a_linear_zone_region_states_the_linear_zone_reach_and_nothing_else(section):
+    """Method ``linear_zone`` (the sni2 law's region): the reach is the smaller linear-zone reach, and a section
+    that also states a Lur'e block, or another reach, is refused on that row alone."""
+    from nniquad.config import XI0_M
+
+    sec = copy.deepcopy(section)
+    roa = sec["region_of_attraction"]
+    reach = min(roa["linear_zone_reach_lmi_points_m"], roa["linear_zone_reach_grid_m"])
+    roa["method"], roa["max_displacement_m"] = "linear_zone", reach
+    sec["start_certified"] = bool(math.hypot(*XI0_M) <= reach)
+    with_lure = copy.deepcopy(sec)
+    del roa["lure"]
+    assert [n for n, ok, _ in _rows(sec) if not ok] == []
+    assert [n for n, ok, _ in _rows(with_lure) if not ok] == ["region of attraction"]
+    roa["max_displacement_m"] = reach * 0.999
+    assert [n for n, ok, _ in _rows(sec) if not ok] == ["region of attraction"]
+
+
+def test_the_region_is_rechecked_at_each_horizontal_axis_own_lmi_points(section, monkeypatch):
+    """The Lur'e block of an axis is re-checked on the family at that axis's LMI points (the subgrid of the box
+    in the axis's coordinates), rebuilt here independently."""
+    import nniquad.analysis.robust.check as check
+    from nniquad.analysis.robust.box import POINT_NAMES, ParameterBox, _subgrid
+    from nniquad.analysis.robust.roa import HORIZONTAL
+    from nniquad.analysis.robust.section import LMI_POINTS_PER_AXIS
+
+    seen: dict = {}
+    real = check.check_lure_block
+
+    def spy(block, dims, box, lmi, grid, lyap):
+        seen.update(lmi)
+        return real(block, dims, box, lmi, grid, lyap)
+
+    monkeypatch.setattr(check, "check_lure_block", spy)
+    assert all(ok for _, ok, _ in _rows(section))
+    box = ParameterBox.from_json(section["box"])
+    assert set(seen) == set(HORIZONTAL)
+    for name in HORIZONTAL:
+        dims = tuple(POINT_NAMES.index(d) for d in section["lyapunov"]["subsystems"][name]["dims"])
+        np.testing.assert_array_equal(seen[name].points, _subgrid(box, dims, LMI_POINTS_PER_AXIS))
+
+
+@pytest.mark.parametrize("recomputed, stated, ok", [
+    (2.0, 2.0, True),  # the recomputed reach itself
+    (2.0, 2.0 * (1 - 2e-9), True),  # smaller by the allowed rounding share (the same product: exact)
+    (2.0, 2.0 * (1 - 4e-9), False),  # smaller by more: not what was recomputed
+    (2.0, float(np.nextafter(2.0, 3.0)), False),  # larger by one ulp: never stated beyond the recomputed reach
+    (1.5, 1.5, True),
+    (1.0, 1.0, False),  # a Lur'e reach no further than the linear zone's (1.0 here) is refused
+])
+def test_the_stated_lure_reach_is_the_recomputed_one_never_larger_and_past_the_linear_zone(section, monkeypatch,
+                                                                                           recomputed, stated, ok):
+    import nniquad.analysis.robust.check as check
+    from nniquad.config import XI0_M
+
+    monkeypatch.setattr(check, "linear_zone_reach", lambda *a: 1.0)
+    monkeypatch.setattr(check, "check_lure_block", lambda *a: (True, "the stub's region", recomputed))
+    sec = copy.deepcopy(section)
+    roa = sec["region_of_attraction"]
+    roa["linear_zone_reach_lmi_points_m"] = roa["linear_zone_reach_grid_m"] = 1.0
+    roa["max_displacement_m"] = stated
+    sec["start_certified"] = bool(math.hypot(*XI0_M) <= stated)
+    assert [n for n, good, _ in _rows(sec) if not good] == ([] if ok else ["region of attraction"])
+
+
+def test_a_start_exactly_at_the_reach_is_certified(section):
+    """The region is closed: a start at exactly the stated reach is inside it (and one an ulp further is not)."""
+    reach = section["region_of_attraction"]["max_displacement_m"]
+    sec = copy.deepcopy(section)
+    sec["start_certified"] = True
+    assert all(ok for _, ok, _ in _rows(sec, xi0_m=(0.0, reach)))
+    assert [n for n, ok, _ in _rows(sec, xi0_m=(0.0, float(np.nextafter(reach, 10 * reach))))
+            if not ok] == ["start certified"]
+
+
+def test_an_unreadable_region_is_a_failed_row_with_a_detail(section):
+    sec = copy.deepcopy(section)
+    del sec["region_of_attraction"]["max_displacement_m"]
+    rows = _rows(sec)
+    assert all(isinstance(d, str) and d.strip() for _, _, d in rows)
+    last = [(ok, d) for n, ok, d in rows if n == "region of attraction"][-1]
+    assert last[0] is False and last[1].startswith("unreadable (")
+
+
+def test_the_margins_are_recomputed_at_the_stated_rate(section, monkeypatch):
+    import nniquad.analysis.fast_margins as fast_margins
+
+    rates: list = []
+    real = fast_margins.fast_cascade_margins
+
+    def spy(*args, **kwargs):
+        rates.append(args[1:] + tuple(kwargs.values()))
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(fast_margins, "fast_cascade_margins", spy)
+    assert all(ok for _, ok, _ in _rows(section))
+    assert rates and set(rates) == {(section["rate_hz"],)}
