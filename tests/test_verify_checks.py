@@ -43,7 +43,7 @@ def test_the_result_object_by_hand():
                      notes=["a note"])
     assert not v.ok and v.first_failure.name == "b" and len(v) == 3 and [c.name for c in v] == ["a", "b", "c"]
     assert v["c"].detail == "three"
-    with pytest.raises(KeyError):
+    with pytest.raises(KeyError, match="^'d'$"):
         v["d"]
     assert repr(v) == "Verification(ok=False, checks=3, failed=['b', 'c'])"
     assert v.table().splitlines() == ["check  result  detail", "-----  ------  ------", "a      pass    one",
@@ -73,6 +73,7 @@ def test_a_path_a_mapping_and_a_certificate_give_the_same_checks(cert, tmp_path)
     assert all(r.ok for r in runs)
     assert len({json.dumps(r.to_json(), sort_keys=True) for r in runs}) == 1
     assert [c.name for c in runs[0].checks][:len(FORM_CHECKS)] == FORM_CHECKS
+    assert runs[0]["digest"].detail == f"sha256 {cert['digest']['value'][:16]}... matches the content"
 
 
 def test_a_digest_mismatch_and_a_malformed_field_are_errors_not_checks(cert):
@@ -80,9 +81,15 @@ def test_a_digest_mismatch_and_a_malformed_field_are_errors_not_checks(cert):
     c["sector"]["gamma"] = 0.5  # not re-signed
     with pytest.raises(CertificateCheckError, match="digest mismatch"):
         verify_certificate(c, simulate=False)
+    # a Certificate object whose signature is not its content's (from_json refuses the mapping before verify sees it)
+    import dataclasses
+
+    forged = dataclasses.replace(Certificate.from_json(cert), signature="0" * 64)
+    with pytest.raises(CertificateCheckError, match=r"^certificate: digest mismatch \(content changed after signing\)$"):
+        verify_certificate(forged, simulate=False)
     c = copy.deepcopy(cert)
     c["lmi"]["closed_loop"]["decay_rate_1_s"] = [1.0]  # a list where a number belongs, re-signed
-    with pytest.raises(CertificateError, match="malformed field"):
+    with pytest.raises(CertificateError, match=r"^certificate has a malformed field \(TypeError: float\(\) argument"):
         verify_certificate(_resign(c), simulate=False)
 
 
@@ -108,6 +115,17 @@ def test_fail_fast_keeps_the_full_order_and_stops_at_the_first_failure(cert):
     fast = verify_certificate(_resign(c), simulate=False, fail_fast=True)
     assert [x.name for x in full.checks if not x.ok] == ["model", "law_class"]
     assert [x.name for x in fast.checks] == ["digest", "model"] and not fast.ok
+
+
+def test_fail_fast_also_stops_the_cascade_check_at_its_first_failed_row(cert):
+    c = copy.deepcopy(cert)
+    c["cascade"]["covers_monte_carlo_default"] = not c["cascade"]["covers_monte_carlo_default"]
+    full = verify_certificate(_resign(copy.deepcopy(c)), simulate=False)
+    fast = verify_certificate(_resign(c), simulate=False, fail_fast=True)
+    assert [x.name for x in full.checks if not x.ok] == ["cascade.covers_monte_carlo_default"]
+    assert full.checks[-1].name == "cascade.margins at the stated worst vertices"
+    assert [x.name for x in fast.checks] == [x.name for x in full.checks][:len(fast.checks)]
+    assert fast.checks[-1].name == "cascade.covers_monte_carlo_default" and not fast.ok
 
 
 # ----------------------------------------------------------------------------- notes
