@@ -199,6 +199,143 @@ def test_a_failed_form_check_says_what_failed(cert):
     assert first_failure(lambda c: c["law_class"].update(name="fast")).detail.startswith("unknown law class 'fast'")
 
 
+def _tuned_model(c: dict) -> str:
+    return c["tuning"]["model"] if isinstance(c.get("tuning"), dict) and "model" in c["tuning"] else c["model"]
+
+
+def test_the_form_checks_say_what_they_checked(cert):
+    from nniquad.sim.options import MODELS
+
+    known = ", ".join(MODELS)
+    d = {c.name: c.detail for c in verify_certificate(cert, simulate=False).checks}
+    assert d["model"] == f"model {cert['model']!r} is one of {known} and equals tuning.model {_tuned_model(cert)!r}"
+    assert d["tolerances"] == "the stated tolerances are the library's (verify uses the library's)"
+    assert d["layout"] == "every section has exactly its keys; the stated forms are the library's"
+    assert d["settings"] == (f"both reference runs use the reference settings at tilt {cert['tilt_limit_deg']:g} deg, "
+                             f"start {list(cert['xi0_m'])} m and the certified inner loops; every stated tilt limit "
+                             "is the same")
+
+    def detail(edit, name):
+        c = copy.deepcopy(cert)
+        edit(c)
+        return verify_certificate(_resign(c), simulate=False)[name].detail
+
+    assert detail(lambda c: c.update(model="fast"), "model") == (
+        f"model 'fast' (known: {known}; tuning.model {_tuned_model({**cert, 'model': 'fast'})!r})")
+
+    def two_tolerances(c):
+        c["tolerances"]["lmi_relative"] = 1.0
+        c["tolerances"]["settling_abs_s"] = 1.0
+
+    assert detail(two_tolerances, "tolerances") == (
+        "stated tolerances differ from the library's: lmi_relative, settling_abs_s")
+    assert detail(_set_tolerance("anything", 1.0), "tolerances") == (
+        "stated tolerances differ from the library's: anything")
+    assert detail(lambda c: c["tolerances"].pop("lmi_relative"), "tolerances") == (
+        "stated tolerances differ from the library's: lmi_relative")
+
+
+def test_the_layout_check_reads_every_section_and_names_the_one_that_is_off(cert):
+    def layout(edit, **kw):
+        c = copy.deepcopy(cert)
+        edit(c)
+        return verify_certificate(_resign(c), simulate=False, **kw)
+
+    # an optional section left out is skipped, and the sections after it are still read
+    res = layout(lambda c: (c.pop("margins"), c["law_class"].update(extra=1.0)))
+    assert [x.name for x in res.checks if not x.ok] == ["layout"]
+    assert res["layout"].detail == "unexpected keys or forms in: law_class"
+    # a section that is not an object is named, not an exception (fail_fast: the later checks would read it)
+    res = layout(lambda c: c["lmi"].update(closed_loop=[1.0]), fail_fast=True)
+    assert [x.name for x in res.checks][-1] == "layout" and not res.ok
+    assert res["layout"].detail == "unexpected keys or forms in: lmi.closed_loop"
+    res = layout(lambda c: next(iter(c["margins"]["break_points"].values())).update(extra=1.0))
+    assert res["layout"].detail == "unexpected keys or forms in: margins.break_points"
+    res = layout(lambda c: c["margins"].update(method="frequency sweep"))
+    assert res["layout"].detail == "unexpected keys or forms in: margins.method"
+    res = layout(lambda c: (c["lmi"]["controller_ni"].update(form="V' <= 0"),
+                            c["region_of_attraction"].update(model="full")))
+    assert res["layout"].detail == "unexpected keys or forms in: lmi.controller_ni.form, region_of_attraction.model"
+    res = layout(lambda c: c["lmi"]["plant_ni"].update(form="V' <= 0"))
+    assert res["layout"].detail == "unexpected keys or forms in: lmi.plant_ni.form"
+    # a storage left out: its section and its form are named (fail_fast: the NI check would need it)
+    for name in ("plant_ni", "controller_ni"):
+        res = layout(lambda c: c["lmi"].pop(name), fail_fast=True)
+        assert [x.name for x in res.checks][-1] == "layout" and not res.ok
+        assert res["layout"].detail == f"unexpected keys or forms in: lmi, lmi.{name}, lmi.{name}.form"
+
+
+def test_the_layout_of_an_sni2_certificate_has_its_own_sector_keys(shared_json):
+    """The sni2 law states its gain bound k_max where the IRC states delta_min (SNI2_SECTOR_KEYS)."""
+    from nniquad.certificates.verify import SNI2_SECTOR_KEYS
+    from tests.test_sni2_certificate import build_sni2_certificate
+
+    doc = shared_json("sni2-small-certificate", build_sni2_certificate)
+    assert set(doc["sector"]) == SNI2_SECTOR_KEYS != SECTION_KEYS["sector"]
+    assert verify_certificate(doc, simulate=False)["layout"].ok
+    c = copy.deepcopy(doc)
+    c["sector"]["delta_min"] = 0.1
+    res = verify_certificate(_resign(c), simulate=False)
+    assert not res["layout"].ok and res["layout"].detail == "unexpected keys or forms in: sector"
+
+
+def test_the_settings_check_names_every_run_and_key_that_differs(cert):
+    def settings(edit):
+        c = copy.deepcopy(cert)
+        edit(c)
+        return verify_certificate(_resign(c), simulate=False)["settings"]
+
+    def two_keys(c):
+        c["performance"]["full"]["settings"].update(horizon_s=5.0, extra=1.0)
+
+    got = settings(two_keys)
+    assert not got.ok and got.detail == "inconsistent: performance.full.settings (extra, horizon_s)"
+    got = settings(lambda c: c.update(cascade={**c["cascade"], "rate_hz": "fast"}))
+    # the reduced run has no control rate; the full run's settings and the margins' rate both need it
+    assert got.detail == ("inconsistent: performance.full.settings (cascade.rate_hz 'fast' is not a rate); "
+                          "margins.rate_hz (must be 'fast')")
+    got = settings(lambda c: c["region_of_attraction"].update(tilt_limit_deg=31.0))
+    assert got.detail == "inconsistent: region_of_attraction.tilt_limit_deg"
+    got = settings(lambda c: c["lmi"]["robust_mass"].update(m_nominal_kg=0.9))
+    assert got.detail == "inconsistent: lmi.robust_mass.m_nominal_kg (must be the vehicle's mass)"
+    got = settings(lambda c: c["cascade"].update(rate_hz=50.0))
+    assert got.detail == "inconsistent: performance.full.settings (noise_rate_hz); margins.rate_hz (must be 50.0)"
+    # the margins' rate is the cascade's, not the default control rate
+    got = settings(lambda c: (c["cascade"].update(rate_hz=50.0), c["margins"].update(rate_hz=50.0)))
+    assert got.detail == "inconsistent: performance.full.settings (noise_rate_hz)"
+    got = settings(lambda c: c["performance"].update(full=[1.0]))
+    assert not got.ok and got.detail.startswith("inconsistent: performance.full.settings (") and "horizon_s" in got.detail
+
+
+def test_the_law_class_check_says_why_it_refuses(cert, shared_json):
+    from nniquad.control.law_classes import LAW_CLASSES
+
+    def law(c):
+        return verify_certificate(_resign(c), simulate=False)["law_class"]
+
+    c = copy.deepcopy(cert)
+    c["law_class"]["name"] = "fast"
+    assert law(c).detail == f"unknown law class 'fast' (known: {', '.join(LAW_CLASSES)})" and not law(c).ok
+    name = cert["law_class"]["name"]
+    assert law(copy.deepcopy(cert)).detail == f"class {name}; certified by {LAW_CLASSES[name].theorem}"
+    c["law_class"]["name"] = 1  # not a text: unknown, not an exception
+    assert law(c).detail == f"unknown law class 1 (known: {', '.join(LAW_CLASSES)})"
+    c = copy.deepcopy(cert)
+    c["law_class"]["theorem"] = "Lyapunov"
+    assert law(c).detail == f"the stated theorem is not the {c['law_class']['name']} class's: 'Lyapunov'"
+    # the cascade class without a cascade section (a schema-1 certificate stating it)
+    one = copy.deepcopy(shared_json("small-certificate-schema-1", build_small_certificate_schema_1))
+    one["law_class"] = {"name": "cascade", "theorem": LAW_CLASSES["cascade"].theorem}
+    assert law(one).detail == "the cascade class is certified by the cascade section, and there is none"
+
+
+def test_a_schema_1_certificate_passes_its_form_checks(shared_json):
+    one = shared_json("small-certificate-schema-1", build_small_certificate_schema_1)
+    res = verify_certificate(one, simulate=False)
+    assert res.ok and [c.name for c in res.checks][:len(FORM_CHECKS)] == FORM_CHECKS
+    assert not any(c.name.startswith("cascade.") for c in res.checks)
+
+
 def test_every_section_key_list_is_the_keys_a_certificate_has(cert):
     """SECTION_KEYS (what the layout check demands) against a certificate the library writes."""
     for path, keys in SECTION_KEYS.items():
@@ -212,4 +349,23 @@ def test_a_certificate_from_before_law_classes_is_of_the_paper_class(cert):
     c = copy.deepcopy(cert)
     del c["law_class"]
     res = verify_certificate(_resign(c), simulate=False)
-    assert res.ok and "not stated" in res["law_class"].detail
+    from nniquad.control.law_classes import LAW_CLASSES
+
+    assert res.ok and res["law_class"].detail == ("class paper (not stated: a certificate from before classes); "
+                                                  f"certified by {LAW_CLASSES['paper'].theorem}")
+
+
+@pytest.mark.parametrize("path", ["lmi.plant_ni", "lmi.controller_ni", "lmi.robust_mass", "cascade.region_of_attraction",
+                                  "cascade.matrices"])
+@pytest.mark.parametrize("bad", [[1.0], "text"])
+def test_a_section_that_is_not_an_object_is_a_one_line_error(cert, path, bad):
+    """Re-signed, a part of the document replaced by a list or a text: a CertificateError naming the malformed
+    field (a user error at the command line), never an AttributeError's traceback."""
+    c = copy.deepcopy(cert)
+    node = c
+    *parents, last = path.split(".")
+    for p in parents:
+        node = node[p]
+    node[last] = bad
+    with pytest.raises(CertificateError, match=r"^certificate has a malformed field \(AttributeError: "):
+        verify_certificate(_resign(c), simulate=False)

@@ -180,10 +180,11 @@ def verify_certificate(cert: Certificate | Mapping[str, Any] | str | Path, *, si
         raise CertificateCheckError("certificate: digest mismatch (content changed after signing)")
     try:
         return _verify(cert, simulate, progress or (lambda msg: None), fail_fast)
-    except (TypeError, ValueError, KeyError, IndexError, np.linalg.LinAlgError) as exc:
+    except (TypeError, ValueError, KeyError, IndexError, AttributeError, np.linalg.LinAlgError) as exc:
         if isinstance(exc, NniquadError):
             raise
-        # a signed document with a wrongly typed field: one line, not a traceback
+        # a signed document with a wrongly typed field (AttributeError: a part that should be an object is a list
+        # or a text, and a check asked it for a key): one line, not a traceback
         raise CertificateError(f"certificate has a malformed field ({type(exc).__name__}: {exc})") from None
 
 
