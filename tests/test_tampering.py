@@ -61,7 +61,7 @@ WITHIN_TOLERANCE: dict[str, str | None] = {
     "margins.break_points.*.gm_lower_db": "margin_db_abs",
     "margins.break_points.*.pm_deg": "margin_deg_abs",
     "lmi.controller_ni.P.0.0": None,  # the dissipation residual grows with the square of the edit
-    # (1 - rho) / bound is known to within 1 + 1e-3 x itself (the check's _stated_ratio tolerance, FINDINGS §17);
+    # (1 - rho) / bound is known to within 1 + 1e-3 x itself (the cascade grid check's tolerance, FINDINGS §17);
     # here it is 1e4-1e6, so a 1 % edit is past it
     "cascade.grid.margin_over_bound": None,
 }
