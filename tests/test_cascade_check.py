@@ -299,11 +299,11 @@ def test_numbers_moved_within_their_tolerances_still_pass(section):
 
 def test_the_largest_grid_allowed_is_allowed(section, monkeypatch):
     """The grid-size limit is inclusive: with the limit lowered to this section's 2 points, it still passes."""
-    import nniquad.analysis.robust.check as check
+    import nniquad.analysis.robust.lyapunov as rule  # the one grid-size rule, shared with certify
 
-    monkeypatch.setattr(check, "CASCADE_GRID_MAX_POINTS_PER_AXIS", section["grid"]["points_per_axis"])
+    monkeypatch.setattr(rule, "CASCADE_GRID_MAX_POINTS_PER_AXIS", section["grid"]["points_per_axis"])
     assert all(ok for _, ok, _ in _rows(section))
-    monkeypatch.setattr(check, "CASCADE_GRID_MAX_POINTS_PER_AXIS", section["grid"]["points_per_axis"] - 1)
+    monkeypatch.setattr(rule, "CASCADE_GRID_MAX_POINTS_PER_AXIS", section["grid"]["points_per_axis"] - 1)
     assert [n for n, ok, _ in _rows(section) if not ok] == ["rate and box"]
 
 

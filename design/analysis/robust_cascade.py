@@ -82,8 +82,8 @@ from nniquad.analysis.robust.check import check_cascade_section
 from nniquad.analysis.robust.family import (COUPLING_TOL, RELEVANCE_BAND, RELEVANCE_TOL, SUBSYSTEMS, CascadeFamily,
                                             coupling, mode_transform, relevance_consistent, relevant_coordinates,
                                             sampled_family)
-from nniquad.analysis.robust.lyapunov import (GridCheck, RobustLyapunov, WitnessMargins, contraction_batch,
-                                              grid_check, point_index, reach_lyapunov, robust_lyapunov,
+from nniquad.analysis.robust.lyapunov import (GridCheck, RobustLyapunov, WitnessMargins, checked_grid_size,
+                                              contraction_batch, grid_check, point_index, reach_lyapunov, robust_lyapunov,
                                               witness_margins)
 from nniquad.analysis.robust.roa import linear_zone_reach
 from nniquad.analysis.robust.section import LMI_POINTS_PER_AXIS, BoxSearch, cascade_section, widest_box
@@ -105,6 +105,7 @@ __all__ = [
     "relevant_coordinates",
     "relevance_consistent",
     "contraction_batch",
+    "checked_grid_size",
     "RobustLyapunov",
     "robust_lyapunov",
     "reach_lyapunov",

@@ -14,13 +14,13 @@ import numpy as np
 from nniquad.analysis.robust.box import POINT_NAMES, ParameterBox, _subgrid, tilt_accel_limit
 from nniquad.analysis.robust.family import (COUPLING_TOL, SUBSYSTEMS, _relevance_points, _take, coupling, subsystems,
                                             family_cached, relevance_consistent)
-from nniquad.analysis.robust.lyapunov import (GridCheck, RobustLyapunov, _assemble_P, _block_loops, grid_check,
-                                              point_index, witness_margins)
+from nniquad.analysis.robust.lyapunov import (GridCheck, RobustLyapunov, _assemble_P, _block_loops, checked_grid_size,
+                                              grid_check, point_index, witness_margins)
 from nniquad.analysis.robust.roa import HORIZONTAL, check_lure_block, linear_zone_reach, roa_note
 from nniquad.analysis.robust.section import (LMI_POINTS_PER_AXIS, _COVERAGE, _FORM, _MARGIN_MODEL, _MARGIN_POINTS,
                                              _margin_fields, model_text)
 from nniquad.analysis.sampled import _period
-from nniquad.config import CASCADE_GRID_MAX_POINTS_PER_AXIS, CASCADE_GRID_POINTS_PER_AXIS, XI0_M
+from nniquad.config import CASCADE_GRID_POINTS_PER_AXIS, XI0_M
 from nniquad.control.gains import Gains, InnerLoopGains, SNI2Gains
 from nniquad.sim import CONTROLLER_STATES, state_names
 from nniquad.errors import CascadeError
@@ -147,11 +147,7 @@ def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: Gains | SNI2Ga
         T = _period(rate)
         box = ParameterBox.from_json(section["box"])
         mc = ParameterBox.from_json(section["monte_carlo_default_box"])
-        grid_n = section["grid"].get("points_per_axis", CASCADE_GRID_POINTS_PER_AXIS)
-        if isinstance(grid_n, bool) or not isinstance(grid_n, int) \
-                or not 2 <= grid_n <= CASCADE_GRID_MAX_POINTS_PER_AXIS:
-            raise ValueError(f"grid.points_per_axis must be an integer from 2 to {CASCADE_GRID_MAX_POINTS_PER_AXIS}, "
-                             f"got {grid_n!r}")
+        grid_n = checked_grid_size(section["grid"].get("points_per_axis", CASCADE_GRID_POINTS_PER_AXIS))
     except (CascadeError, TypeError, ValueError, AttributeError) as exc:
         add("rate and box", False, str(exc))
         return

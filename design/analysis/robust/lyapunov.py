@@ -20,10 +20,10 @@ from nniquad.analysis.lmi import checks as lmi_checks
 from nniquad.analysis.robust.box import POINT_NAMES, ParameterBox, _coords
 from nniquad.analysis.robust.family import SUBSYSTEMS, CascadeFamily, _blocks, _subsystem, mode_transform
 from nniquad.analysis.sampled import _conditioning_transform, best_decay, solve_with_clarabel
-from nniquad.config import CASCADE_LYAPUNOV_RTOL
-from nniquad.errors import SolverError
+from nniquad.config import CASCADE_GRID_MAX_POINTS_PER_AXIS, CASCADE_LYAPUNOV_RTOL
+from nniquad.errors import CascadeError, SolverError
 
-__all__ = ["contraction_batch", "RobustLyapunov", "robust_lyapunov", "reach_lyapunov", "WitnessMargins",
+__all__ = ["contraction_batch", "checked_grid_size", "RobustLyapunov", "robust_lyapunov", "reach_lyapunov", "WitnessMargins",
            "witness_margins", "GridCheck", "grid_check", "point_index"]
 
 # =============================================================================== robust Lyapunov LMI
@@ -347,6 +347,24 @@ class GridCheck:
                 "worst_spectral_radius": self.worst_spectral_radius,
                 "worst_spectral_point": dict(zip(POINT_NAMES, self.worst_spectral_point)),
                 "rounding_bound": self.rounding_bound, "margin_over_bound": self.margin_over_bound, "ok": self.ok}
+
+
+def checked_grid_size(value: object) -> int:
+    """``value`` as the grid check's points per coordinate: an integer from 2 to the configured limit.
+
+    The one rule shared by ``certify`` and ``verify``: a grid of ``n`` points per coordinate has ``n**6``
+    points, so a re-signed certificate must not be able to ask for an unbounded one.
+
+    Raises
+    ------
+    CascadeError
+        ``value`` is not an ``int`` (a ``bool`` or a float is refused too) or lies outside 2 to
+        :data:`nniquad.config.CASCADE_GRID_MAX_POINTS_PER_AXIS`.
+    """
+    if isinstance(value, bool) or not isinstance(value, int) or not 2 <= value <= CASCADE_GRID_MAX_POINTS_PER_AXIS:
+        raise CascadeError(f"grid.points_per_axis must be an integer from 2 to {CASCADE_GRID_MAX_POINTS_PER_AXIS}, "
+                           f"got {value!r}")
+    return value
 
 
 def grid_check(family: CascadeFamily, P: np.ndarray, points_per_axis: int) -> GridCheck:

@@ -18,12 +18,12 @@ import numpy as np
 from nniquad.analysis.robust.box import POINT_NAMES, ParameterBox, _coords, _subgrid, tilt_accel_limit
 from nniquad.analysis.robust.family import (SUBSYSTEMS, CascadeFamily, _subsystem, _take, coupling, subsystems,
                                             relevant_coordinates, sampled_family)
-from nniquad.analysis.robust.lyapunov import (WitnessMargins, _assemble_P, _block_loops, _mirror,
+from nniquad.analysis.robust.lyapunov import (WitnessMargins, checked_grid_size, _assemble_P, _block_loops, _mirror,
                                               _mirrored, grid_check, reach_lyapunov, robust_lyapunov,
                                               witness_margins)
 from nniquad.analysis.robust.roa import linear_zone_reach, roa_note
 from nniquad.analysis.robust.roa_lmi import lure_section
-from nniquad.config import (CASCADE_GRID_MAX_POINTS_PER_AXIS, CASCADE_GRID_POINTS_PER_AXIS, CASCADE_REACH_DECAY_FRACTION, CASCADE_SMALLEST_SCALE,
+from nniquad.config import (CASCADE_GRID_POINTS_PER_AXIS, CASCADE_REACH_DECAY_FRACTION, CASCADE_SMALLEST_SCALE,
                             CASCADE_WIDEST_SCALE_MAX, CASCADE_WIDEST_STEPS, CONTROL_RATE_HZ, XI0_M)
 from nniquad.control.gains import Gains, InnerLoopGains
 from nniquad.errors import CascadeError, SolverError
@@ -273,10 +273,7 @@ def _cascade_section(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, t
     """
     t0 = time.perf_counter()
     mc = ParameterBox.monte_carlo_default()
-    grid_n = int(grid_points_per_axis)
-    if not 2 <= grid_n <= CASCADE_GRID_MAX_POINTS_PER_AXIS:
-        raise CascadeError(f"the grid check needs 2 to {CASCADE_GRID_MAX_POINTS_PER_AXIS} points per coordinate, "
-                           f"got {grid_points_per_axis!r}")
+    grid_n = checked_grid_size(grid_points_per_axis)
     timings: dict[str, float] = {}
     search = None
     if box is None or widest:
