@@ -182,10 +182,15 @@ def test_the_paper_class_refuses_a_design_outside_the_sector_bound(run_cli, tmp_
         build_certificate(V, unstable, model="full", law_class="cascade", box=SMALL_BOX)
 
 
+def build_cascade_class_certificate() -> dict:
+    """The mapped filtered PD's certificate in the cascade class over :data:`SMALL_BOX` (JSON; a 3-point grid)."""
+    return build_certificate(V, IMAGE, inner=PD_INNER, model="full", box=SMALL_BOX, grid_points_per_axis=3,
+                             law_class="cascade").to_json()
+
+
 @pytest.fixture(scope="module")
 def cascade_doc(shared_json) -> dict:
-    return shared_json("law-class-cascade", lambda: build_certificate(
-        V, IMAGE, inner=PD_INNER, model="full", box=SMALL_BOX, grid_points_per_axis=3, law_class="cascade").to_json())
+    return shared_json("law-class-cascade", build_cascade_class_certificate)
 
 
 def _verify_edited(doc: dict, edit) -> tuple[bool, str | None]:

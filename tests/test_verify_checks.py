@@ -139,6 +139,33 @@ def test_the_notes_name_the_records_and_what_is_not_covered(cert, shared_json):
     assert n1[0].startswith("schema 1:") and f"[{lo:.5g}, {hi:.5g}] kg" in n1[0] and len(n1) == 2
 
 
+#: What a certificate's notes must say it leaves out, word for word: the coverage statement is part of the claim.
+RECORDS_NOTE = ("records, not verified (no check and no Monte Carlo run reads them): {} (except tuning.model, which "
+                "must equal model)")
+SCHEMA_1_NOTE = ("schema 1: the stability claim is for the continuous-time reduced horizontal loop (position measured "
+                 "continuously) with the nominal vehicle parameters and a mass interval [{:.5g}, {:.5g}] kg; it covers "
+                 "no sampled-data cascade (control rate, attitude loop, motor lag) and no parameter box (inertia, "
+                 "attitude gain, motor time constant)")
+CASCADE_CLASS_NOTE = ("class cascade: the paper's sector bound is not claimed; the reduced-loop LMIs are stated (they "
+                      "hold whenever m kp delta > 1) but the design is certified by the sampled-data cascade section "
+                      "alone, over its parameter box and within its region of attraction")
+
+
+def test_the_notes_word_for_word_for_each_kind_of_certificate(cert, shared_json):
+    """A schema-2 paper-class certificate has the records note alone; schema 1 adds what it does not cover, with its
+    mass interval; the cascade class says the sector bound is not claimed.  Each as ``verify`` reports it."""
+    from tests.test_law_class import build_cascade_class_certificate
+
+    records = RECORDS_NOTE.format(", ".join(RECORD_FIELDS))
+    assert verify_certificate(cert, simulate=False).notes == [records]
+    one = shared_json("small-certificate-schema-1", build_small_certificate_schema_1)
+    rm = one["lmi"]["robust_mass"]
+    assert verify_certificate(one, simulate=False).notes == [SCHEMA_1_NOTE.format(rm["m_lo_kg"], rm["m_hi_kg"]),
+                                                             records]
+    cascade = shared_json("law-class-cascade", build_cascade_class_certificate)
+    assert coverage_notes(Certificate.from_json(cascade)) == [CASCADE_CLASS_NOTE, records]
+
+
 # ----------------------------------------------------------------------------- the form checks, one edit each
 
 def _set_tolerance(key: str, value):
@@ -296,6 +323,8 @@ def test_the_settings_check_names_every_run_and_key_that_differs(cert):
                           "margins.rate_hz (must be 'fast')")
     got = settings(lambda c: c["region_of_attraction"].update(tilt_limit_deg=31.0))
     assert got.detail == "inconsistent: region_of_attraction.tilt_limit_deg"
+    got = settings(lambda c: c["cascade"]["region_of_attraction"].update(tilt_limit_deg=31.0))
+    assert got.detail == "inconsistent: cascade.region_of_attraction.tilt_limit_deg"
     got = settings(lambda c: c["lmi"]["robust_mass"].update(m_nominal_kg=0.9))
     assert got.detail == "inconsistent: lmi.robust_mass.m_nominal_kg (must be the vehicle's mass)"
     got = settings(lambda c: c["cascade"].update(rate_hz=50.0))
