@@ -216,9 +216,10 @@ def pytest_runtest_setup(item):
             clear = getattr(obj, "cache_clear", None)
             if callable(clear):
                 clear()
-        clear = vars(module).get("clear_cache")  # a module's own cache of results (certificates.check.memo)
-        if callable(clear):
-            clear()
+        for own in ("clear_cache", "clear_memory"):  # a module's own cache: check.memo, codecache's loaded code
+            clear = vars(module).get(own)
+            if callable(clear):
+                clear()
 '''
 
 
@@ -322,10 +323,21 @@ def _diff_lines(diff: str) -> tuple[str, str]:
     return _norm("\n".join(before)), _norm("\n".join(after))
 
 
+def _mutant_env() -> dict[str, str]:
+    """The environment of mutmut and its test runs.
+
+    The on-disk code cache (:mod:`nniquad.codecache`) is switched off: it is keyed by a hash of the generating
+    module's source, which a mutant does not change (mutmut switches mutants at run time), so a warm cache would
+    hand every mutant of a code generator (``linear_symbolic.lambdified``) the unmutated code.
+    """
+    return dict(os.environ, MPLBACKEND="Agg", PYTHONHASHSEED="0", NNIQUAD_TEST_SHARED_DIR=str(SHARED),
+                NNIQUAD_NO_CODE_CACHE="1")
+
+
 def run_module(module: Module, jobs: int, equivalents: list[Equivalent], log) -> Score:
     d = stage(module)
     mutmut = Path(sys.executable).with_name("mutmut")
-    env = dict(os.environ, MPLBACKEND="Agg", PYTHONHASHSEED="0", NNIQUAD_TEST_SHARED_DIR=str(SHARED))
+    env = _mutant_env()
     cmd = [str(mutmut), "run", "--max-children", str(jobs), *mutant_globs(module)]
     print(f"== {module.name}: {module.file} ({', '.join(module.functions)}); tests: {' '.join(module.tests)}",
           flush=True)
@@ -361,7 +373,7 @@ def rerun_survivors(module: Module, jobs: int, equivalents: list[Equivalent], lo
     if not again:
         return _run_and_score(module, d, None, {}, equivalents, log)
     mutmut = Path(sys.executable).with_name("mutmut")
-    env = dict(os.environ, MPLBACKEND="Agg", PYTHONHASHSEED="0", NNIQUAD_TEST_SHARED_DIR=str(SHARED))
+    env = _mutant_env()
     return _run_and_score(module, d, [str(mutmut), "run", "--max-children", str(jobs), *again], env, equivalents, log)
 
 
