@@ -83,8 +83,8 @@ from nniquad.analysis.robust.family import (COUPLING_TOL, RELEVANCE_BAND, RELEVA
                                             coupling, mode_transform, relevance_consistent, relevant_coordinates,
                                             sampled_family)
 from nniquad.analysis.robust.lyapunov import (GridCheck, RobustLyapunov, WitnessMargins, checked_grid_size,
-                                              contraction_batch, grid_check, point_index, reach_lyapunov, robust_lyapunov,
-                                              witness_margins)
+                                              contraction_batch, grid_check, point_index, reach_lyapunov,
+                                              robust_lyapunov, witness_margins)
 from nniquad.analysis.robust.roa import linear_zone_reach
 from nniquad.analysis.robust.section import LMI_POINTS_PER_AXIS, BoxSearch, cascade_section, widest_box
 

@@ -23,8 +23,8 @@ from nniquad.analysis.sampled import _conditioning_transform, best_decay, solve_
 from nniquad.config import CASCADE_GRID_MAX_POINTS_PER_AXIS, CASCADE_LYAPUNOV_RTOL
 from nniquad.errors import CascadeError, SolverError
 
-__all__ = ["contraction_batch", "checked_grid_size", "RobustLyapunov", "robust_lyapunov", "reach_lyapunov", "WitnessMargins",
-           "witness_margins", "GridCheck", "grid_check", "point_index"]
+__all__ = ["contraction_batch", "checked_grid_size", "RobustLyapunov", "robust_lyapunov", "reach_lyapunov",
+           "WitnessMargins", "witness_margins", "GridCheck", "grid_check", "point_index"]
 
 # =============================================================================== robust Lyapunov LMI
 
