@@ -373,6 +373,10 @@ def _run_pool(n_workers: int, batches: list[list[Scenario]], add: Callable[[list
             _stop_pool(pool, seen)
 
 
+#: How long, in all, stopping a pool waits for its SIGKILLed workers to exit (s).
+_KILL_WAIT_S = 10.0
+
+
 def _stop_pool(pool: Any, seen: dict[int, Any]) -> None:
     """Cancel what is queued and end the running batches now (their results would be discarded)."""
     procs = list({**seen, **(getattr(pool, "_processes", None) or {})}.values())
@@ -389,8 +393,18 @@ def _stop_pool(pool: Any, seen: dict[int, Any]) -> None:
         if proc.is_alive():
             try:
                 proc.kill()
-                proc.join(timeout=1.0)
             except Exception:  # noqa: BLE001
                 pass
+    # SIGKILL cannot be ignored, but the exit is not immediate: a worker's sentinel becomes ready when its files
+    # close, a moment before the process can be reaped, so join() may return with the worker still alive. Poll
+    # until each is reaped (bounded), so that no stopped or dying worker outlives the study.
+    deadline = time.monotonic() + _KILL_WAIT_S
+    for proc in procs:
+        try:
+            while proc.is_alive() and time.monotonic() < deadline:
+                proc.join(timeout=0.05)
+                time.sleep(0.005)
+        except Exception:  # noqa: BLE001
+            pass
 
 
