@@ -75,7 +75,7 @@ def test_certify_refuses_a_grid_size_outside_the_one_rule_verify_applies():
         with pytest.raises(CascadeError, match=rf"^grid.points_per_axis must be an integer from 2 to "
                                                rf"{CASCADE_GRID_MAX_POINTS_PER_AXIS}, got {bad!r}$"):
             RC.cascade_section(V, GAINS, INNER, tilt_limit_deg=TILT, rate_hz=RATE, box=BOX, grid_points_per_axis=bad)
-    assert RC.checked_grid_size(2) == 2 and RC.checked_grid_size(CASCADE_GRID_MAX_POINTS_PER_AXIS) == 6
+    assert RC.checked_grid_size(2) == 2 and RC.checked_grid_size(CASCADE_GRID_MAX_POINTS_PER_AXIS) == CASCADE_GRID_MAX_POINTS_PER_AXIS
 
 
 # ----------------------------------------------------------------------------- the family vs a direct rebuild
