@@ -21,7 +21,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from nniquad.analysis.robust.box import ParameterBox, _coords
-from nniquad.analysis.robust.conic import ConicProblem
+from nniquad.analysis.robust.conic import ConicProblem, sym_basis
 from nniquad.analysis.robust.family import SUBSYSTEMS, CascadeFamily, _subsystem, _take
 from nniquad.analysis.robust.lyapunov import RobustLyapunov, _affine, _block_loops, _mirror
 from nniquad.analysis.robust.roa import (HORIZONTAL, LureCheck, LureRegion, _merge_checks, axis_loops,
@@ -37,15 +37,6 @@ _P_FLOOR = 1e-7
 _MU_FLOOR = 1e-6
 #: The stated level is the solver's ``c`` lowered until the inclusion holds with this relative margin.
 _INCLUSION_MARGIN = 1e-9
-
-
-def _sym_basis(n: int) -> np.ndarray:
-    """The symmetric unit matrices ``E_ij + E_ji`` (``i <= j``; ``E_ii`` on the diagonal), ``(n (n+1)/2, n, n)``."""
-    idx = [(i, j) for j in range(n) for i in range(j + 1)]
-    E = np.zeros((len(idx), n, n))
-    for t, (i, j) in enumerate(idx):
-        E[t, i, j] = E[t, j, i] = 1.0
-    return E
 
 
 def solver_coordinates(P: np.ndarray, k_pos: float, L: float) -> np.ndarray:
@@ -123,7 +114,7 @@ def solve_lure(axes: Mapping[str, AxisData], D: Mapping[str, np.ndarray], level:
         Di = np.linalg.inv(Dm)
         fP, fm = features(d.theta), features(d.theta_mult)
         nf = fP.shape[1]
-        E = _sym_basis(n)
+        E = sym_basis(n)
         nE = E.shape[0]
         iP = prob.variables(nf * nE).reshape(nf, nE)
         iG = prob.variables(nf * n).reshape(nf, n)
@@ -336,7 +327,7 @@ def _solve_with_cuts(data, gdata, lmi, grid, solved, D_all, level, r0, rho, k_ma
     status = "not solved"
     for _ in range(rounds + 1):
         region = check_grid = None
-        for D in D_all:  # the next coordinates when the solver stalls or its answer fails at an LMI point
+        for D in list(D_all):  # the next coordinates when the solver stalls or its answer fails at an LMI point
             status, sol = solve_lure(cur, D, level, r0, rho, k_max, eta)
             if sol is None:
                 if status in _NUMERICAL:
@@ -348,6 +339,8 @@ def _solve_with_cuts(data, gdata, lmi, grid, solved, D_all, level, r0, rho, k_ma
             checks_lmi = [lure_check(region, box, lmi[a], axes=[a]) for a in HORIZONTAL]
             if all(c.ok for c in checks_lmi):
                 check_grid = lure_check(region, box, grid)
+                # a cut adds a few points to the same problem: the coordinates that solved it are tried first
+                D_all = [D] + [other for other in D_all if other is not D]
                 break
             status += "; the numpy check fails at an LMI point"
         if check_grid is None:
