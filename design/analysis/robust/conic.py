@@ -123,6 +123,10 @@ class ConicProblem:
         # cliques buys nothing, and on the region LMI it made Clarabel stall with NumericalError in one of the two
         # coordinate choices that both solve without it, and take 20-50 % more iterations in the other.
         settings.chordal_decomposition_enable = False
+        # One thread: the factorisation of a few hundred columns gains nothing from a second one (20 % slower with
+        # two on the region LMI, measured), the test suite and Monte Carlo already run a process per core, and a
+        # serial factorisation rounds the same way on every run.
+        settings.max_threads = 1
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
