@@ -366,3 +366,25 @@ def test_mirrored_y_block_is_found_and_rechecked_on_its_own_loops():
     big = 10.0 * A_y  # a loop the mirrored P does not contract: refused
     assert float(np.max(RC.contraction_batch(big, RL._affine(ly.P, th)))) >= 1.0
     assert RL._mirrored(lx, d, big, th) is None
+
+
+def test_spectral_norms_equal_the_largest_singular_value_and_fail_as_the_svd_does():
+    """``√λ_max(MᵀM)`` against numpy's SVD on random, rank-one and scaled stacks; an infinite entry gives NaN and
+    a NaN entry raises, as the SVD does (callers rely on both)."""
+    from nniquad.analysis.robust.lyapunov import spectral_norms
+
+    rng = np.random.default_rng(7)
+    stacks = [rng.standard_normal((64, n, n)) * 10.0 ** rng.uniform(-6, 6, (64, 1, 1)) for n in (1, 6, 23)]
+    u = rng.standard_normal((16, 5, 1))
+    stacks.append(u @ np.swapaxes(u, -1, -2))  # rank one: the norm is |u|²
+    for M in stacks:
+        svd = np.linalg.norm(M, 2, axis=(-2, -1))
+        assert np.allclose(spectral_norms(M), svd, rtol=1e-13, atol=0.0)
+    assert np.allclose(spectral_norms(stacks[-1]), np.sum(u[..., 0] ** 2, axis=-1), rtol=1e-13)
+    M = rng.standard_normal((3, 4, 4))
+    M[1, 2, 0] = np.inf
+    got = spectral_norms(M)
+    assert np.isnan(got[1]) and np.allclose(got[[0, 2]], np.linalg.norm(M[[0, 2]], 2, axis=(-2, -1)), rtol=1e-13)
+    M[1, 2, 0] = np.nan
+    with pytest.raises(np.linalg.LinAlgError):
+        spectral_norms(M)

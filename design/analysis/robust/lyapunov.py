@@ -24,7 +24,7 @@ from nniquad.analysis.sampled import _conditioning_transform, best_decay
 from nniquad.config import CASCADE_GRID_MAX_POINTS_PER_AXIS, CASCADE_LYAPUNOV_RTOL
 from nniquad.errors import CascadeError, SolverError
 
-__all__ = ["contraction_batch", "checked_grid_size", "RobustLyapunov", "robust_lyapunov", "reach_lyapunov",
+__all__ = ["spectral_norms", "contraction_batch", "checked_grid_size", "RobustLyapunov", "robust_lyapunov", "reach_lyapunov",
            "WitnessMargins", "witness_margins", "GridCheck", "grid_check", "point_index"]
 
 # =============================================================================== robust Lyapunov LMI
@@ -34,11 +34,26 @@ def _sym(M: np.ndarray) -> np.ndarray:
     return 0.5 * (M + np.swapaxes(M, -1, -2))
 
 
+def spectral_norms(M: np.ndarray) -> np.ndarray:
+    """``‖M‖₂`` of each matrix of a stack, as ``√λ_max(MᵀM)``.
+
+    The same number as an SVD's largest singular value to a few ulps (the product's rounding is ``n ε ‖M‖²``,
+    half that after the square root), at about 2/3 of the time on the stacks of 4096 matrices verify checks.
+    """
+    M = np.asarray(M, float)
+    if np.isnan(M).any():  # as numpy's SVD does: NaN does not converge, an infinite entry gives NaN
+        raise np.linalg.LinAlgError("spectral norm of a matrix with NaN entries")
+    finite = np.all(np.isfinite(M), axis=(-2, -1))
+    Mf = np.where(finite[..., None, None], M, 0.0)
+    top = np.linalg.eigvalsh(np.swapaxes(Mf, -1, -2) @ Mf)[..., -1]
+    return np.where(finite, np.sqrt(np.maximum(top, 0.0)), np.nan)
+
+
 def contraction_batch(A_d: np.ndarray, P: np.ndarray) -> np.ndarray:
     """``‖P^{1/2} A_d P^{-1/2}‖₂`` for a stack of ``A_d`` (numpy; :func:`nniquad.analysis.sampled.contraction`)."""
     Lt = np.swapaxes(np.linalg.cholesky(_sym(P)), -1, -2)  # P = L Lᵀ, ‖x‖_P = ‖Lᵀ x‖; P may be a stack
     M = Lt @ A_d @ np.linalg.inv(Lt)
-    return np.linalg.norm(M, 2, axis=(-2, -1))
+    return spectral_norms(M)
 
 
 @dataclass(frozen=True)

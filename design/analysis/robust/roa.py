@@ -47,7 +47,7 @@ import numpy as np
 from nniquad.analysis.lmi import checks as lmi_checks
 from nniquad.analysis.robust.box import POINT_NAMES, ParameterBox, _coords
 from nniquad.analysis.robust.family import SUBSYSTEMS, CascadeFamily, _blocks, _subsystem, mode_transform
-from nniquad.analysis.robust.lyapunov import RobustLyapunov, _affine
+from nniquad.analysis.robust.lyapunov import RobustLyapunov, _affine, spectral_norms
 
 __all__ = ["linear_zone_reach", "HORIZONTAL", "features", "LureRegion", "decrease_forms", "LureCheck",
            "lure_check", "coupled_decrease", "huber", "lure_block", "check_lure_block", "ROA_NOTE", "roa_note",
@@ -283,7 +283,7 @@ def scaled_eig_margins(M: np.ndarray, M_abs: np.ndarray, n_inner: int,
     finite = np.all(np.isfinite(Ms), axis=(-2, -1)) & np.all(np.isfinite(Es), axis=(-2, -1))
     ev = np.linalg.eigvalsh(np.where(finite[..., None, None], Ms, 0.0))
     bound = lmi_checks.ROUNDING_SAFETY * lmi_checks.EPS * (
-        int(n_inner) * np.linalg.norm(np.where(finite[..., None, None], Es, 0.0), 2, axis=(-2, -1))
+        int(n_inner) * spectral_norms(np.where(finite[..., None, None], Es, 0.0))
         + M.shape[-1] * np.max(np.abs(ev), axis=-1))
     # a non-positive diagonal of P (no metric, and P not positive definite) is a failure, never a margin
     return np.where(finite, ev[..., -1], np.inf), bound
