@@ -249,21 +249,27 @@ def decrease_forms(A: np.ndarray, Bh: np.ndarray, Kh: np.ndarray, P: np.ndarray,
     """
     parts = form_parts(A, Bh, Kh)
     X, Xp, ps = parts["X"], parts["Xp"], parts["ps"]
+    n, m = X.shape[0], ps.shape[0]
     mu = np.asarray(mu, float)[:, None, None]
-    GX = G @ X
-    F = np.swapaxes(Xp, -1, -2) @ P @ Xp - rho * rho * (X.T @ P @ X) + mu * parts["Mmu"] + parts["Fc"] + _sy(
-        np.broadcast_to(ps, GX.shape), GX)
+    # X and ψ are coordinate selectors: xᵀPx and the ψᵀĜx terms are P and Ĝ written into their blocks of ξ
+    # (the same numbers as the products with the 0/1 selectors, which only add exact zeros)
+    F = np.swapaxes(Xp, -1, -2) @ P @ Xp + mu * parts["Mmu"] + parts["Fc"]
+    F[:, :n, :n] -= rho * rho * P
+    F[:, n:n + m, :n] += G
+    F[:, :n, n:n + m] += np.swapaxes(G, -1, -2)
     aA, aB, aK = absolute if absolute is not None else (np.abs(A), np.abs(Bh), np.abs(Kh))
     absP = np.abs(P)
-    aparts = form_parts(aA, aB, aK)
-    aXp = np.abs(aparts["Xp"])
+    aXp = np.abs(np.concatenate([aA, -aB, np.zeros(aB.shape)], axis=-1))
     v_abs = aK @ X
     vp_abs = aK @ aXp
-    pp = np.eye(X.shape[1])[X.shape[0] + ps.shape[0]:]
+    pp = np.eye(X.shape[1])[n + m:]
     s_abs = vp_abs + pp + v_abs + ps
     mu_abs = _sy(vp_abs + pp, vp_abs + v_abs) + np.swapaxes(s_abs, -1, -2) @ s_abs
-    F_abs = (np.swapaxes(aXp, -1, -2) @ absP @ aXp + rho * rho * (X.T @ absP @ X) + np.abs(mu) * mu_abs
-             + np.abs(aparts["Fc"]) + _sy(np.broadcast_to(ps, GX.shape), np.abs(G) @ X))
+    F_abs = np.swapaxes(aXp, -1, -2) @ absP @ aXp + np.abs(mu) * mu_abs + np.abs(parts["Fc"])
+    F_abs[:, :n, :n] += rho * rho * absP
+    absG = np.abs(G)
+    F_abs[:, n:n + m, :n] += absG
+    F_abs[:, :n, n:n + m] += np.swapaxes(absG, -1, -2)
     return 0.5 * (F + np.swapaxes(F, -1, -2)), F_abs
 
 
