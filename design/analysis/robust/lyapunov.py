@@ -176,8 +176,8 @@ def _solved_affine(prob: ConicProblem, it: np.ndarray, iP: np.ndarray, E: np.nda
     """Minimise ``z[it]`` for an affine ``P(θ)`` posed in scaled coordinates; ``(P_k stacked, contraction per
     point, status)``.
 
-    The problem is handed to Clarabel directly (:class:`nniquad.analysis.robust.conic.ConicProblem`): its few
-    hundred variables took cvxpy about 0.8 s to canonicalise per problem, the solver a tenth of that.  The
+    The problem is handed to Clarabel directly (:class:`nniquad.analysis.robust.conic.ConicProblem`): cvxpy took
+    about 0.8 s to canonicalise each problem, a tenth of that per solve, three times the solves in all.  The
     answer is mapped back to the original coordinates and its contraction at every point computed with numpy;
     ``None`` when the solver fails or ``P(θ)`` is not positive definite at a point.
     """
