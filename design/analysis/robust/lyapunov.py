@@ -24,8 +24,8 @@ from nniquad.analysis.sampled import _conditioning_transform, best_decay
 from nniquad.config import CASCADE_GRID_MAX_POINTS_PER_AXIS, CASCADE_LYAPUNOV_RTOL
 from nniquad.errors import CascadeError, SolverError
 
-__all__ = ["spectral_norms", "contraction_batch", "checked_grid_size", "RobustLyapunov", "robust_lyapunov", "reach_lyapunov",
-           "WitnessMargins", "witness_margins", "GridCheck", "grid_check", "point_index"]
+__all__ = ["spectral_norms", "contraction_batch", "checked_grid_size", "RobustLyapunov", "robust_lyapunov",
+           "reach_lyapunov", "WitnessMargins", "witness_margins", "GridCheck", "grid_check", "point_index"]
 
 # =============================================================================== robust Lyapunov LMI
 
@@ -164,11 +164,13 @@ def _affine_weights(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _affine_terms(weights: np.ndarray, M: np.ndarray) -> np.ndarray:
-    """Coefficient matrices of ``Σ_k w_k Σ_e z_ke M_e`` at each row of ``weights`` ``(N, q+1)``: ``M`` is
-    ``(n_E, k, k)`` or, per point, ``(N, n_E, k, k)``; the answer ``(N, (q+1) n_E, k, k)``, variables ``k``-major."""
+    """Coefficient matrices of ``Σ_j w_j Σ_e z_je M_e`` at each row of ``weights`` ``(N, q+1)``.
+
+    ``M`` is ``(n_E, m, m)``, or ``(N, n_E, m, m)`` per point; the answer is ``(N, (q+1) n_E, m, m)``, the
+    coefficient of ``z_je`` (basis matrix ``e`` of ``P_j``) at index ``j n_E + e``."""
     M = np.broadcast_to(M, (weights.shape[0],) + np.shape(M)[-3:])
-    N, nE, k = M.shape[0], M.shape[1], M.shape[-1]
-    return (weights[:, :, None, None, None] * M[:, None]).reshape(N, weights.shape[1] * nE, k, k)
+    N, nE, m = M.shape[0], M.shape[1], M.shape[-1]
+    return (weights[:, :, None, None, None] * M[:, None]).reshape(N, weights.shape[1] * nE, m, m)
 
 
 def _solved_affine(prob: ConicProblem, it: np.ndarray, iP: np.ndarray, E: np.ndarray, Sinv: np.ndarray,
