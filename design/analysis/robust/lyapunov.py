@@ -129,16 +129,16 @@ def robust_lyapunov(A_v: np.ndarray, T: float, *, S: np.ndarray | None = None, t
     corners, at_points = _affine_weights(th)
     # P(θ) is affine, so P ⪰ I and P ⪯ t I at the corners of the θ-cube hold on the whole cube
     P_corner = _affine_terms(corners, E)
-    AEA = np.einsum("nai,eab,nbj->neij", Ab, E, Ab)
+    eye = np.broadcast_to(np.eye(n), (len(corners), n, n))
+    AEA = _congruences(Ab, E)
 
     def solve(rho: float) -> tuple[float, tuple[np.ndarray, np.ndarray, str]] | None:
         prob = ConicProblem()
         iP, it = prob.variables(P_corner.shape[1]), prob.variables(1)
-        eye = np.broadcast_to(np.eye(n), (len(corners), n, n))
         prob.psd(-eye, iP, P_corner)
         prob.psd(np.zeros_like(eye), np.concatenate([iP, it]),
                  np.concatenate([-P_corner, eye[:, None]], axis=1))
-        prob.psd(np.zeros((nv, n, n)), iP, _affine_terms(at_points, rho * rho * E[None] - AEA))
+        _add_decrease(prob, iP, at_points, E, AEA, rho)
         got = _solved_affine(prob, it, iP, E, Sinv, A_v, th)
         return None if got is None else (float(np.max(got[1])), got)
 
@@ -171,6 +171,18 @@ def _affine_terms(weights: np.ndarray, M: np.ndarray) -> np.ndarray:
     M = np.broadcast_to(M, (weights.shape[0],) + np.shape(M)[-3:])
     N, nE, m = M.shape[0], M.shape[1], M.shape[-1]
     return (weights[:, :, None, None, None] * M[:, None]).reshape(N, weights.shape[1] * nE, m, m)
+
+
+def _congruences(Ab: np.ndarray, E: np.ndarray) -> np.ndarray:
+    """``Abᵢᵀ E_e Abᵢ`` for every point ``i`` and basis matrix ``e``, ``(N, n_E, n, n)``."""
+    return np.einsum("nai,eab,nbj->neij", Ab, E, Ab)
+
+
+def _add_decrease(prob: ConicProblem, iP: np.ndarray, at_points: np.ndarray, E: np.ndarray, AEA: np.ndarray,
+                  rho: float) -> None:
+    """The decrease ``ρ² P(θᵢ) - Abᵢᵀ P(θᵢ) Abᵢ ⪰ 0`` at every point (``AEA`` from :func:`_congruences`)."""
+    n = E.shape[-1]
+    prob.psd(np.zeros((AEA.shape[0], n, n)), iP, _affine_terms(at_points, rho * rho * E[None] - AEA))
 
 
 def _solved_affine(prob: ConicProblem, it: np.ndarray, iP: np.ndarray, E: np.ndarray, Sinv: np.ndarray,
@@ -249,8 +261,7 @@ def reach_lyapunov(A_v: np.ndarray, T: float, K: np.ndarray, L: float, rho: floa
     prob.nonnegative(np.zeros(len(corners)), np.concatenate([iP, top]),
                      np.concatenate([-(corners[:, :, None] * e0E[None, None]).reshape(len(corners), -1),
                                      np.ones((len(corners), 1))], axis=1))
-    AEA = np.einsum("nai,eab,nbj->neij", Ab, E, Ab)
-    prob.psd(np.zeros((nv, n, n)), iP, _affine_terms(at_points, rho * rho * E[None] - AEA))
+    _add_decrease(prob, iP, at_points, E, _congruences(Ab, E), rho)
     # [[P(θ), Kᵀ], [K, L²]] ⪰ 0: the ellipsoid lies where the tilt limit is inactive
     F0 = np.zeros((n + 1, n + 1))
     F0[:n, n], F0[n, :n], F0[n, n] = KS[0], KS[0], L * L

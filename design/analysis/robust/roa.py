@@ -220,6 +220,11 @@ def _sy(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.swapaxes(a, -1, -2) @ b + np.swapaxes(b, -1, -2) @ a
 
 
+def next_state_rows(A: np.ndarray, Bh: np.ndarray) -> np.ndarray:
+    """``x⁺ = A x - Bh ψ`` as rows of ``ξ = (x, ψ, ψ⁺)``: ``[A, -Bh, 0]``, ``(N, n, n + 2m)``."""
+    return np.concatenate([A, -Bh, np.zeros(Bh.shape)], axis=-1)
+
+
 def form_parts(A: np.ndarray, Bh: np.ndarray, Kh: np.ndarray) -> dict[str, np.ndarray]:
     """The parts of :func:`decrease_forms` that do not depend on ``P, Ĝ, μ`` (stacks over points).
 
@@ -227,9 +232,9 @@ def form_parts(A: np.ndarray, Bh: np.ndarray, Kh: np.ndarray) -> dict[str, np.nd
     (``x`` and ``x⁺`` as rows of ``ξ``), ``ps``, ``Mmu`` (the Lur'e term per unit ``μ``) and ``Fc`` (the sector
     term's ``-2 ψᵀψ``).
     """
-    N, n, m = A.shape[0], A.shape[-1], Bh.shape[-1]
+    n, m = A.shape[-1], Bh.shape[-1]
     X, ps, pp = _selectors(n, m)
-    Xp = np.concatenate([A, -Bh, np.zeros((N, n, m))], axis=-1)
+    Xp = next_state_rows(A, Bh)
     v, vp = Kh @ X, Kh @ Xp
     s = (vp - pp) - (v - ps)  # sat(ν⁺) - sat(ν)
     Mmu = _sy(vp - pp, vp - v) - np.swapaxes(s, -1, -2) @ s
@@ -259,7 +264,7 @@ def decrease_forms(A: np.ndarray, Bh: np.ndarray, Kh: np.ndarray, P: np.ndarray,
     F[:, :n, n:n + m] += np.swapaxes(G, -1, -2)
     aA, aB, aK = absolute if absolute is not None else (np.abs(A), np.abs(Bh), np.abs(Kh))
     absP = np.abs(P)
-    aXp = np.abs(np.concatenate([aA, -aB, np.zeros(aB.shape)], axis=-1))
+    aXp = np.abs(next_state_rows(aA, aB))
     v_abs = aK @ X
     vp_abs = aK @ aXp
     pp = np.eye(X.shape[1])[n + m:]
@@ -438,7 +443,7 @@ def coupled_decrease(region: LureRegion, lyap: Mapping[str, RobustLyapunov], dim
     # to first order that perturbs F by sy(|x⁺|ᵀ|P|, |δx⁺|): added to the entrywise bound in the same units
     aT = np.abs(Tm)
     dXp = np.concatenate([aT @ np.abs(fam.A_d) @ aT.T, aT @ np.abs(fam.B) * L, np.zeros((N, n, 2))], axis=-1)
-    aXp = np.abs(form_parts(A, B, K)["Xp"])
+    aXp = np.abs(next_state_rows(A, B))
     F_abs = F_abs + (n / (n + 4)) * _sy(np.abs(Pz) @ aXp, dXp)
     lmax, bound = scaled_eig_margins(F, F_abs, n + 4, margin_scale(Pz, 2))
     return float(np.max(lmax)), float(np.max(bound))
