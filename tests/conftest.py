@@ -10,6 +10,13 @@ from pathlib import Path
 import pytest
 
 os.environ.setdefault("MPLBACKEND", "Agg")
+# One BLAS thread per process, as the command line runs (nniquad.cli.main._single_threaded_blas).  The suite runs
+# one xdist worker per core, and each of them starts notebook kernels and CLI subprocesses; with OpenBLAS's
+# default of one thread per core, the workers' small-matrix calls spin-wait for each other's threads (the tamper
+# loop took 88 s instead of 60 s on 2 cores).  Set here, before a worker imports numpy: the xdist workers,
+# notebook kernels and subprocesses inherit it.  A value the user set is kept.
+for _blas_threads in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_blas_threads, "1")
 
 #: Set by the controlling process for this session (before xdist starts its workers, which inherit it).
 _SESSION_CACHE = "NNIQUAD_TEST_SESSION_CACHE"
