@@ -182,6 +182,14 @@ ONE_ROW = {
     "reach stated smaller": (_scale(("region_of_attraction", "max_displacement_m"), 0.999), {"region of attraction"}),
     "reach stated as text": (lambda s: s["region_of_attraction"].update(
         max_displacement_m=str(s["region_of_attraction"]["max_displacement_m"])), {"region of attraction"}),
+    "x P off its diagonal": (lambda s: [row.__setitem__(j, row[j] + 1e-4 * abs(s["lyapunov"]["subsystems"]["x"]["P"][0][0][0]))
+                                       for j, row in ((1, s["lyapunov"]["subsystems"]["x"]["P"][0][0]),
+                                                      (0, s["lyapunov"]["subsystems"]["x"]["P"][0][1]))],
+                             {"Lyapunov LMI [x]", "grid check"}),
+    # inside the Lur'e block: its recomputation is cached by the block's own fields too (test below)
+    "Lur'e level": (_scale(("region_of_attraction", "lure", "level"), 1.01), {"region of attraction"}),
+    "Lur'e multiplier": (lambda s: s["region_of_attraction"]["lure"]["mu"].__setitem__(
+        0, s["region_of_attraction"]["lure"]["mu"][0] * 1.01), {"region of attraction"}),
     "start certified flipped": (lambda s: s.update(start_certified=not s["start_certified"]), {"start certified"}),
     "a worst margin stated 1 % off": (_scale(("margins", "worst", "horizontal", "gm_db"), 1.01),
                                       {"margins at the stated worst vertices"}),
@@ -204,6 +212,13 @@ def test_an_edit_fails_exactly_its_rows(section, name):
     assert all(isinstance(d, str) and d.strip() and "\n" not in d for _, _, d in rows), name
     fast = _rows(sec, fail_fast=True)
     assert fast == rows[:len(fast)] and not fast[-1][1] and fast[-1][0] == next(n for n in ROWS if n in expected)
+    # verify's cache (grid check, region, margins by their exact inputs), holding the true section's results,
+    # gives the same rows: none of them is handed back for an input the edit changed
+    from nniquad.certificates.check import memo
+
+    _rows(section, cache=memo)
+    assert _rows(sec, cache=memo) == rows, name
+    assert _rows(sec, fail_fast=True, cache=memo) == fast, name
 
 
 #: (edit, the rows it fails, the last row before the re-check stops, words the first failed row's detail holds).

@@ -21,6 +21,12 @@ from nniquad.model.vehicle import PAPER_VEHICLE as V
 GAINS = Gains(13.148341568334407, 25.27258951977003, 0.19046572101699574)
 INNER = InnerLoopGains(attitude_wn_rad_s=101.56, attitude_zeta=1.132, attitude_accel_limit_rad_s2=31.14)
 
+#: The tests that build this design's certificate run on one xdist worker (here and test_cli_rate's ``certify``):
+#: the worker builds it once, in the shared fixture, and ``certify`` of the same design then reuses the cascade
+#: section computed in that process (nniquad.analysis.robust.section.cascade_section); spread over two workers,
+#: one would wait for the other's build and then build it again.
+pytestmark = pytest.mark.xdist_group("small_certificate")
+
 # the test design tolerates only a slightly slower motor: its cascade box is a tenth of the Monte Carlo
 # ranges (log scale), as the widest-box search finds
 SMALL_BOX = ParameterBox.monte_carlo_default().scaled(0.1)

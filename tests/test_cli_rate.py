@@ -86,6 +86,7 @@ def test_build_certificate_rate_reaches_margins_and_the_sampled_full_run():
     assert abs(cont.settling_s - met.settling_s) > 1e-3
 
 
+@pytest.mark.xdist_group("small_certificate")  # test_certificate's design: built once, on its worker
 def test_certify_rate_reaches_the_margins(run_cli, tmp_path):
     """certify --rate 100 (the default; verify accepts another rate only with a cascade section that states it)."""
     out_path = tmp_path / "c.json"

@@ -97,9 +97,14 @@ def _holds_pid(lock, pid: int) -> bool:
 
 
 def test_second_run_replaces_cleanly_and_a_concurrent_run_is_refused(report_dir, run_cli):
+    """A second run into the folder replaces every file it lists, and a third one started while it works is
+    refused in one line.  The second run tunes on the reduced model (the fixture's run is the full model's): it
+    writes the same files with other contents, and skips the full model's tune, which this test does not need."""
     before = json.loads((report_dir / "report.json").read_text())["files"]
+    first_digest = json.loads((report_dir / "certificate.json").read_text())["digest"]["value"]
     env = {**os.environ, "MPLBACKEND": "Agg"}
-    proc = subprocess.Popen([sys.executable, "-m", "nniquad", "report", "--out", str(report_dir), *QUICK],
+    proc = subprocess.Popen([sys.executable, "-m", "nniquad", "report", "--out", str(report_dir), *QUICK,
+                             "--model", "reduced"],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
     try:
         lock = report_dir.parent / f".{report_dir.name}.nniquad-lock"
@@ -122,6 +127,9 @@ def test_second_run_replaces_cleanly_and_a_concurrent_run_is_refused(report_dir,
     assert before == after and sorted(p.name for p in report_dir.iterdir()) == sorted(after + ["notes.txt"])
     assert "report.md" in out and "%" in err  # prints where everything is; progress on stderr
     _consistent(report_dir)
+    # the files are the second run's: its certificate is of gains tuned on the reduced model
+    cert = json.loads((report_dir / "certificate.json").read_text())
+    assert cert["model"] == "reduced" and cert["digest"]["value"] != first_digest
     assert sorted(p.name for p in report_dir.parent.iterdir() if p.name.startswith(f".{report_dir.name}")) == []
 
 

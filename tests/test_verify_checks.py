@@ -398,3 +398,28 @@ def test_a_section_that_is_not_an_object_is_a_one_line_error(cert, path, bad):
     node[last] = bad
     with pytest.raises(CertificateError, match=r"^certificate has a malformed field \(AttributeError: "):
         verify_certificate(_resign(c), simulate=False)
+
+
+def test_the_recomputation_cache_keeps_what_is_used_and_evicts_the_least_recently_used():
+    """``memo`` holds at most ``_CACHE_SIZE`` results.  A result used again stays, however many one-off
+    results follow it (the tamper loop's edits), and the one not used for longest is the one that goes."""
+    from nniquad.certificates import check
+
+    check.clear_cache()
+    computed = []
+
+    def get(i):
+        return check.memo("test", {"i": i}, lambda: computed.append(i) or [i])
+
+    try:
+        assert get(0) == [0] and get(1) == [1] and computed == [0, 1]
+        for i in range(2, 2 + check._CACHE_SIZE):  # one-off results, each more than the cache holds
+            get(i)
+            assert get(0) == [0]  # used again: kept
+        assert computed.count(0) == 1
+        assert computed.count(1) == 1 and get(1) == [1] and computed.count(1) == 2  # unused: evicted, recomputed
+        first = get(0)
+        first.append("edited")  # a caller's copy: the cached result is not touched
+        assert get(0) == [0]
+    finally:
+        check.clear_cache()

@@ -4,7 +4,7 @@
 :func:`stated_array` read a stated section or matrix (a missing or misshapen
 one is a failed check, never an exception that escapes); :func:`memo` caches
 the expensive recomputations (re-simulations, margins, the bound, the cascade
-check) in this process by their exact inputs, so that the tamper loop's many
+check and its grid, region and margin rows) in this process by their exact inputs, so that the tamper loop's many
 edits of unrelated fields do not redo them (:func:`clear_cache` empties it).
 """
 
@@ -76,13 +76,15 @@ def memo(kind: str, inputs: Any, compute: Callable[[], Any]) -> Any:
     A result depends only on its inputs (the simulator and the margins are
     deterministic), so an unchanged recomputation is not repeated: verifying a
     certificate twice, or many edited copies of one, re-simulates only what changed.
+    At most ``_CACHE_SIZE`` results are kept; the least recently used one goes first.
     """
     key = (kind, json.dumps(inputs, sort_keys=True, separators=(",", ":"), allow_nan=True))
     if key in _CACHE:
+        _CACHE[key] = _CACHE.pop(key)  # most recently used last: a stream of one-off edits evicts itself, not it
         return copy.deepcopy(_CACHE[key])
     value = compute()
     if len(_CACHE) >= _CACHE_SIZE:
-        _CACHE.pop(next(iter(_CACHE)))  # the oldest entry
+        _CACHE.pop(next(iter(_CACHE)))  # the least recently used entry
     _CACHE[key] = value
     return copy.deepcopy(value)
 

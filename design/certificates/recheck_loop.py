@@ -275,6 +275,6 @@ def cascade_checks(cert: Certificate, fail_fast: bool = False) -> list[Check]:
                              cert.tilt_limit_deg, list(cert.xi0_m), bool(fail_fast)],
                  lambda: check_cascade_section(section, cert.vehicle, cert.gains, cert.inner_loop,
                                                tilt_limit_deg=cert.tilt_limit_deg, xi0_m=cert.xi0_m,
-                                               fail_fast=fail_fast))
+                                               fail_fast=fail_fast, cache=memo))
     checks = [Check(f"cascade.{name}", ok, detail) for name, ok, detail in rows]
     return checks or [Check("cascade", False, "the cascade check returned no checks")]

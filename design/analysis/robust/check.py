@@ -90,9 +90,17 @@ class _FirstFailure(Exception):
     """Raised by a ``fail_fast`` re-check at its first failed row (the rows so far are the answer)."""
 
 
+#: ``cache(kind, inputs, compute)``: ``compute()``, or an earlier result for the same kind and exact JSON inputs.
+Cache = Callable[[str, Any, Callable[[], Any]], Any]
+
+
+def _no_cache(kind: str, inputs: Any, compute: Callable[[], Any]) -> Any:
+    return compute()
+
+
 def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: Gains | SNI2Gains,
                           inner: InnerLoopGains, *, tilt_limit_deg: float, xi0_m: Sequence[float] = XI0_M,
-                          fail_fast: bool = False) -> list[tuple[str, bool, str]]:
+                          fail_fast: bool = False, cache: Cache | None = None) -> list[tuple[str, bool, str]]:
     """Re-check a ``cascade`` section from the design alone (cheap checks first).
 
     Every system matrix is rebuilt from ``vehicle``, ``gains``, ``inner``, the
@@ -111,6 +119,11 @@ def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: G
     With ``fail_fast`` the re-check stops at its first failed row (``verify --fail-fast`` and the tamper loop: a
     refusal needs one failed check, and the grid, the region and the margins come last because they cost most).
 
+    ``cache`` (:func:`nniquad.certificates.check.memo` in ``verify``) may hand back an earlier result of one of
+    the three costly recomputations (the grid check, the region of attraction, the margins) for the same exact
+    inputs: the design, the stated box and grid size, and the stated fields that recomputation reads.  Each is a
+    pure function of those inputs, so verifying many edits of one section redoes only what an edit touches.
+
     Returns
     -------
     list of (name, ok, detail)
@@ -125,14 +138,23 @@ def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: G
         return bool(ok)
 
     try:
-        _recheck(section, vehicle, gains, inner, tilt_limit_deg, xi0_m, add)
+        _recheck(section, vehicle, gains, inner, tilt_limit_deg, xi0_m, add, cache or _no_cache)
     except _FirstFailure:
         pass
     return out
 
 
+def _design_inputs(vehicle: Vehicle, gains: Gains | SNI2Gains, inner: InnerLoopGains, tilt_limit_deg: float,
+                   rate: float, box: Any, grid_n: int) -> list[Any]:
+    """What every rebuilt matrix of a section depends on, as JSON (the first inputs of each cached row)."""
+    from dataclasses import asdict
+
+    return [vehicle.as_dict(), type(gains).__name__, asdict(gains), asdict(inner), float(tilt_limit_deg),
+            float(rate), box, int(grid_n)]
+
+
 def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: Gains | SNI2Gains, inner: InnerLoopGains,
-             tilt_limit_deg: float, xi0_m: Sequence[float], add: Callable[..., bool]) -> None:
+             tilt_limit_deg: float, xi0_m: Sequence[float], add: Callable[..., bool], cache: Cache) -> None:
     """The rows of :func:`check_cascade_section`, each handed to ``add(name, ok, detail)``."""
     expected = subsystems(state_names("full", gains.controller))
 
@@ -237,8 +259,11 @@ def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: Gains | SNI2Ga
         and _close(section["decay_rate_1_s"], min(l.decay_rate_1_s for l in lyap.values())),
         f"decay {min(l.decay_rate_1_s for l in lyap.values()):.6g} 1/s")
     grid_fam = _take(fam, np.arange(k, n_cert))
+    # the Lyapunov blocks above are functions of the design and the stated lyapunov section alone
+    design = _design_inputs(vehicle, gains, inner, tilt_limit_deg, rate, section["box"], grid_n) + [lyap_s]
     try:
-        gc = grid_check(grid_fam, _assemble_P(lyap, dims, box, grid_fam.points, fam.state_names), grid_n)
+        gc = cache("cascade.grid_check", design, lambda: grid_check(
+            grid_fam, _assemble_P(lyap, dims, box, grid_fam.points, fam.state_names), grid_n))
         g = section["grid"]
         ok = (gc.ok and g.get("size") == gc.size and g.get("ok") is True
               and _same_worst(g, gc, grid_fam.points)
@@ -252,8 +277,8 @@ def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: Gains | SNI2Ga
     except (KeyError, TypeError, ValueError, np.linalg.LinAlgError) as exc:
         add("grid check", False, f"unreadable or not positive definite ({exc})")
     try:
-        lz_lmi = linear_zone_reach(lyap, dims, box, fam, L)
-        lz_grid = linear_zone_reach(lyap, dims, box, grid_fam, L)
+        lz_lmi, lz_grid = cache("cascade.linear_zone", design, lambda: (linear_zone_reach(lyap, dims, box, fam, L),
+                                                                         linear_zone_reach(lyap, dims, box, grid_fam, L)))
         method = roa.get("method")
         ok = _close(roa.get("linear_zone_reach_lmi_points_m"), lz_lmi) and _close(roa.get("linear_zone_reach_grid_m"),
                                                                                   lz_grid)
@@ -266,7 +291,9 @@ def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: Gains | SNI2Ga
                 if name in HORIZONTAL:
                     lmi[name] = _take(fam, np.arange(start, start + pts[name].shape[0]))
                 start += pts[name].shape[0]
-            lure_ok, lure_detail, lure_reach = check_lure_block(roa["lure"], dims, box, lmi, grid_fam, lyap)
+            lure_ok, lure_detail, lure_reach = cache("cascade.lure", design + [roa["lure"]],
+                                                     lambda: check_lure_block(roa["lure"], dims, box, lmi, grid_fam,
+                                                                              lyap))
             # the stated reach is the recomputed one (never larger), and reaches beyond the linear zone
             stated = roa.get("max_displacement_m")
             ok = (ok and lure_ok and _is_number(stated) and lure_reach * (1 - 2e-9) <= stated <= lure_reach
@@ -290,8 +317,13 @@ def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: Gains | SNI2Ga
             for key in ("gm_db", "gm_lower_db", "pm_deg"):
                 wpts.append((bp, key, w[key], [float(w[key + "_point"][n]) for n in POINT_NAMES]))
         uniq = sorted({tuple(p[3]) for p in wpts})
-        mf = family_cached(vehicle, gains, inner, np.array(uniq, float), tilt_limit_deg, rate)
-        got = {u: fast_cascade_margins(mf.cascade_at(i), rate) for i, u in enumerate(uniq)}
+
+        def margins_at_points() -> dict:
+            mf = family_cached(vehicle, gains, inner, np.array(uniq, float), tilt_limit_deg, rate)
+            return {u: fast_cascade_margins(mf.cascade_at(i), rate) for i, u in enumerate(uniq)}
+
+        got = cache("cascade.margins", _design_inputs(vehicle, gains, inner, tilt_limit_deg, rate, None, 0)
+                    + [[list(u) for u in uniq]], margins_at_points)
         mdims = set(dims["x"]) | set(dims["y"])
         lo, hi = box.bounds()
         ok = all(_close(float(v), getattr(got[tuple(p)][bp], key), 1e-6) for bp, key, v, p in wpts) and all(
