@@ -186,21 +186,26 @@ def test_zup_translational_is_the_ned_one_rotated():
 
 
 def test_paper_variant_agrees_with_exact_to_first_order_near_hover():
-    """The printed model is the small-angle (W = I) form: the gap shrinks linearly with the attitude."""
+    """The printed model is the small-angle (W = I) form: the gap shrinks linearly with the attitude.
+
+    Five attitude directions, from a generator of this test's own (the module's ``RNG`` is shared, so what it
+    draws here would depend on which tests ran before on the same worker).  The ratio is taken between 1e-4
+    and 1e-5 rad: at 1e-3 rad the component with the largest gap can change with the size in some directions,
+    and the ratio there is 6-9, not yet the first-order 10."""
     f_ex = N.dynamics_function("exact")
     f_pa = N.dynamics_function("paper-printed")
     v = PAPER_VEHICLE
     p = N.param_vector(v)
-    direction = RNG.normal(size=3)
     u = [v.m * v.g, 1e-4, -1e-4, 1e-5]
 
-    def gap(eps):
+    def gap(eps, direction):
         x = np.zeros(12)
         x[[6, 8, 10]] = eps * direction  # attitude only: rate products are second order
         a = np.array(f_ex(x, u, 0.0, p)).ravel()
         b = np.array(f_pa(x, u, 0.0, p)).ravel()
         return np.max(np.abs(a - b)) / np.max(np.abs(a))
 
-    g1, g2 = gap(1e-3), gap(1e-4)
-    assert g1 < 1e-2 and g2 < 1e-3
-    assert g1 / g2 == pytest.approx(10.0, rel=0.05)  # first order in the attitude
+    for direction in np.random.default_rng(20261204).normal(size=(5, 3)):
+        g0, g1, g2 = gap(1e-3, direction), gap(1e-4, direction), gap(1e-5, direction)
+        assert g0 < 1e-2 and g1 < 1e-3 and g2 < 1e-4 and g2 > 0
+        assert g1 / g2 == pytest.approx(10.0, rel=0.01), direction  # first order in the attitude
