@@ -111,13 +111,16 @@ def shared_json(tmp_path_factory, pytestconfig):
 
 
 def pytest_collection_modifyitems(config, items):
-    """Tests grouped onto one xdist worker (``pytest.mark.xdist_group``, ``--dist loadgroup``) run first.
+    """Tests grouped onto one xdist worker (``pytest.mark.xdist_group``, ``--dist loadgroup``) run first, then
+    the tests marked ``slow``.
 
     A group is a unit of work as long as its expensive module fixture and all its tests; scheduled last, it
     would leave the other worker idle at the end of the session.  The order is the same in every worker
     (xdist requires it): grouped tests first, in collection order, then the others.
     """
     grouped = [item for item in items if item.get_closest_marker("xdist_group")]
-    if grouped:
-        rest = [item for item in items if not item.get_closest_marker("xdist_group")]
-        items[:] = grouped + rest
+    # then the long end-to-end tests (marked slow), then the rest: short tests fill both workers at the end,
+    # instead of one long test keeping one worker busy while the other is done
+    slow = [item for item in items if not item.get_closest_marker("xdist_group") and item.get_closest_marker("slow")]
+    rest = [item for item in items if not item.get_closest_marker("xdist_group") and not item.get_closest_marker("slow")]
+    items[:] = grouped + slow + rest

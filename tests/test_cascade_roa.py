@@ -196,6 +196,7 @@ def test_committed_certificate_boundary_converges_in_the_full_simulator():
     assert all(r.success for r in results), [(r.index, r.failure) for r in results if not r.success]
 
 
+@pytest.mark.slow  # two whole region searches (about 20 and 35 s)
 @pytest.mark.parametrize("widened", ["deeper saturation", "wider box"])
 def test_the_region_lmi_certifies_less_when_the_saturation_or_the_box_is_widened(section, widened):
     """The whole region search (LMI and cutting planes, then its numpy check) run again with the tilt limit

@@ -69,6 +69,7 @@ def test_build_certificate_takes_the_rate():
     assert inspect.signature(build_certificate).parameters["rate_hz"].default == CONTROL_RATE_HZ
 
 
+@pytest.mark.slow  # a whole certificate at 50 Hz
 def test_build_certificate_rate_reaches_margins_and_the_sampled_full_run():
     from nniquad.certificates.build import build_certificate
 
