@@ -210,10 +210,9 @@ def frd_crossings(resp: np.ndarray, omega: np.ndarray) -> tuple[np.ndarray, np.n
     """Every phase and gain crossover of a sampled frequency response, with its gain or phase margin.
 
     The method of python-control's ``stability_margins(FRD(resp, omega, smooth=True),
-    returnall=True)``, written with numpy and scipy: the response is interpolated by a
-    parametric cubic spline through its real and imaginary parts (python-control's ``splprep``,
-    ``s = 0``: the interpolating not-a-knot spline, :class:`nniquad.analysis.interpolation.NotAKnotSpline`);
-    a sign change of ``∠(-L)`` between two
+    returnall=True)``, written with scipy: the response is interpolated by a
+    parametric cubic spline through its real and imaginary parts (``splprep``,
+    ``s = 0``, weights ``1/(|L| + 0.001)``); a sign change of ``∠(-L)`` between two
     grid frequencies with ``Re L <= 0`` at the first is a phase crossover, a sign
     change of ``|L| - 1`` a gain crossover, each refined by ``brentq`` on the
     interpolated response.
@@ -232,13 +231,16 @@ def frd_crossings(resp: np.ndarray, omega: np.ndarray) -> tuple[np.ndarray, np.n
         and phase margins [deg] at the gain crossovers ``w_gc`` [rad/s], in
         increasing frequency.
     """
+    from scipy.interpolate import splev, splprep
     from scipy.optimize import brentq
 
-    from nniquad.analysis.interpolation import NotAKnotSpline
-
     w = np.asarray(omega, float)
-    # splprep(s=0)'s spline (its weights only matter when it smooths): the interpolating not-a-knot cubic
-    interp = NotAKnotSpline(w, np.asarray(resp, complex))
+    r = np.asarray(resp, complex)
+    tck, _ = splprep(u=w, x=[r.real, r.imag], w=1.0 / (np.abs(r) + 0.001), s=0.0, k=3 if w.size > 3 else w.size - 1)
+
+    def interp(f: Any) -> np.ndarray:
+        re, im = splev(f, tck, der=0)
+        return np.asarray(re) + 1j * np.asarray(im)
 
     def phase_from_180(f: Any) -> Any:
         return np.angle(-interp(f))
