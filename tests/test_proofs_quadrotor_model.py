@@ -85,3 +85,30 @@ def test_rotational_gap_is_first_order_in_attitude():
     num = Q.rotational_rows().evidence["numeric gap (first order in the attitude)"]
     g1, g2 = (v["max|gap| / max|exact|"] for v in num.values())
     assert 8.0 < g1 / g2 < 12.0
+
+
+def test_the_exact_zero_test_decides_identities_on_the_circles_and_only_those():
+    """``_vanishes_on_the_circles`` (sᵃ² + cᵃ² = 1 reduction): true identities, rational ones included, are
+    zero; a residual that is not an identity is not (checked at random angles too); what it cannot read (a tan)
+    is left undecided for trigsimp.  ``_simp`` gives trigsimp's answer either way."""
+    a, b, c, m = sp.symbols("a b c m", positive=True)
+    sa, ca, sb, cb = sp.sin(a), sp.cos(a), sp.sin(b), sp.cos(b)
+    identities = [
+        sa**2 + ca**2 - 1,
+        (sa**2 + ca**2) ** 3 - 1,
+        (sa**4 - ca**4 - sa**2 + ca**2) * sp.cos(c) / m,
+        (sa**2 * cb**2 + sa**2 * sb**2 + ca**2 - 1) / (ca + 2),
+        (sa * cb + ca * sb) ** 2 + (ca * cb - sa * sb) ** 2 - 1,  # sin² + cos² of a + b, opened
+    ]
+    others = [sa**2 - ca**2, sa**2 + ca**2 - 1 + 1e-12 * sb, sa**2 * cb**2 - sa**2, (sa - ca) / m]
+    rng = np.random.default_rng(7)
+    for e in identities:
+        assert Q._vanishes_on_the_circles(sp.expand(e)), e
+        assert Q._simp(e) == 0 and sp.trigsimp(sp.expand(e)) == 0
+    for e in others:
+        assert not Q._vanishes_on_the_circles(sp.expand(e)), e
+        f = sp.lambdify((a, b, c, m), e)
+        assert max(abs(f(*rng.uniform(0.1, 3.0, 4))) for _ in range(5)) > 0  # truly not zero
+        assert Q._simp(e) != 0
+    assert not Q._vanishes_on_the_circles(sp.tan(a) * ca - sa)  # undecided: trigsimp's turn
+    assert Q._simp(sp.tan(a) * ca - sa) == 0
