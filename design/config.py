@@ -147,7 +147,8 @@ CASCADE_LURE_MARGIN: float = 1e-4
 #: Cutting-plane rounds of the region LMI: the grid points where the numpy check fails join the LMI points.
 #: Paper's design: one round of 24 points, then all 4096 grid points pass.
 CASCADE_LURE_CUT_ROUNDS: int = 3
-#: Failing grid points added per axis and round (the worst ones).
+#: Failing grid points added per axis and round: the worst one, then each the farthest from those chosen
+#: (:func:`nniquad.analysis.robust.roa_lmi._spread_worst`). The tests' small design: one round instead of two.
 CASCADE_LURE_CUT_POINTS: int = 24
 #: Largest scale (log space, about nominal) of the Monte Carlo default box the widest-box search tries.
 CASCADE_WIDEST_SCALE_MAX: float = 2.0

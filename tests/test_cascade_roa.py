@@ -219,3 +219,23 @@ def test_the_region_lmi_certifies_less_when_the_saturation_or_the_box_is_widened
         scale = math.tan(math.radians(tilt)) / math.tan(math.radians(TILT))
         assert wide["region_of_attraction"]["method"] == "lure"
         assert reach == pytest.approx(scale * stated, rel=1e-3), (reach, scale * stated)
+
+
+def test_a_cut_spreads_over_every_failing_spot_and_keeps_the_worst():
+    """The cutting plane's choice (``roa_lmi._spread_worst``) against a hand-made failing set: a dense cluster of
+    bad points around one corner and three mild ones far apart.  The worst-first choice of four would take the
+    cluster alone; the spread choice takes the worst point and then one from each distant spot."""
+    from nniquad.analysis.robust.roa_lmi import _spread_worst
+
+    rng = np.random.default_rng(7)
+    cluster = np.array([1.0, 1.0, 1.0]) + 0.01 * rng.standard_normal((10, 3))
+    far = np.array([[-1.0, -1.0, -1.0], [1.0, -1.0, 0.0], [-1.0, 1.0, 0.5]])
+    theta = np.vstack([cluster, far])
+    margin = np.concatenate([-1.0 - rng.random(10), [-0.1, -0.2, -0.3]])  # the cluster is the worst
+    picked = _spread_worst(theta, margin, 4)
+    assert picked[0] == int(np.argmin(margin))  # the worst point first
+    assert sorted(int(i) for i in picked[1:]) == [10, 11, 12]  # then one point of each other spot
+    # fewer failing points than the cut: all of them, worst first
+    assert list(_spread_worst(theta[10:], margin[10:], 4)) == [2, 1, 0]
+    # a cut of one is the worst point alone
+    assert list(_spread_worst(theta, margin, 1)) == [int(np.argmin(margin))]

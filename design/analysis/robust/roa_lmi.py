@@ -409,6 +409,25 @@ def _cut(cur: dict, check_grid: LureCheck, gdata: Mapping[str, AxisData], solved
         _, first = np.unique(key, axis=0, return_index=True)
         known = {tuple(r) for r in np.round(cur[target].theta, 9)}
         first = np.array([i for i in first if tuple(key[i]) not in known], int)
-        worst = first[np.argsort(margin[first])][:cut_points]
-        cur[target] = cur[target].join(pts.take(worst))
+        worst = _spread_worst(pts.theta[first], margin[first], cut_points)
+        cur[target] = cur[target].join(pts.take(first[worst]))
         added[target] += len(worst)
+
+
+def _spread_worst(theta: np.ndarray, margin: np.ndarray, count: int) -> np.ndarray:
+    """Indices of at most ``count`` failing points: the worst first, then each the farthest (in θ) from those chosen.
+
+    The failing grid points of a round crowd around a few spots of the box; the worst ``count`` of them are
+    mostly neighbours of one another, and the next round fails at the spots they left out.  Spreading the cut
+    over the failing set covers every spot in the round.  Ties in distance go to the worse margin.
+    """
+    if len(margin) <= count:
+        return np.argsort(margin, kind="stable")
+    order = np.argsort(margin, kind="stable")
+    theta, chosen = theta[order], [0]
+    dist = np.sum((theta - theta[0]) ** 2, axis=1)
+    while len(chosen) < count:
+        nxt = int(np.argmax(dist))  # argmax keeps the first of equal distances: the worse margin
+        chosen.append(nxt)
+        dist = np.minimum(dist, np.sum((theta - theta[nxt]) ** 2, axis=1))
+    return order[np.array(chosen)]
