@@ -9,9 +9,11 @@ backend: the best settling time of each seed, the spread ``(max - min) / best``
 of the five in % (target: within 2 % of the best of them), the wall time and
 the simulations.  The table printed to stderr is the one for the report.
 
-Environment: ``NNIQUAD_BENCH_OPT_BUDGET`` (default ``quick``: 256 sweep points
-and 400 optimiser evaluations per seed on the full model, about half a minute
-each on the 2-core reference machine), ``NNIQUAD_BENCH_OPT_SEEDS`` (default 5),
+Environment: ``NNIQUAD_BENCH_OPT_BUDGET`` (default ``normal`` in the full mode: the
+robust default of ``nniquad tune --model full``, the budget issue 24's five-seed
+target names, 512 sweep points and 400 optimiser evaluations per seed, about a
+minute each on the 2-core reference machine; ``quick`` in the quick mode),
+``NNIQUAD_BENCH_OPT_SEEDS`` (default 5),
 ``NNIQUAD_BENCH_OPT_METHODS`` (default ``cma``; ``cma,nomad`` compares both).  ``TuneOptions(model="full")``
 takes the robust objective by default, so the budgets are
 :data:`nniquad.tuning.options.ROBUST_BUDGETS`.
@@ -35,12 +37,13 @@ __all__ = ["run", "SPREAD_TARGET_PCT"]
 
 def run(quick: bool = False) -> list[dict]:
     """Rows for ``benchmarks/run.py``.  Full: the default optimiser (CMA-ES) on the ``full`` model with the robust
-    default, five seeds; ``quick``: the same five seeds on the ``reduced`` model (seconds each).  NOMAD is
+    default (objective and budget), five seeds; ``quick``: the same five seeds on the ``reduced`` model at the
+    ``quick`` budget (seconds each).  NOMAD is
     compared when ``NNIQUAD_BENCH_OPT_METHODS`` names it (it lost the comparison of issue 14)."""
     from nniquad.model.vehicle import PAPER_VEHICLE
     from nniquad.tuning.tune import TuneOptions, tune
 
-    budget = os.environ.get("NNIQUAD_BENCH_OPT_BUDGET", "quick")
+    budget = os.environ.get("NNIQUAD_BENCH_OPT_BUDGET", "quick" if quick else "normal")
     n_seeds = int(os.environ.get("NNIQUAD_BENCH_OPT_SEEDS", "5"))
     model = "reduced" if quick else "full"
     rows: list[dict] = []

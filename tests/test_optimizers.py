@@ -195,3 +195,27 @@ def test_the_optimiser_tells_the_search_its_incumbent_and_clears_it():
         assert told is not None and told >= best - 1e-12  # never below a cost seen: nothing better is pruned
     assert search.seen[0][0] == pytest.approx(starts[0].cost)
     assert found[0].cost <= search.seen[-1][0] + 1e-12
+
+
+def test_the_first_cma_run_leaves_the_local_runs_their_share():
+    """On a 6-D Rosenbrock the first large CMA run does not converge within 400 evaluations.  It may spend
+    ``CMA_FIRST_RUN_SHARE`` of them (up to one generation more), and the evaluations left go to BIPOP's
+    small-population runs from the incumbent, which then improve on it; the whole budget is used."""
+    import re
+
+    from nniquad.tuning.optimizers import CMA_FIRST_RUN_SHARE
+
+    budget, d = 400, 6
+    lo, hi = -2.5 * np.ones(d), 3.0 * np.ones(d)
+    search = FakeSearch(rosenbrock, lo, hi)
+    found = minimise(search, _starts(search), method="cma", max_evals=budget, seed=3)
+    runs: dict[int, tuple[str, int, int]] = {}  # run -> (regime, population, evaluations at its last generation)
+    for msg in search.messages:
+        m = re.match(r"cma restart (\d+) \((\w+), pop (\d+)\) gen \d+: best \S+ s, (\d+) evals", msg)
+        runs[int(m[1])] = (m[2], int(m[3]), int(m[4]))
+    regime0, pop0, evals0 = runs[0]
+    assert regime0 == "large"
+    assert CMA_FIRST_RUN_SHARE * budget <= evals0 < CMA_FIRST_RUN_SHARE * budget + pop0
+    assert any(regime == "small" for regime, _, _ in runs.values())
+    assert search.n_sim > budget - pop0  # the rest was spent (the last generation may not fit)
+    assert found[0].cost < found[-1].cost  # a later run improved on the first run's incumbent
