@@ -216,7 +216,7 @@ def test_the_first_cma_run_leaves_the_local_runs_their_share():
     regime0, pop0, evals0 = runs[0]
     assert regime0 == "large"
     cap = first_run_evaluations(budget, d)
-    assert cap == 200  # half of 400: more than 20 generations of 9
+    assert cap == 200  # half of 400: more than 10 generations of 9
     assert cap <= evals0 < cap + pop0
     assert any(regime == "small" for regime, _, _ in runs.values())
     assert search.n_sim > budget - pop0  # the rest was spent (the last generation may not fit)
@@ -224,13 +224,13 @@ def test_the_first_cma_run_leaves_the_local_runs_their_share():
 
 
 def test_a_small_budget_stays_with_the_first_cma_run():
-    """60 evaluations (the robust ``quick`` budget) are fewer than 20 generations of the default population: the
+    """60 evaluations (the robust ``quick`` budget) are fewer than 10 generations of the default population: the
     first run may spend every whole generation of them (a run cut to 30 evaluations could not leave its start:
     Crazyflie 2's quick certificate then found no gain set that settles)."""
     from nniquad.tuning.optimizers import first_run_evaluations
 
-    assert first_run_evaluations(60, 6) == 180 and first_run_evaluations(400, 3) == 200
-    assert first_run_evaluations(100, 3) == 140  # 4 + floor(3 ln 3) = 7 per generation
+    assert first_run_evaluations(60, 6) == 90 and first_run_evaluations(400, 3) == 200
+    assert first_run_evaluations(100, 3) == 70  # 4 + floor(3 ln 3) = 7 per generation
     lo, hi = -2.5 * np.ones(6), 3.0 * np.ones(6)
     search = FakeSearch(rosenbrock, lo, hi)
     minimise(search, _starts(search), method="cma", max_evals=60, seed=3)
