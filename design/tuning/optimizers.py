@@ -51,7 +51,8 @@ from nniquad.tuning.options import OPTIMIZERS
 if TYPE_CHECKING:  # pragma: no cover
     from nniquad.tuning.search import Candidate, _Search
 
-__all__ = ["minimise", "OPTIMIZERS", "CMA_SIGMA0", "MIN_STEP", "CMA_FIRST_RUN_SHARE", "first_run_evaluations"]
+__all__ = ["minimise", "OPTIMIZERS", "CMA_SIGMA0", "MIN_STEP", "CMA_FIRST_RUN_SHARE", "CMA_FIRST_RUN_MIN_GENERATIONS",
+           "default_population", "first_run_evaluations"]
 
 #: Initial CMA step size and NOMAD frame size, as a fraction of the box in every coordinate.
 CMA_SIGMA0 = 0.2
@@ -190,11 +191,15 @@ def _next_x0(tr: _Tracker, starts: list["Candidate"], used: list[int], rng: np.r
     return rng.random(len(tr.lo))
 
 
+def default_population(dims: int) -> int:
+    """CMA-ES's default population ``4 + ⌊3 ln d⌋`` in ``dims`` coordinates."""
+    return 4 + int(3 * math.log(dims))
+
+
 def first_run_evaluations(max_evals: int, dims: int) -> int:
     """Evaluations the first CMA-ES run may spend: :data:`CMA_FIRST_RUN_SHARE` of ``max_evals``, but at least
-    :data:`CMA_FIRST_RUN_MIN_GENERATIONS` generations of the default population ``4 + ⌊3 ln d⌋``."""
-    lam0 = 4 + int(3 * math.log(dims))
-    return max(int(CMA_FIRST_RUN_SHARE * max_evals), CMA_FIRST_RUN_MIN_GENERATIONS * lam0)
+    :data:`CMA_FIRST_RUN_MIN_GENERATIONS` generations of the :func:`default_population`."""
+    return max(int(CMA_FIRST_RUN_SHARE * max_evals), CMA_FIRST_RUN_MIN_GENERATIONS * default_population(dims))
 
 
 def _cma(tr: _Tracker, starts: list["Candidate"], seed: int) -> None:
@@ -202,7 +207,7 @@ def _cma(tr: _Tracker, starts: list["Candidate"], seed: int) -> None:
 
     d = len(tr.lo)
     rng = np.random.default_rng([seed, 0xC3A])
-    lam0 = 4 + int(3 * math.log(d))  # CMA-ES's default population
+    lam0 = default_population(d)
     used = [0]
     n_large, evals_large, evals_small, run = 0, 0, 0, 0
     first_cap = first_run_evaluations(tr.left, d)
@@ -220,8 +225,8 @@ def _cma(tr: _Tracker, starts: list["Candidate"], seed: int) -> None:
         es = cma.CMAEvolutionStrategy(
             np.clip(x0, 0.0, 1.0), sigma,
             {"bounds": [0.0, 1.0], "popsize": lam, "seed": int(rng.integers(1, 2**31 - 1)), "verbose": -9,
-             "verb_log": 0, "verb_disp": 0, "maxfevals": first_cap if run == 0 else tr.left, "tolx": MIN_STEP, "tolfun": COST_TOL_S,
-             "tolfunhist": COST_TOL_S, "randn": lambda *shape: rng.standard_normal(shape)})
+             "verb_log": 0, "verb_disp": 0, "maxfevals": first_cap if run == 0 else tr.left, "tolx": MIN_STEP,
+             "tolfun": COST_TOL_S, "tolfunhist": COST_TOL_S, "randn": lambda *shape: rng.standard_normal(shape)})
         before = tr.evals
         gen = 0
         while not es.stop() and tr.left >= 2:

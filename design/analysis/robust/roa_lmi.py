@@ -421,9 +421,9 @@ def _spread_worst(theta: np.ndarray, margin: np.ndarray, count: int) -> np.ndarr
     mostly neighbours of one another, and the next round fails at the spots they left out.  Spreading the cut
     over the failing set covers every spot in the round.  Ties in distance go to the worse margin.
     """
-    if len(margin) <= count:
-        return np.argsort(margin, kind="stable")
     order = np.argsort(margin, kind="stable")
+    if len(order) <= count:
+        return order
     theta, chosen = theta[order], [0]
     dist = np.sum((theta - theta[0]) ** 2, axis=1)
     while len(chosen) < count:
