@@ -236,3 +236,48 @@ def test_a_small_budget_stays_with_the_first_cma_run():
     minimise(search, _starts(search), method="cma", max_evals=60, seed=3)
     first = [int(msg.rsplit(", ", 1)[1].split()[0]) for msg in search.messages if "restart 0 (large" in msg]
     assert first[-1] > 60 - 9  # every whole generation of 9 that fits went to the first run
+
+
+def test_the_small_cma_runs_search_in_the_frame_the_large_run_learned(monkeypatch):
+    """On a rotated ellipsoid of condition 1e4 in 6 coordinates the large run learns the valley's orientation
+    before its share of 400 evaluations is spent.  BIPOP's small runs restarted with the identity covariance
+    lose it and spend their evaluations learning it again; started in the learned frame (``learned_frame``)
+    they go on refining.  Over eight seeds the median of the best cost is at most half of the identity-frame
+    runs' (measured: 5.1 against 14.2)."""
+    from nniquad.tuning import optimizers
+
+    d = 6
+    rotation = np.linalg.qr(np.random.default_rng(7).standard_normal((d, d)))[0]
+    weights = 10.0 ** np.linspace(0.0, 4.0, d)
+
+    def ellipsoid(q):
+        y = rotation @ (q - 0.3)
+        return float(np.sum(weights * y ** 2))
+
+    def median_best(in_frame: bool) -> float:
+        monkeypatch.setattr(optimizers, "SMALL_RUNS_IN_LEARNED_FRAME", in_frame)
+        best = []
+        for seed in range(8):
+            search = FakeSearch(ellipsoid, -2.5 * np.ones(d), 3.0 * np.ones(d))
+            best.append(minimise(search, _starts(search, seed=seed), method="cma", max_evals=400, seed=seed)[0].cost)
+        return float(np.median(best))
+
+    assert median_best(True) <= 0.5 * median_best(False)
+
+
+def test_learned_frame_is_the_run_s_shape_with_unit_geometric_mean():
+    """The frame is a Cholesky factor of the run's covariance shape (``sm.C``, with ``sigma_vec``) scaled to a
+    unit geometric mean of the eigenvalues; a singular or non-finite shape gives no frame."""
+    from types import SimpleNamespace
+
+    from nniquad.tuning.optimizers import learned_frame
+
+    C = np.array([[4.0, 1.0], [1.0, 2.0]])
+    F = learned_frame(SimpleNamespace(sm=SimpleNamespace(C=C), sigma_vec=SimpleNamespace(scaling=1.0)))
+    expected = C / np.sqrt(np.linalg.det(C))  # in 2-D the geometric mean of the eigenvalues is sqrt(det)
+    assert np.allclose(F @ F.T, expected, rtol=1e-12) and np.allclose(F, np.tril(F))
+    scaled = learned_frame(SimpleNamespace(sm=SimpleNamespace(C=C), sigma_vec=SimpleNamespace(scaling=np.array([1.0, 3.0]))))
+    S = np.diag([1.0, 3.0]) @ C @ np.diag([1.0, 3.0])
+    assert np.allclose(scaled @ scaled.T, S / np.sqrt(np.linalg.det(S)), rtol=1e-12)
+    for bad in (np.array([[1.0, 1.0], [1.0, 1.0]]), np.array([[1.0, np.nan], [np.nan, 1.0]])):
+        assert learned_frame(SimpleNamespace(sm=SimpleNamespace(C=bad), sigma_vec=SimpleNamespace(scaling=1.0))) is None

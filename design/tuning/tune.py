@@ -90,9 +90,11 @@ useless and a single local search stalls in a false minimum.  Two stages:
    much rougher: the p95 of 20 scenarios jumps when one scenario's last exit
    from the band moves.  At the robust default (``normal``, paper class) five
    seeds ended 11.2 % apart while the first CMA run spent the whole budget,
-   and 3.7 % apart since it may spend half of it
-   (:data:`nniquad.tuning.optimizers.CMA_FIRST_RUN_SHARE`; FINDINGS §20);
-   ``benchmarks/bench_optimizers.py`` measures it.
+   3.7 % apart once it could spend only half of it
+   (:data:`nniquad.tuning.optimizers.CMA_FIRST_RUN_SHARE`; FINDINGS §20), and
+   0.62 % apart since BIPOP's small runs search in the frame the large run
+   learned (:data:`nniquad.tuning.optimizers.SMALL_RUNS_IN_LEARNED_FRAME`;
+   FINDINGS §21); ``benchmarks/bench_optimizers.py`` measures it.
 
 :func:`tune` reruns everything from other seeds (``TuneOptions.reruns``),
 keeps the best, and reports the per-seed optima and their spread, so an
