@@ -276,8 +276,9 @@ def _cma(tr: _Tracker, starts: list["Candidate"], seed: int) -> None:
             opts["bounds"] = [0.0, 1.0]
             x0 = np.clip(x0, 0.0, 1.0)
         es = cma.CMAEvolutionStrategy(x0, sigma, opts)
+        # a framed point outside the unit box is clipped into it by the tracker (to_q), as every other point is
         to_x = (lambda ys: np.asarray(ys, float)) if centre is None else \
-            (lambda ys, c=centre, F=frame: np.clip(c + np.asarray(ys, float) @ F.T, 0.0, 1.0))
+            (lambda ys, c=centre, F=frame: c + np.asarray(ys, float) @ F.T)
         before = tr.evals
         gen = 0
         while not es.stop() and tr.left >= 2:
