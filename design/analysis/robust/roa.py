@@ -406,7 +406,8 @@ def lure_check(region: LureRegion, box: ParameterBox, fam: CascadeFamily,
         bad = (margin[a] <= 0) | (lp <= lpb) | (mu < 0) | ~(inc <= 1.0)
         fail[a] = np.flatnonzero(bad)
     reach = reach_at(p00, mu, region.level, L, k_max) if np.all(p00 > 0) else np.zeros(len(fam))
-    eps = np.minimum(1.0, 1.0 / np.sqrt(kw_max))
+    with np.errstate(divide="ignore"):  # kw_max is 0 only where P is not positive definite, a failure above
+        eps = np.minimum(1.0, 1.0 / np.sqrt(kw_max))
     cat = np.concatenate
     return LureCheck(decrease=float(np.max(cat(dec))), decrease_bound=float(np.max(cat(bnd))),
                      min_eig_scaled=float(np.min(cat(lam))), min_eig_bound=float(np.max(cat(lam_b))),
