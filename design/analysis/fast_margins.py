@@ -147,10 +147,10 @@ class _Modal:
 
 
 def _bisect(f, a: float, b: float, fa: float) -> float:
-    """Root of a scalar function with a sign change on [a, b] (Brent's method in log frequency)."""
-    from scipy.optimize import brentq
+    """Root of a scalar function with a sign change on [a, b] (bisection in log frequency)."""
+    from nniquad.analysis.interpolation import bracketed_root
 
-    return math.exp(brentq(lambda u: f(math.exp(u)), math.log(a), math.log(b), xtol=1e-12, rtol=1e-12))
+    return math.exp(bracketed_root(lambda u: f(math.exp(u)), math.log(a), math.log(b), xtol=1e-12, rtol=1e-12))
 
 
 def fast_loop_margins(cl: ClosedLoop, break_point: str, rate_hz: float | None = None,

@@ -214,7 +214,7 @@ def frd_crossings(resp: np.ndarray, omega: np.ndarray) -> tuple[np.ndarray, np.n
     parametric cubic spline through its real and imaginary parts (``splprep``,
     ``s = 0``, weights ``1/(|L| + 0.001)``); a sign change of ``∠(-L)`` between two
     grid frequencies with ``Re L <= 0`` at the first is a phase crossover, a sign
-    change of ``|L| - 1`` a gain crossover, each refined by ``brentq`` on the
+    change of ``|L| - 1`` a gain crossover, each refined by bisection (``brentq``'s tolerances) on the
     interpolated response.
 
     Parameters
@@ -231,16 +231,12 @@ def frd_crossings(resp: np.ndarray, omega: np.ndarray) -> tuple[np.ndarray, np.n
         and phase margins [deg] at the gain crossovers ``w_gc`` [rad/s], in
         increasing frequency.
     """
-    from scipy.interpolate import splev, splprep
-    from scipy.optimize import brentq
+    from nniquad.analysis.interpolation import InterpolatingSpline, bracketed_root
 
     w = np.asarray(omega, float)
     r = np.asarray(resp, complex)
-    tck, _ = splprep(u=w, x=[r.real, r.imag], w=1.0 / (np.abs(r) + 0.001), s=0.0, k=3 if w.size > 3 else w.size - 1)
-
-    def interp(f: Any) -> np.ndarray:
-        re, im = splev(f, tck, der=0)
-        return np.asarray(re) + 1j * np.asarray(im)
+    # splprep's interpolating spline (s = 0), without importing scipy.interpolate (nniquad.analysis.interpolation)
+    interp = InterpolatingSpline(w, r)
 
     def phase_from_180(f: Any) -> Any:
         return np.angle(-interp(f))
@@ -250,9 +246,9 @@ def frd_crossings(resp: np.ndarray, omega: np.ndarray) -> tuple[np.ndarray, np.n
 
     idx = np.where(np.diff(np.sign(phase_from_180(w))))[0]
     idx = idx[np.real(interp(w[idx])) <= 0] if idx.size else idx
-    w_pc = np.array([brentq(phase_from_180, w[i], w[i + 1]) for i in idx], dtype=float)
+    w_pc = np.array([bracketed_root(phase_from_180, w[i], w[i + 1]) for i in idx], dtype=float)
     idx = np.where(np.diff(np.sign(gain_minus_one(w))))[0]
-    w_gc = np.array([brentq(gain_minus_one, w[i], w[i + 1]) for i in idx], dtype=float)
+    w_gc = np.array([bracketed_root(gain_minus_one, w[i], w[i + 1]) for i in idx], dtype=float)
     with np.errstate(all="ignore"):  # |L| = 0 at a phase crossover: an infinite margin
         gm = 1.0 / np.abs(interp(w_pc)) if w_pc.size else np.zeros(0)
     pm = np.remainder(np.angle(interp(w_gc), deg=True), 360.0) - 180.0 if w_gc.size else np.zeros(0)
