@@ -65,4 +65,6 @@ def test_the_root_is_brentq_s_within_its_tolerance(f, a, b, root):
 def test_a_bracket_without_a_sign_change_is_refused():
     with pytest.raises(ValueError):
         bracketed_root(lambda x: x * x + 1.0, -1.0, 1.0)
+    with pytest.raises(ValueError):  # a NaN inside the bracket, as brentq refuses it
+        bracketed_root(lambda x: x - 1.5 if abs(x - 1.5) > 0.1 else math.nan, 1.0, 2.0)
     assert bracketed_root(lambda x: x - 1.0, 1.0, 2.0) == 1.0  # a root at an end is returned as it is

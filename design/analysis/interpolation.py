@@ -103,7 +103,7 @@ def bracketed_root(f: Callable[[float], float], a: float, b: float, xtol: float 
     Raises
     ------
     ValueError
-        ``f`` has the same strict sign at both ends, or a non-finite value there.
+        ``f`` has the same strict sign at both ends, or a non-finite value at an end or inside.
     """
     fa, fb = float(f(a)), float(f(b))
     if not (math.isfinite(fa) and math.isfinite(fb)) or fa * fb > 0.0:
@@ -117,6 +117,8 @@ def bracketed_root(f: Callable[[float], float], a: float, b: float, xtol: float 
         if abs(b - a) <= xtol + rtol * abs(m):
             return m
         fm = float(f(m))
+        if not math.isfinite(fm):  # as brentq: a NaN inside the bracket is an error, not a direction
+            raise ValueError(f"f is not finite at {m!r}")
         if fm == 0.0:
             return m
         if (fm < 0.0) == (fa < 0.0):
