@@ -15,11 +15,13 @@ from nniquad.certificates import load_certificate, read_certificate, verify_cert
 from nniquad.reporting.folder import MANIFEST, MANIFEST_MARKER, file_digest
 from nniquad.reporting.report import fmt
 
-#: One xdist worker runs this module: its module fixture runs a whole report (audit, two tunes, a full-model
-#: certificate), built once, not once per worker.
+#: One xdist worker runs this module: its module fixture runs a whole report (audit, bound, paper-gain runs, a tune,
+#: a certificate with both reference runs and the sampled cascade section, verification, figures), built once.
 pytestmark = pytest.mark.xdist_group("test_report")
 
 COMMITTED = Path(__file__).resolve().parents[1] / "notebooks" / "data" / "full_model_certificate.json"
+#: A committed certificate of another design (the cascade class): the second run reports on it.
+OTHER = COMMITTED.with_name("cascade_model_certificate.json")
 QUICK = ["--budget", "quick", "--reruns", "0", "--roa-radius", "0", "--nominal"]  # the robust default is tested in test_robust_objective
 
 
@@ -34,7 +36,9 @@ def report_dir(tmp_path_factory):
     (out / MANIFEST).write_text(json.dumps({"marker": MANIFEST_MARKER,
                                             "files": {"old_figure.png": file_digest(out / "old_figure.png")}}))
     (out / "notes.txt").write_text("the user's notes\n")
-    code = main(["report", "--out", str(out), *QUICK])
+    # tuned on the reduced model (seconds, where the full model's quick tune takes 20 s): the report passes the model
+    # on to the tuner and the certificate builder and nothing else (test_vehicles runs `certify --model full`)
+    code = main(["report", "--out", str(out), *QUICK, "--model", "reduced"])
     assert code == 0
     return out
 
@@ -98,13 +102,14 @@ def _holds_pid(lock, pid: int) -> bool:
 
 def test_second_run_replaces_cleanly_and_a_concurrent_run_is_refused(report_dir, run_cli):
     """A second run into the folder replaces every file it lists, and a third one started while it works is
-    refused in one line.  The second run tunes on the reduced model (the fixture's run is the full model's): it
-    writes the same files with other contents, and skips the full model's tune, which this test does not need."""
+    refused in one line.  The second run reports on a committed certificate of another design (``--certificate``:
+    the fixture's run tuned and certified; this one verifies the given certificate and skips both): it writes the
+    same files with other contents."""
     before = json.loads((report_dir / "report.json").read_text())["files"]
     first_digest = json.loads((report_dir / "certificate.json").read_text())["digest"]["value"]
     env = {**os.environ, "MPLBACKEND": "Agg"}
-    proc = subprocess.Popen([sys.executable, "-m", "nniquad", "report", "--out", str(report_dir), *QUICK,
-                             "--model", "reduced"],
+    proc = subprocess.Popen([sys.executable, "-m", "nniquad", "report", "--out", str(report_dir),
+                             "--certificate", str(OTHER)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
     try:
         lock = report_dir.parent / f".{report_dir.name}.nniquad-lock"
@@ -127,15 +132,43 @@ def test_second_run_replaces_cleanly_and_a_concurrent_run_is_refused(report_dir,
     assert before == after and sorted(p.name for p in report_dir.iterdir()) == sorted(after + ["notes.txt"])
     assert "report.md" in out and "%" in err  # prints where everything is; progress on stderr
     _consistent(report_dir)
-    # the files are the second run's: its certificate is of gains tuned on the reduced model
+    # the files are the second run's: its certificate is the given one, as it was signed
     cert = json.loads((report_dir / "certificate.json").read_text())
-    assert cert["model"] == "reduced" and cert["digest"]["value"] != first_digest
+    given = json.loads(OTHER.read_text())
+    assert cert == given and cert["digest"]["value"] != first_digest
+    data = json.loads((report_dir / "report.json").read_text())
+    assert data["tuning"] == given["tuning"] and data["tradeoffs"] == [] and str(OTHER) in data["source"]
+    assert data["certified"]["law_class"]["name"] == given["law_class"]["name"] == "cascade"
     assert sorted(p.name for p in report_dir.parent.iterdir() if p.name.startswith(f".{report_dir.name}")) == []
 
 
 def test_bad_options(run_cli, tmp_path):
     code, _, err = run_cli("report", "--out", str(tmp_path / "r"), "--gamma-max", "1.2")
     assert code == 2 and "gamma" in err and "Traceback" not in err
+    assert not (tmp_path / "r").exists()
+
+
+@pytest.mark.parametrize("option", [("--budget", "quick"), ("--reruns", "0"), ("--nominal",), ("--model", "full"),
+                                    ("--vehicle", "v.toml"), ("--law-class", "paper"), ("--roa-radius", "0")])
+def test_a_tuning_option_is_refused_with_a_given_certificate(run_cli, tmp_path, option):
+    """A report on a given certificate tunes nothing: a tuning option with it (even at its default value) is a
+    mistake, refused in one line before any work, naming the option."""
+    code, out, err = run_cli("report", "--out", str(tmp_path / "r"), "--certificate", str(COMMITTED), *option)
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert code == 2 and out == "" and len(lines) == 1 and option[0] in lines[0] and "--certificate" in lines[0], err
+    assert not (tmp_path / "r").exists()
+
+
+def test_a_tampered_or_unreadable_given_certificate_is_refused(run_cli, tmp_path):
+    """The given certificate is read like any other: a missing file is a user error (2), an edit after signing a
+    failed check (1); one line each, and no report folder."""
+    code, _, err = run_cli("report", "--out", str(tmp_path / "r"), "--certificate", str(tmp_path / "none.json"))
+    assert code == 2 and "none.json" in err and len(err.strip().splitlines()) == 1, err
+    doc = json.loads(COMMITTED.read_text())
+    doc["gains"]["kp"] *= 1.01  # not re-signed
+    (tmp_path / "edited.json").write_text(json.dumps(doc))
+    code, _, err = run_cli("report", "--out", str(tmp_path / "r"), "--certificate", str(tmp_path / "edited.json"))
+    assert code == 1 and "digest mismatch" in err and len(err.strip().splitlines()) == 1, err
     assert not (tmp_path / "r").exists()
 
 

@@ -51,7 +51,7 @@ class Report:
 def report(out_dir: str | Path = "out", vehicle: Vehicle | None = None, *, model: str = "full",
            gamma_max: float = GAMMA_MAX, roa_radius_m: float | None = None, budget: str = "normal",
            reruns: int | None = 1, objective: str | None = None, law_class: str = "paper",
-           progress: Callable[..., None] | None = None) -> Report:
+           certificate: str | Path | None = None, progress: Callable[..., None] | None = None) -> Report:
     """Run the main job: audit, bound, paper-gain runs, tuning, certificate, verification, figures, report.md.
 
     Parameters
@@ -75,6 +75,9 @@ def report(out_dir: str | Path = "out", vehicle: Vehicle | None = None, *, model
     law_class
         ``"paper"`` (default) or ``"cascade"`` (:mod:`nniquad.control.law_classes`): the class
         the design is tuned in and certified as; the report names the theorem.
+    certificate
+        An issued certificate file: report on it instead of tuning and certifying (it is
+        verified, and its vehicle is the report's; ``vehicle`` must then be ``None``).
     progress
         Called as ``progress(stage, fraction, detail="")``.
 
@@ -85,8 +88,13 @@ def report(out_dir: str | Path = "out", vehicle: Vehicle | None = None, *, model
     """
     from nniquad.reporting.report import ReportOptions, build_report
 
+    if certificate is not None and vehicle is not None:
+        from nniquad.errors import CertificateError
+
+        raise CertificateError("a report on a given certificate is of the certificate's vehicle: give no vehicle")
     vehicle = PAPER_VEHICLE if vehicle is None else vehicle
     options = ReportOptions(out_dir=Path(out_dir), model=model, gamma_max=gamma_max, roa_radius_m=roa_radius_m,
-                            budget=budget, reruns=reruns, objective=objective, law_class=law_class)
+                            budget=budget, reruns=reruns, objective=objective, law_class=law_class,
+                            certificate=None if certificate is None else Path(certificate))
     data = build_report(vehicle, options, progress=progress)
     return Report(Path(out_dir), data)

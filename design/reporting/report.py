@@ -19,6 +19,11 @@ and writes
 ``manifest.json``
     the SHA-256 of every file above (:mod:`nniquad.reporting.folder`).
 
+With :attr:`ReportOptions.certificate` the report is of an issued certificate:
+the tuner and the certificate builder are not run, the given certificate is
+verified like an issued one and written as it was signed, and its vehicle is
+the report's.
+
 The folder is built beside the target and swapped in whole
 (:class:`nniquad.reporting.folder.ReportFolder`): a second run into the same
 folder replaces the old results cleanly, a failed or interrupted run leaves
@@ -93,6 +98,10 @@ class ReportOptions:
     law_class
         ``"paper"`` or ``"cascade"`` (:mod:`nniquad.control.law_classes`); ``roa_radius_m``
         ``None`` demands ‖ξ_h(0)‖ in the paper class and nothing in the cascade class.
+    certificate
+        An issued certificate file to report on instead of tuning and certifying (``None``: tune and
+        certify).  Its vehicle is the report's; it is verified like an issued one, and the tuning
+        settings above do not apply.
     """
 
     out_dir: Path
@@ -104,6 +113,7 @@ class ReportOptions:
     reruns: int | None = 1
     objective: str | None = None
     law_class: str = "paper"
+    certificate: Path | None = None
 
 
 def _relative(out_dir: Path, path: Path) -> str:
@@ -150,19 +160,29 @@ def build_report(vehicle: Vehicle, options: ReportOptions, progress: Progress | 
 
     say = progress or (lambda stage, frac, detail="": None)
     # every option first: a bad one is refused before any work (and before the folder is touched)
+    given = None
+    if options.certificate is not None:
+        from nniquad.certificates import certificate_vehicle, load_certificate
+
+        given = load_certificate(options.certificate)  # unreadable, not a certificate or tampered: one line
+        vehicle = certificate_vehicle(given)
     tune_opts = TuneOptions(model=options.model, gamma_max=options.gamma_max, roa_radius_m=options.roa_radius_m,
                             budget=options.budget, reruns=options.reruns, objective=options.objective,
                             law_class=options.law_class)
     reach = tune_opts.roa_radius_m
     SimOptions(horizon_s=options.paper_horizon_s)
     with ReportFolder(options.out_dir, REPORT_OUTPUTS) as folder:
-        data = _build(vehicle, options, tune_opts, folder.path, say)
+        data = _build(vehicle, options, tune_opts, folder.path, say, given)
         folder.commit(data["files"])
     return data
 
 
-def _build(vehicle: Vehicle, options: ReportOptions, tune_opts: Any, out: Path, say: Progress) -> dict[str, Any]:
-    """Run every step and write every file into ``out`` (the build folder); return ``report.json``'s content."""
+def _build(vehicle: Vehicle, options: ReportOptions, tune_opts: Any, out: Path, say: Progress,
+           given: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Run every step and write every file into ``out`` (the build folder); return ``report.json``'s content.
+
+    ``given``: the certificate to report on (no tuning, no new certificate), else ``None``.
+    """
     from nniquad.proofs.claims import audit_table, audit_to_json, audit_to_markdown, run_audit
 
     from nniquad.reporting import plots
@@ -199,29 +219,33 @@ def _build(vehicle: Vehicle, options: ReportOptions, tune_opts: Any, out: Path, 
     written.append(plots.paper_figure(paper_runs, out / "paper_gains.png", title="Paper's gains (kp=5, Γ=160, δ=0.6)"))
     paper_rows = _model_rows(paper_runs)
 
-    # 4. tune (with and without the certified-reach requirement) and certify
-    stage = f"tuning on the {options.model} model (certified reach {fmt(reach)} m)"
-    free = None
-    warm: list = []
-    if reach > 0:
-        # first without the requirement: its optimum is the reference for the cost of the
-        # guarantee, and a warm start for the constrained search (used if it is admissible)
-        free_stage = f"tuning on the {options.model} model without the reach requirement"
-        free = tune(vehicle, replace(tune_opts, roa_radius_m=0.0), progress=lambda msg: say(free_stage, 0.3, msg))
-        warm = [(free.gains, free.inner)]
-    tuned = tune(vehicle, tune_opts, progress=lambda msg: say(stage, 0.55, msg), warm_starts=warm)
-    say("building the certificate", 0.75)
-    cert = build_certificate(vehicle, tuned.gains, gamma_max=options.gamma_max, inner=tuned.inner,
-                             tilt_limit_deg=tune_opts.tilt_limit_deg, model=options.model, law_class=options.law_class,
-                             rate_hz=tune_opts.rate_hz,
-                             tuning={"source": "nniquad report", **tuned.to_json()}).to_json()  # the JSON document
+    # 4. tune (with and without the certified-reach requirement) and certify, or take the given certificate
+    free = tuned = None
+    if given is None:
+        stage = f"tuning on the {options.model} model (certified reach {fmt(reach)} m)"
+        warm: list = []
+        if reach > 0:
+            # first without the requirement: its optimum is the reference for the cost of the
+            # guarantee, and a warm start for the constrained search (used if it is admissible)
+            free_stage = f"tuning on the {options.model} model without the reach requirement"
+            free = tune(vehicle, replace(tune_opts, roa_radius_m=0.0), progress=lambda msg: say(free_stage, 0.3, msg))
+            warm = [(free.gains, free.inner)]
+        tuned = tune(vehicle, tune_opts, progress=lambda msg: say(stage, 0.55, msg), warm_starts=warm)
+        say("building the certificate", 0.75)
+        cert = build_certificate(vehicle, tuned.gains, gamma_max=options.gamma_max, inner=tuned.inner,
+                                 tilt_limit_deg=tune_opts.tilt_limit_deg, model=options.model,
+                                 law_class=options.law_class, rate_hz=tune_opts.rate_hz,
+                                 tuning={"source": "nniquad report", **tuned.to_json()}).to_json()  # the JSON document
+    else:
+        cert = given
     say("verifying the certificate independently", 0.8)
     report_check = verify_certificate(cert)
     if not report_check.ok:
         failed = [c.name for c in report_check.checks if not c.ok]
-        raise CertificateCheckError(f"the issued certificate does not verify: {', '.join(failed)}")
+        which = "issued" if given is None else "given"
+        raise CertificateCheckError(f"the {which} certificate does not verify: {', '.join(failed)}")
     written.append(write_certificate(cert, out / "certificate.json"))
-    tradeoffs = _tradeoffs(tuned, free)
+    tradeoffs = _tradeoffs(tuned, free) if tuned is not None else []
 
     # 5. the certified gains on the three models
     say("certified gains on the three models", 0.9)
@@ -256,15 +280,19 @@ def _build(vehicle: Vehicle, options: ReportOptions, tune_opts: Any, out: Path, 
             "law_class": cert["law_class"],
             "start_certified": cert["start_certified"],
             "max_displacement_m": cert["region_of_attraction"]["max_displacement_m"],
-            "roa_radius_m": tuned.roa_radius_m,
+            # the reach the tuner demanded; of a given certificate, its tuning record's (None: not recorded)
+            "roa_radius_m": tuned.roa_radius_m if tuned is not None else (cert.get("tuning") or {}).get("roa_radius_m"),
             "performance": {k: {f: perf[k][f] for f in ("settling_s", "overshoot_pct", "peak_tilt_deg")} for k in ("reduced", "full")},
             "ratio_to_bound": cert["ratio_to_bound"],
             "models": cert_rows,
             "verification": report_check.to_json(),
             "digest": cert["digest"]["value"],
         },
-        "tuning": tuned.to_json(),
+        # a given certificate's tuning section is its record of how the gains were found (not re-run, not verified)
+        "tuning": tuned.to_json() if tuned is not None else cert.get("tuning"),
         "tradeoffs": tradeoffs,
+        "source": ("tuned and certified by this report" if given is None
+                   else f"the given certificate {options.certificate} (verified; not tuned again)"),
     }
     data["wall_time_s"] = time.perf_counter() - t_start
     files = [_relative(out, p) for p in written] + ["report.md", "report.json", MANIFEST]
@@ -352,7 +380,8 @@ def _markdown(d: dict[str, Any], audit_txt: str, verify_txt: str) -> str:
         f"smallest sector gamma = {fmt(c['gamma'])} (gamma_max = {fmt(c['gamma_max'])}). "
         f"Law class **{c['law_class']['name']}**: certified by {c['law_class']['theorem']}. "
         f"Certified region of attraction under the tilt limit: displacements from rest up to {fmt(c['max_displacement_m'])} m "
-        f"(required: {fmt(c['roa_radius_m'])} m); start state certified: {fmt(c['start_certified'])}.",
+        + (f"(required: {fmt(c['roa_radius_m'])} m)" if c["roa_radius_m"] is not None else "(no reach recorded as required)")
+        + f"; start state certified: {fmt(c['start_certified'])}. Source: {d['source']}.",
         "",
         *_table(
             ["model", "settling (s)", "overshoot (%)", "peak tilt (deg)", "ratio to enter_band_s"],

@@ -30,37 +30,68 @@ interrupted run leaves the old folder as it was, and a second run into the
 same folder while one is running is refused.  Only files an earlier run wrote
 (listed, unchanged, in its manifest.json) are ever deleted; other files in
 the folder are kept, and a file of yours with the name of a report output
-makes the run refuse to start."""
+makes the run refuse to start.
+
+With --certificate FILE the report is written for an issued certificate
+instead: nothing is tuned or certified, the certificate is verified (every
+check recomputed; one that fails is refused, exit 1, nothing written), and
+its vehicle, gains and inner loops are the report's.  The tuning options
+(--vehicle, --model, --gamma-max, --roa-radius, --budget, --reruns,
+--nominal, --law-class) do not apply to it and are refused with it."""
+
+#: The tuning options (parsed with the default ``None``, or ``False`` for --nominal, so that a report on a given
+#: --certificate can tell that one was given and refuse it) ...
+TUNING_OPTIONS = ("vehicle", "model", "gamma_max", "roa_radius", "budget", "reruns", "nominal", "law_class")
+#: ... and the defaults of those that have one besides "not given" (the law class's: DEFAULT_LAW_CLASS).
+TUNING_DEFAULTS = {"model": "full", "gamma_max": GAMMA_MAX, "budget": "normal", "reruns": 1}
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_vehicle_option(parser)
     add_output_option(parser, "--out", kind="folder", metavar="DIR", default="out", help="output folder (default: out)")
-    parser.add_argument("--model", choices=("full", "reduced"), default="full",
+    parser.add_argument("--certificate", metavar="FILE", default=None,
+                        help="report on this issued certificate instead of tuning and certifying (it is verified; "
+                             "its vehicle, gains and inner loops are the report's)")
+    parser.add_argument("--model", choices=("full", "reduced"), default=None,
                         help="model the certified gains are tuned on (default: full)")
-    parser.add_argument("--gamma-max", type=float, default=GAMMA_MAX,
+    parser.add_argument("--gamma-max", type=float, default=None,
                         help=f"sector-bound ceiling gamma_max in (0, 1) (default {GAMMA_MAX:g}, the paper's)")
     parser.add_argument("--roa-radius", type=float, default=None, metavar="R",
                         help="certified reach the tuner demands, in m (default: |xi_h(0)| = 2.5 m; 0 switches it off)")
-    parser.add_argument("--budget", choices=("quick", "normal", "thorough"), default="normal",
+    parser.add_argument("--budget", choices=("quick", "normal", "thorough"), default=None,
                         help="tuning budget (default: normal; quick for a fast look)")
-    parser.add_argument("--reruns", type=int, default=1, metavar="K",
+    parser.add_argument("--reruns", type=int, default=None, metavar="K",
                         help="extra tuner seeds for the grid-artefact check (default 1)")
     parser.add_argument("--nominal", action="store_true",
                         help="tune on the nominal scenario only (default for --model full: the robust objective, "
                              "p95 settling over the fixed tuning scenario set)")
     from nniquad.control.law_classes import DEFAULT_LAW_CLASS, LAW_CLASSES
 
-    parser.add_argument("--law-class", choices=tuple(LAW_CLASSES), default=DEFAULT_LAW_CLASS,
+    parser.add_argument("--law-class", choices=tuple(LAW_CLASSES), default=None,
                         help=f"class of the certified design: paper (the sector bound holds; Theorem main_result) or "
                              f"cascade (no sector bound; the sampled-data cascade certificate alone; its reduced-loop "
                              f"reach is then not demanded unless --roa-radius is given) (default {DEFAULT_LAW_CLASS})")
 
 
 def run(args: argparse.Namespace) -> int:
+    from nniquad.control.law_classes import DEFAULT_LAW_CLASS
     from nniquad.errors import GainError
     from nniquad.reporting.job import report
 
+    # "is", not "in (None, False)": --reruns 0 and --roa-radius 0 are given (0 == False)
+    given = [f"--{k.replace('_', '-')}" for k in TUNING_OPTIONS
+             if getattr(args, k) is not None and getattr(args, k) is not False]
+    if args.certificate is not None:
+        if given:
+            raise GainError(f"{', '.join(given)}: a tuning option, which does not apply to a report on a given "
+                            "--certificate (its vehicle, gains and inner loops are the certificate's)")
+        progress = Progress("report")
+        data = report(Path(args.out), certificate=args.certificate, progress=progress.stage).data
+        progress.close()
+        return _written(Path(args.out), data)
+    for k, default in {**TUNING_DEFAULTS, "law_class": DEFAULT_LAW_CLASS}.items():
+        if getattr(args, k) is None:
+            setattr(args, k, default)
     vehicle = vehicle_from_args(args)
     if not (0.0 < args.gamma_max < 1.0):
         raise GainError(f"--gamma-max must be in (0, 1), got {args.gamma_max}")
@@ -72,6 +103,10 @@ def run(args: argparse.Namespace) -> int:
                   budget=args.budget, reruns=args.reruns, objective="nominal" if args.nominal else None,
                   law_class=args.law_class, progress=progress.stage).data
     progress.close()
+    return _written(out, data)
+
+
+def _written(out: Path, data: dict) -> int:
     print(f"report written to {out.resolve()} in {data['wall_time_s']:.1f} s:")
     for name in data["files"]:
         print(f"  {out / name}")
