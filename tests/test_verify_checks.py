@@ -93,6 +93,24 @@ def test_a_digest_mismatch_and_a_malformed_field_are_errors_not_checks(cert):
         verify_certificate(_resign(c), simulate=False)
 
 
+@pytest.mark.parametrize("field, edit", [
+    ("tilt_limit_deg", lambda c: c.__setitem__("tilt_limit_deg", int(c["tilt_limit_deg"]))),
+    ("xi0_m", lambda c: c.__setitem__("xi0_m", [int(v) for v in c["xi0_m"]])),
+    ("gains", lambda c: c["gains"].__setitem__("kp", int(c["gains"]["kp"]) + 1)),
+], ids=["tilt limit an integer", "start an integer", "gain an integer"])
+def test_a_field_that_does_not_read_back_as_signed_is_refused_by_name(cert, field, edit):
+    """A re-signed document whose typed field holds an integer reads back as a float: its canonical text is not what
+    was signed, so it is refused in one line naming the field (the typed certificate would otherwise sign other
+    text than the file's).  The untouched document reads back, and its digest is the signature."""
+    one = Certificate.from_json(cert)
+    assert one.digest == one.signature == cert["digest"]["value"] == canonical_digest(one.body())
+    c = copy.deepcopy(cert)
+    c["tilt_limit_deg"], c["xi0_m"] = 30.0, [2.0, -1.5]  # integral values, so that the edit changes only the type
+    edit(c)
+    with pytest.raises(CertificateError, match=rf"^certificate: field '{field}' does not read back as it was signed"):
+        Certificate.from_json(_resign(c))
+
+
 def test_progress_is_said_before_the_re_simulation_only(cert, monkeypatch):
     import nniquad.certificates.verify as verify_module
 

@@ -72,7 +72,7 @@ from nniquad.analysis.linear import ReducedLoop
 if TYPE_CHECKING:
     from nniquad.analysis.sni_loop import SNI2Loop
 from nniquad.certificates.document import (CASCADE_SCHEMA_VERSION, DIGEST_ALGORITHM, SCHEMA, SCHEMA_VERSION,
-                                           SCHEMA_VERSIONS, canonical_digest, canonical_json, check_form,
+                                           SCHEMA_VERSIONS, canonical_digest, canonical_json, check_form, checked_form_text,
                                            load_certificate, write_certificate)
 from nniquad.certificates.sections import (GAINS_LAW_KEY, _get, certificate_gains, certificate_inner_loop,
                                            certificate_vehicle, gains_json)
@@ -350,8 +350,14 @@ class Certificate:
 
     @property
     def digest(self) -> str:
-        """SHA-256 (hex) of the canonical JSON of :meth:`body`, recomputed now."""
-        return canonical_digest(self.body())
+        """SHA-256 (hex) of the canonical JSON of :meth:`body`, recomputed now.
+
+        Of a certificate read by :meth:`from_json` it is known without recomputing: there the content was shown to
+        read back to exactly the text its signature is the digest of (the fields are immutable, and
+        ``dataclasses.replace`` builds a new certificate without it).
+        """
+        known = self.__dict__.get("_read_back_digest")
+        return known if known is not None else canonical_digest(self.body())
 
     @property
     def signature_ok(self) -> bool:
@@ -383,7 +389,7 @@ class Certificate:
         if isinstance(data, Certificate):
             return data
         data = dict(data) if isinstance(data, Mapping) else data
-        check_form(data, where)
+        signed_text = checked_form_text(data, where)  # the content the digest is of, checked against it
         missing = [k for k in _ALL_FIELDS if k not in data]
         extra = [k for k in data
                  if k not in _ALL_FIELDS and k not in _OPTIONAL_FIELDS]
@@ -414,12 +420,17 @@ class Certificate:
             law_class=data.get("law_class"),
             **{k: data[k] for k in _SECTIONS},
         )
-        # the typed fields must serialise back to exactly what was signed
+        # the typed fields must serialise back to exactly what was signed (one comparison of the whole text:
+        # JSON values are self-delimiting, so equal texts of the same keys are equal field by field)
         body = cert.body()
-        for key, value in body.items():
-            if canonical_json(value) != canonical_json(data[key]):
-                raise CertificateError(f"{where}: field '{key}' does not read back as it was signed "
-                                       "(unexpected type or extra entries)")
+        if canonical_json(body) != signed_text:
+            for key, value in body.items():
+                if key not in data or canonical_json(value) != canonical_json(data[key]):
+                    raise CertificateError(f"{where}: field '{key}' does not read back as it was signed "
+                                           "(unexpected type or extra entries)")
+            raise CertificateError(f"{where}: the fields do not read back as they were signed")
+        # so the content's digest is the signature, which checked_form_text matched
+        object.__setattr__(cert, "_read_back_digest", cert.signature)
         return cert
 
     # ------------------------------------------------------------------ derived objects

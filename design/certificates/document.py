@@ -25,7 +25,8 @@ if TYPE_CHECKING:
     from nniquad.certificates.certificate import Certificate
 
 __all__ = ["SCHEMA", "SCHEMA_VERSION", "CASCADE_SCHEMA_VERSION", "SCHEMA_VERSIONS", "DIGEST_ALGORITHM",
-           "canonical_digest", "canonical_json", "check_form", "load_certificate", "write_certificate"]
+           "canonical_digest", "canonical_json", "check_form", "checked_form_text", "load_certificate",
+           "write_certificate"]
 
 SCHEMA = "nniquad-certificate"
 #: Version of a certificate without a ``cascade`` section (every certificate before issue 15).
@@ -72,6 +73,19 @@ def check_form(cert: Any, where: str = "certificate") -> None:
     CertificateError
         One line naming the problem.
     """
+    checked_form_text(cert, where)
+
+
+def checked_form_text(cert: Any, where: str = "certificate") -> str:
+    """:func:`check_form`, returning the canonical JSON of the signed content (what the digest is of).
+
+    Parameters
+    ----------
+    cert
+        The decoded JSON document.
+    where
+        Name of the document in the messages (e.g. its path).
+    """
     if not isinstance(cert, dict):
         raise CertificateError(f"{where}: top level must be a JSON object")
     if cert.get("schema") != SCHEMA:
@@ -94,11 +108,12 @@ def check_form(cert: Any, where: str = "certificate") -> None:
         raise CertificateError(f"{where}: digest must be {{'algorithm': {DIGEST_ALGORITHM!r}, 'value': ...}}, "
                                f"got algorithm {digest.get('algorithm')!r}")
     try:
-        actual = canonical_digest(cert)
+        text = canonical_json({k: v for k, v in cert.items() if k != "digest"})
     except (TypeError, ValueError) as exc:
         raise CertificateError(f"{where}: content cannot be canonicalised ({exc})") from None
-    if actual != digest["value"]:
+    if hashlib.sha256(text.encode("utf-8")).hexdigest() != digest["value"]:
         raise CertificateCheckError(f"{where}: digest mismatch (content changed after signing)")
+    return text
 
 
 def load_certificate(path: str | Path) -> dict[str, Any]:
