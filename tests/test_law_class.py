@@ -35,6 +35,9 @@ PD_INNER = InnerLoopGains(attitude_wn_rad_s=20.499630377601115, attitude_zeta=0.
 IMAGE = nni_from_filtered_pd(PD, V.m)
 SMALL_BOX = ParameterBox.monte_carlo_default().scaled(0.1)
 
+#: One xdist worker runs this module: its cascade-class certificate is built once, and no other worker waits for it.
+pytestmark = pytest.mark.xdist_group("law_class")
+
 
 def test_options_resolve_the_class():
     assert TuneOptions().law_class == "paper" and TuneOptions().roa_radius_m == pytest.approx(2.5)

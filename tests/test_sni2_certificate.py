@@ -32,6 +32,9 @@ from tests.test_export import README_MAIN, _readme_c_block
 #: (sni2_from_nni at zeta = 3), DC loop gain 0.799 (paper class); it certifies over SMALL_BOX.
 SNI2_GAINS = SNI2Gains(*sni2_from_nni(GAINS.kp, GAINS.Gamma, GAINS.delta, 3.0))
 
+#: One xdist worker runs this module: its certificate is built once, and a second worker never sits waiting for it.
+pytestmark = pytest.mark.xdist_group("sni2_certificate")
+
 
 def build_sni2_certificate() -> dict:
     return build_certificate(V, SNI2_GAINS, inner=INNER, model="full", box=SMALL_BOX).to_json()

@@ -45,6 +45,10 @@ from nniquad.model.vehicle import PAPER_VEHICLE as V
 from nniquad.study.scenarios import study_setup
 from tests.test_certificate import GAINS, INNER, SMALL_BOX
 
+#: One xdist worker runs the loop: each of its two documents is built once, and no other worker waits for it (a
+#: second worker that took a part of the loop sat idle for the 4-9 s of the build).
+pytestmark = pytest.mark.xdist_group("tampering")
+
 #: Inputs of the certified statement that no stated number depends on (path -> why).  An edit of one
 #: leaves every claim true, for the edited input; the loop checks that and that Monte Carlo uses it.
 INSENSITIVE: dict[str, str] = {
@@ -161,7 +165,7 @@ def doc(request, shared_json) -> dict:
     tuning = json.loads(committed.read_text())["tuning"]
     gains = GAINS if request.param == "nni" else SNI2_GAINS
     # a grid of 3 per parameter (729 points, not the default 4096): each cascade edit re-runs the grid check;
-    # built once per session, whichever worker runs a part first (the parts spread over the workers)
+    # built once per session (read from the shared folder when `make mutation` kept it)
     return shared_json(f"tamper-{request.param}", lambda: build_certificate(
         V, gains, inner=INNER, model="full", tuning=tuning, box=SMALL_BOX, grid_points_per_axis=3).to_json())
 
@@ -175,7 +179,7 @@ def _verify_passes(c: dict, fail_fast: bool):
     return res.ok, res
 
 
-#: The loop is split into this many interleaved parts, so that test workers share it.
+#: The loop is split into this many interleaved parts (shorter test items; one worker runs them all).
 PARTS = 4
 
 
