@@ -239,3 +239,40 @@ def test_a_cut_spreads_over_every_failing_spot_and_keeps_the_worst():
     assert list(_spread_worst(theta[10:], margin[10:], 4)) == [2, 1, 0]
     # a cut of one is the worst point alone
     assert list(_spread_worst(theta, margin, 1)) == [int(np.argmin(margin))]
+
+
+def test_corner_points_by_hand():
+    """The corners of a 3 x 3 grid in two coordinates are its four points with both coordinates at ±1; with no
+    coordinate every point is one."""
+    from nniquad.analysis.robust.roa_lmi import corner_points
+
+    theta = np.array(list(itertools.product((-1.0, 0.0, 1.0), (-0.5, 0.0, 0.5))))
+    assert list(corner_points(theta)) == [0, 2, 6, 8]
+    assert list(corner_points(np.zeros((3, 0)))) == [0, 1, 2]
+
+
+def test_a_level_refused_at_a_corner_is_infeasible_on_the_whole_box(section):
+    """The region search skips a level that one corner of the box alone cannot support (``_refused_at_a_corner``).
+    That is sound only if such a level is infeasible for the LMI at every point: here, at four times the stated
+    level, the screen refuses (in milliseconds), and the LMI posed with ``P, Ĝ, μ`` quadratic in θ at all 81 LMI
+    points is infeasible, solved independently of the screen (seconds: what the screen saves).  At the stated level
+    (which the search solved) the screen passes."""
+    from nniquad.analysis.robust import roa_lmi as RL
+    from nniquad.config import CASCADE_LURE_MARGIN as eta
+
+    dims, region = _dims(section), _region(section)
+    fam = RF.sampled_family(V, GAINS, INNER, _subgrid(BOX, dims["x"], RC.LMI_POINTS_PER_AXIS), tilt_limit_deg=TILT,
+                            rate_hz=RATE)
+    d = RL.axis_data(fam, BOX, "x", dims["x"], tuple(sorted(set(dims["x"]) & set(dims["y"]))))
+    centre = int(np.argmin(np.sum(d.theta ** 2, axis=1)))
+    D_all = [{"x": D} for D in RL.coordinate_choices(d.A[centre], np.eye(d.A.shape[-1]), d.k_pos, float(d.L[centre]))]
+    corners = RL.corner_points(d.theta)
+    assert len(d.theta) == 81 and len(corners) == 16
+
+    def screen(level):
+        return RL._refused_at_a_corner({"x": d}, ("x",), D_all, level, 0.1, region.rho, d.k_pos, eta)
+
+    assert not screen(region.level)
+    assert screen(4.0 * region.level)
+    status, sol = RL.solve_lure({"x": d}, D_all[0], 4.0 * region.level, 0.1, region.rho, d.k_pos, eta)
+    assert sol is None and "Infeasible" in status, status

@@ -7,7 +7,8 @@ the largest level ``t`` of the start ``r0`` (the sector multiplier is 1: ``V`` i
 searched instead).  It is solved in coordinates ``x = D x̃`` in which the linear loop contracts in the
 Euclidean norm (a congruence: it changes no answer in exact arithmetic).  :func:`lure_region` searches ``c`` on
 the centre point alone (milliseconds per solve), solves at every LMI point, and adds the grid points where the
-numpy check fails to the LMI points (cutting planes) until the whole grid passes.  Nothing the solver returns
+numpy check fails to the LMI points (cutting planes) until the whole grid passes; a level that one corner of
+the box alone cannot support is skipped before its solves at every point.  Nothing the solver returns
 is taken on trust: :func:`nniquad.analysis.robust.roa.lure_check` decides.
 """
 
@@ -31,7 +32,7 @@ from nniquad.analysis.robust.roa import (HORIZONTAL, LureCheck, LureRegion, _mer
 from nniquad.config import (CASCADE_LURE_CUT_POINTS, CASCADE_LURE_CUT_ROUNDS, CASCADE_LURE_LEVELS,
                             CASCADE_LURE_MARGIN, CASCADE_ROA_DECAY_FRACTION)
 
-__all__ = ["solve_lure", "lure_region", "LureSearch", "lure_section"]
+__all__ = ["solve_lure", "lure_region", "LureSearch", "lure_section", "corner_points"]
 
 #: Smallest eigenvalue of ``P̃`` in the solver's coordinates, and the floor of ``μ`` at the LMI points.
 _P_FLOOR = 1e-7
@@ -300,6 +301,9 @@ def lure_region(lmi: Mapping[str, CascadeFamily], grid: CascadeFamily, box: Para
     status = "not solved"
     found: LureSearch | None = None
     for best_c, best_r in sorted((t for t in tried if t[1] > 0), key=lambda t: -t[1])[:attempts]:
+        if _refused_at_a_corner(data, solved, D_all, best_c, 0.9 * best_r, rho, k_max, eta):
+            status = f"level {best_c:.6g} is infeasible at a corner of the box"
+            continue
         # constant P, Ĝ, μ first (a few variables, solved in a second: enough on a small box), then quadratic
         for constant in (True, False):
             got, status = _solve_with_cuts(data, gdata, lmi, grid, solved, D_all, best_c, 0.9 * best_r, rho, k_max,
@@ -310,6 +314,39 @@ def lure_region(lmi: Mapping[str, CascadeFamily], grid: CascadeFamily, box: Para
         if found is not None:
             return found
     return LureSearch(None, None, None, {a: 0 for a in HORIZONTAL}, tuple(tried), status)
+
+
+def corner_points(theta: np.ndarray) -> np.ndarray:
+    """Indices of the points of ``theta`` at the corners of their θ-cube (each coordinate at its largest ``|θ_j|``);
+    every point when there is no coordinate."""
+    if theta.shape[1] == 0:
+        return np.arange(theta.shape[0])
+    a = np.abs(theta)
+    return np.flatnonzero(np.all(np.isclose(a, a.max(axis=0), rtol=1e-9, atol=0.0), axis=1))
+
+
+def _refused_at_a_corner(data: Mapping[str, AxisData], solved: Sequence[str], D_all: Sequence[Mapping[str, np.ndarray]],
+                         level: float, r0: float, rho: float, k_max: float, eta: float) -> bool:
+    """Whether the region LMI at ``level`` is infeasible at one LMI point alone (a corner of the box first).
+
+    Any answer of the LMI at every point, quadratic in θ or constant, is at each point an answer of that point's
+    LMI with constant ``P, Ĝ, μ``: a point whose own LMI the solver finds infeasible makes the level infeasible
+    for both, and its solves (seconds each, where a corner's takes milliseconds) are skipped.  Only an answer
+    of infeasibility counts, as in :func:`_solve_with_cuts`; a stall in every coordinate choice screens nothing.
+    The corners are where the box's extremes meet, where a level fails first in practice.
+    """
+    for a in solved:
+        d = data[a]
+        for i in corner_points(d.theta):
+            one = {a: AxisData(d.A[i:i + 1], d.Bh[i:i + 1], d.Kh[i:i + 1], d.theta[i:i + 1, :0],
+                               d.theta_mult[i:i + 1, :0], d.L[i:i + 1], d.k_pos)}
+            for D in D_all:
+                status, sol = solve_lure(one, {a: D[a]}, level, r0, rho, k_max, eta)
+                if sol is not None or status not in _NUMERICAL:
+                    break
+            if sol is None and status not in _NUMERICAL:
+                return True
+    return False
 
 
 def _padded(sol: dict, data: Mapping[str, AxisData]) -> dict:
