@@ -77,15 +77,8 @@ def check_form(cert: Any, where: str = "certificate") -> None:
 
 
 def checked_form_text(cert: Any, where: str = "certificate") -> str:
-    """:func:`check_form`, returning the canonical JSON of the signed content (what the digest is of).
-
-    Parameters
-    ----------
-    cert
-        The decoded JSON document.
-    where
-        Name of the document in the messages (e.g. its path).
-    """
+    """:func:`check_form` (same arguments and errors), returning the canonical JSON of the signed content, which
+    is what the digest is of: :meth:`Certificate.from_json` compares its read-back fields with it."""
     if not isinstance(cert, dict):
         raise CertificateError(f"{where}: top level must be a JSON object")
     if cert.get("schema") != SCHEMA:
