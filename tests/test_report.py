@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from nniquad.certificates import load_certificate, read_certificate, verify_certificate
+from nniquad.certificates import canonical_digest, load_certificate, read_certificate, verify_certificate
 from nniquad.reporting.folder import MANIFEST, MANIFEST_MARKER, file_digest
 from nniquad.reporting.report import fmt
 
@@ -170,6 +170,19 @@ def test_a_tampered_or_unreadable_given_certificate_is_refused(run_cli, tmp_path
     code, _, err = run_cli("report", "--out", str(tmp_path / "r"), "--certificate", str(tmp_path / "edited.json"))
     assert code == 1 and "digest mismatch" in err and len(err.strip().splitlines()) == 1, err
     assert not (tmp_path / "r").exists()
+
+
+def test_a_given_certificate_that_does_not_verify_leaves_no_report(run_cli, tmp_path):
+    """A re-signed certificate whose stated sector gamma is false passes the form check and fails the report's own
+    verification: exit 1, one line naming the failed check, no report folder."""
+    doc = json.loads(COMMITTED.read_text())
+    doc["sector"]["gamma"] *= 0.9
+    doc["digest"]["value"] = canonical_digest(doc)
+    (tmp_path / "false.json").write_text(json.dumps(doc))
+    code, _, err = run_cli("report", "--out", str(tmp_path / "r"), "--certificate", str(tmp_path / "false.json"))
+    last = err.strip().splitlines()[-1]
+    assert code == 1 and "the given certificate does not verify" in last and "sector" in last, err
+    assert "Traceback" not in err and not (tmp_path / "r").exists()
 
 
 @pytest.mark.parametrize("earlier_report", [False, True], ids=["first-run", "over-an-earlier-report"])

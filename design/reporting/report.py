@@ -160,35 +160,50 @@ def build_report(vehicle: Vehicle, options: ReportOptions, progress: Progress | 
 
     say = progress or (lambda stage, frac, detail="": None)
     # every option first: a bad one is refused before any work (and before the folder is touched)
-    given = None
+    given = given_check = None
     if options.certificate is not None:
         from nniquad.certificates import certificate_vehicle, load_certificate
 
         given = load_certificate(options.certificate)  # unreadable, not a certificate or tampered: one line
         vehicle = certificate_vehicle(given)
+        # the input is checked first: a certificate that does not verify is refused before any other work
+        say("verifying the given certificate independently", 0.0)
+        given_check = _verified(given, "given")
     tune_opts = TuneOptions(model=options.model, gamma_max=options.gamma_max, roa_radius_m=options.roa_radius_m,
                             budget=options.budget, reruns=options.reruns, objective=options.objective,
                             law_class=options.law_class)
     reach = tune_opts.roa_radius_m
     SimOptions(horizon_s=options.paper_horizon_s)
     with ReportFolder(options.out_dir, REPORT_OUTPUTS) as folder:
-        data = _build(vehicle, options, tune_opts, folder.path, say, given)
+        data = _build(vehicle, options, tune_opts, folder.path, say, given, given_check)
         folder.commit(data["files"])
     return data
 
 
+def _verified(cert: dict[str, Any], which: str) -> Any:
+    """``verify_certificate(cert)``; raises CertificateCheckError naming the failed checks when one fails."""
+    from nniquad.certificates import verify_certificate
+    from nniquad.errors import CertificateCheckError
+
+    check = verify_certificate(cert)
+    if not check.ok:
+        failed = [c.name for c in check.checks if not c.ok]
+        raise CertificateCheckError(f"the {which} certificate does not verify: {', '.join(failed)}")
+    return check
+
+
 def _build(vehicle: Vehicle, options: ReportOptions, tune_opts: Any, out: Path, say: Progress,
-           given: dict[str, Any] | None = None) -> dict[str, Any]:
+           given: dict[str, Any] | None = None, given_check: Any = None) -> dict[str, Any]:
     """Run every step and write every file into ``out`` (the build folder); return ``report.json``'s content.
 
-    ``given``: the certificate to report on (no tuning, no new certificate), else ``None``.
+    ``given``: the certificate to report on (no tuning, no new certificate), else ``None``; ``given_check``: its
+    verification.
     """
     from nniquad.proofs.claims import audit_table, audit_to_json, audit_to_markdown, run_audit
 
     from nniquad.reporting import plots
     from nniquad.analysis.bound import time_optimal_bound
-    from nniquad.certificates import build_certificate, certificate_gains, certificate_inner_loop, verify_certificate, write_certificate
-    from nniquad.errors import CertificateCheckError
+    from nniquad.certificates import build_certificate, certificate_gains, certificate_inner_loop, write_certificate
     from nniquad.analysis.linear import ReducedLoop
     from nniquad.control.gains import PAPER_GAINS, gains_text
     from nniquad.sim import SimOptions, paper_figure_runs
@@ -236,14 +251,10 @@ def _build(vehicle: Vehicle, options: ReportOptions, tune_opts: Any, out: Path, 
                                  tilt_limit_deg=tune_opts.tilt_limit_deg, model=options.model,
                                  law_class=options.law_class, rate_hz=tune_opts.rate_hz,
                                  tuning={"source": "nniquad report", **tuned.to_json()}).to_json()  # the JSON document
+        say("verifying the certificate independently", 0.8)
+        report_check = _verified(cert, "issued")
     else:
-        cert = given
-    say("verifying the certificate independently", 0.8)
-    report_check = verify_certificate(cert)
-    if not report_check.ok:
-        failed = [c.name for c in report_check.checks if not c.ok]
-        which = "issued" if given is None else "given"
-        raise CertificateCheckError(f"the {which} certificate does not verify: {', '.join(failed)}")
+        cert, report_check = given, given_check
     written.append(write_certificate(cert, out / "certificate.json"))
     tradeoffs = _tradeoffs(tuned, free) if tuned is not None else []
 
