@@ -78,6 +78,22 @@ def test_certify_refuses_a_grid_size_outside_the_one_rule_verify_applies():
     assert RC.checked_grid_size(2) == 2 and RC.checked_grid_size(CASCADE_GRID_MAX_POINTS_PER_AXIS) == CASCADE_GRID_MAX_POINTS_PER_AXIS
 
 
+def test_an_invalid_grid_size_is_refused_even_after_a_valid_one_was_computed(monkeypatch):
+    """cascade_section keeps the sections it computed; a grid size of 3.0 or True must still be refused after a
+    section with 3 (or 1) per axis is in that store (``int(3.0) == 3`` found it, before the size was checked first:
+    the suite failed only when the tamper loop's grid-3 build ran earlier on the same worker).  The builder is
+    replaced by a stub, so nothing is solved."""
+    import nniquad.analysis.robust.section as S
+
+    monkeypatch.setattr(S, "_SECTIONS", {})
+    monkeypatch.setattr(S, "_cascade_section", lambda *a, **k: {"stub": k["grid_points_per_axis"]})
+    assert RC.cascade_section(V, GAINS, INNER, tilt_limit_deg=TILT, rate_hz=RATE, box=BOX,
+                              grid_points_per_axis=3) == {"stub": 3}
+    for bad in (3.0, True):
+        with pytest.raises(CascadeError, match=rf"got {bad!r}$"):
+            RC.cascade_section(V, GAINS, INNER, tilt_limit_deg=TILT, rate_hz=RATE, box=BOX, grid_points_per_axis=bad)
+
+
 # ----------------------------------------------------------------------------- the family vs a direct rebuild
 
 

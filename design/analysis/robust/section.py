@@ -228,8 +228,10 @@ def cascade_section(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, ti
     """
     import copy
 
+    # the grid size is checked before the lookup: int(3.0) == 3 would otherwise find a section of a valid size
+    # computed earlier in this process, and the one rule verify applies would depend on what ran before
     key = (vehicle, gains, inner, float(tilt_limit_deg), float(rate_hz), box, bool(widest),
-           int(grid_points_per_axis), tuple(float(v) for v in xi0_m))
+           checked_grid_size(grid_points_per_axis), tuple(float(v) for v in xi0_m))
     if key not in _SECTIONS:
         _SECTIONS[key] = _cascade_section(vehicle, gains, inner, tilt_limit_deg=tilt_limit_deg, rate_hz=rate_hz,
                                           box=box, widest=widest, grid_points_per_axis=grid_points_per_axis,
