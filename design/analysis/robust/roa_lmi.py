@@ -85,6 +85,10 @@ class AxisData:
         return AxisData(self.A[idx], self.Bh[idx], self.Kh[idx], self.theta[idx], self.theta_mult[idx], self.L[idx],
                         self.k_pos)
 
+    def constant(self) -> "AxisData":
+        """The same points without their coordinates: the LMI then has constant ``P, Ĝ, μ`` (one feature)."""
+        return AxisData(self.A, self.Bh, self.Kh, self.theta[:, :0], self.theta_mult[:, :0], self.L, self.k_pos)
+
     def join(self, other: "AxisData") -> "AxisData":
         cat = np.concatenate
         return AxisData(cat([self.A, other.A]), cat([self.Bh, other.Bh]), cat([self.Kh, other.Kh]),
@@ -277,8 +281,7 @@ def lure_region(lmi: Mapping[str, CascadeFamily], grid: CascadeFamily, box: Para
         return _settled_level(_region(full, level, rho, used, used_mult), box, fams)
 
     # ---- the level c, on the centre point alone (constant P, Ĝ, μ: one point fixes no dependence on θ)
-    cdata = {a: data[a].take(np.array([centre[a]])) for a in solved}
-    cdata = {a: AxisData(d.A, d.Bh, d.Kh, d.theta[:, :0], d.theta_mult[:, :0], d.L, d.k_pos) for a, d in cdata.items()}
+    cdata = {a: data[a].take(np.array([centre[a]])).constant() for a in solved}
     cfams = {a: _take(lmi[a], np.array([centre[a]])) for a in HORIZONTAL}
 
     def centre_reach(level: float) -> float:
@@ -338,8 +341,7 @@ def _refused_at_a_corner(data: Mapping[str, AxisData], solved: Sequence[str], D_
     for a in solved:
         d = data[a]
         for i in corner_points(d.theta):
-            one = {a: AxisData(d.A[i:i + 1], d.Bh[i:i + 1], d.Kh[i:i + 1], d.theta[i:i + 1, :0],
-                               d.theta_mult[i:i + 1, :0], d.L[i:i + 1], d.k_pos)}
+            one = {a: d.take(np.array([i])).constant()}
             for D in D_all:
                 status, sol = solve_lure(one, {a: D[a]}, level, r0, rho, k_max, eta)
                 if sol is not None or status not in _NUMERICAL:
@@ -362,8 +364,7 @@ def _padded(sol: dict, data: Mapping[str, AxisData]) -> dict:
 def _solve_with_cuts(data, gdata, lmi, grid, solved, D_all, level, r0, rho, k_max, eta, rounds, cut_points, mirror,
                      region_of, box, constant) -> tuple[LureSearch | None, str]:
     """One level: the LMI at every LMI point, then cutting planes until the grid passes (``None``: it did not)."""
-    cut = (lambda d: AxisData(d.A, d.Bh, d.Kh, d.theta[:, :0], d.theta_mult[:, :0], d.L, d.k_pos)) if constant \
-        else (lambda d: d)
+    cut = (lambda d: d.constant()) if constant else (lambda d: d)
     cur = {a: cut(data[a]) for a in solved}
     grid_data = {a: cut(g) for a, g in gdata.items()}
     added = {a: 0 for a in HORIZONTAL}

@@ -39,11 +39,11 @@ its vehicle, gains and inner loops are the report's.  The tuning options
 (--vehicle, --model, --gamma-max, --roa-radius, --budget, --reruns,
 --nominal, --law-class) do not apply to it and are refused with it."""
 
-#: The tuning options (parsed with the default ``None``, or ``False`` for --nominal, so that a report on a given
-#: --certificate can tell that one was given and refuse it) ...
-TUNING_OPTIONS = ("vehicle", "model", "gamma_max", "roa_radius", "budget", "reruns", "nominal", "law_class")
-#: ... and the defaults of those that have one besides "not given" (the law class's: DEFAULT_LAW_CLASS).
-TUNING_DEFAULTS = {"model": "full", "gamma_max": GAMMA_MAX, "budget": "normal", "reruns": 1}
+#: The tuning options, each with the keyword of :func:`nniquad.reporting.job.report` it sets.  They are parsed
+#: with the default ``None`` (``False`` for --nominal): a report on a given --certificate can tell that one was
+#: given and refuse it, and an option not given takes the default of ``report`` itself.
+TUNING_OPTIONS = {"vehicle": "vehicle", "model": "model", "gamma_max": "gamma_max", "roa_radius": "roa_radius_m",
+                  "budget": "budget", "reruns": "reruns", "nominal": "objective", "law_class": "law_class"}
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -74,39 +74,31 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from nniquad.control.law_classes import DEFAULT_LAW_CLASS
     from nniquad.errors import GainError
     from nniquad.reporting.job import report
 
     # "is", not "in (None, False)": --reruns 0 and --roa-radius 0 are given (0 == False)
-    given = [f"--{k.replace('_', '-')}" for k in TUNING_OPTIONS
-             if getattr(args, k) is not None and getattr(args, k) is not False]
+    given = {k: getattr(args, k) for k in TUNING_OPTIONS
+             if getattr(args, k) is not None and getattr(args, k) is not False}
+    if args.certificate is not None and given:
+        raise GainError(f"{', '.join('--' + k.replace('_', '-') for k in given)}: a tuning option, which does not "
+                        "apply to a report on a given --certificate (its vehicle, gains and inner loops are the "
+                        "certificate's)")
+    kwargs = {TUNING_OPTIONS[k]: v for k, v in given.items() if k not in ("vehicle", "nominal")}
     if args.certificate is not None:
-        if given:
-            raise GainError(f"{', '.join(given)}: a tuning option, which does not apply to a report on a given "
-                            "--certificate (its vehicle, gains and inner loops are the certificate's)")
-        progress = Progress("report")
-        data = report(Path(args.out), certificate=args.certificate, progress=progress.stage).data
-        progress.close()
-        return _written(Path(args.out), data)
-    for k, default in {**TUNING_DEFAULTS, "law_class": DEFAULT_LAW_CLASS}.items():
-        if getattr(args, k) is None:
-            setattr(args, k, default)
-    vehicle = vehicle_from_args(args)
-    if not (0.0 < args.gamma_max < 1.0):
-        raise GainError(f"--gamma-max must be in (0, 1), got {args.gamma_max}")
-    if args.roa_radius is not None and args.roa_radius != 0:
-        finite_positive("--roa-radius", args.roa_radius)
+        kwargs["certificate"] = args.certificate
+    else:
+        kwargs["vehicle"] = vehicle_from_args(args)
+        if args.nominal:
+            kwargs["objective"] = "nominal"
+    if "gamma_max" in kwargs and not (0.0 < kwargs["gamma_max"] < 1.0):
+        raise GainError(f"--gamma-max must be in (0, 1), got {kwargs['gamma_max']}")
+    if kwargs.get("roa_radius_m") not in (None, 0):
+        finite_positive("--roa-radius", kwargs["roa_radius_m"])
     out = Path(args.out)
     progress = Progress("report")
-    data = report(out, vehicle, model=args.model, gamma_max=args.gamma_max, roa_radius_m=args.roa_radius,
-                  budget=args.budget, reruns=args.reruns, objective="nominal" if args.nominal else None,
-                  law_class=args.law_class, progress=progress.stage).data
+    data = report(out, progress=progress.stage, **kwargs).data
     progress.close()
-    return _written(out, data)
-
-
-def _written(out: Path, data: dict) -> int:
     print(f"report written to {out.resolve()} in {data['wall_time_s']:.1f} s:")
     for name in data["files"]:
         print(f"  {out / name}")
