@@ -118,26 +118,29 @@ def paper_rotational_rows() -> sp.Matrix:
 def _simp(e: sp.Expr) -> sp.Expr:
     """Targeted simplification of a trigonometric residual.
 
-    A residual that :func:`_vanishes_on_the_circles` is exactly zero and returned as 0 at once; any other goes
-    through ``trigsimp`` and ``simplify``, whose form is what the audit prints.
+    A residual that :func:`_circle_normal_form` can read is returned in that normal form: exactly 0 when it is
+    an identity, else a form unique to the function it represents.  Anything else (a ``tan``, the sine of a
+    sum) goes through ``trigsimp``.  The audit prints what this returns.
     """
     e = sp.expand(sp.expand_trig(e))
-    if e == 0 or _vanishes_on_the_circles(e):
+    if e == 0:
         return sp.S.Zero
-    e2 = sp.trigsimp(e)
-    return e2 if e2 == 0 else sp.simplify(e2)
+    normal = _circle_normal_form(e)
+    return sp.trigsimp(e) if normal is None else normal
 
 
-def _vanishes_on_the_circles(e: sp.Expr) -> bool:
-    """Whether ``e``, a rational function of sines and cosines of symbols, is identically zero.
+def _circle_normal_form(e: sp.Expr) -> sp.Expr | None:
+    """Normal form of ``e``, a rational function of sines and cosines of symbols, modulo ``sin² + cos² = 1``.
 
     With ``s_a = sin a`` and ``c_a = cos a`` as new variables, the numerator ``N`` is a polynomial, and the
-    identity holds iff ``N`` lies in the ideal of the relations ``s_a² + c_a² - 1`` (their zero set, a product of
-    circles, is irreducible and its real points are Zariski-dense in it; the denominator is nonzero on a dense
-    part of it).  The relations have pairwise coprime leading terms ``s_a²``, so they are a Gröbner basis: ``N``
-    is in the ideal iff dividing it by each in turn (``s_a² → 1 - c_a²``) leaves 0.  Exact, and a fraction of
-    ``trigsimp``'s time on the model's residuals; ``False`` (not decided) for anything else, such as a ``tan``
-    or the sine of a sum, which ``expand_trig`` has already opened where it can.
+    identity ``e = 0`` holds iff ``N`` lies in the ideal of the relations ``s_a² + c_a² - 1`` (their zero set, a
+    product of circles, is irreducible and its real points are Zariski-dense in it; the denominator is nonzero on
+    a dense part of it).  The relations have pairwise coprime leading terms ``s_a²``, so they are a Gröbner
+    basis: dividing ``N`` by each in turn (``s_a² → 1 - c_a²``) leaves a remainder that is 0 iff ``N`` is in the
+    ideal, and that is the same for any two numerators of one function.  Exact, and a fraction of
+    ``trigsimp``'s time on the model's residuals.  Returns the remainder over the denominator, in sines and
+    cosines again; ``None`` (not decided) for anything else, such as a ``tan`` or the sine of a sum, which
+    ``expand_trig`` has already opened where it can.
     """
     from sympy.functions.elementary.hyperbolic import HyperbolicFunction
     from sympy.functions.elementary.trigonometric import TrigonometricFunction
@@ -145,16 +148,26 @@ def _vanishes_on_the_circles(e: sp.Expr) -> bool:
     trig = e.atoms(sp.sin, sp.cos)
     args = {f.args[0] for f in trig}
     if not trig or not all(a.is_Symbol for a in args):
-        return False
+        return None
     sin_of = {a: sp.Dummy(f"s_{a}") for a in args}
     cos_of = {a: sp.Dummy(f"c_{a}") for a in args}
     poly = e.xreplace({**{sp.sin(a): sin_of[a] for a in args}, **{sp.cos(a): cos_of[a] for a in args}})
     if poly.has(TrigonometricFunction, HyperbolicFunction):
-        return False
-    num = sp.expand(sp.fraction(sp.together(poly))[0])
+        return None
+    num, den = sp.fraction(sp.together(poly))
+    num = sp.expand(num)
     for a in args:
         num = sp.expand(sp.rem(num, sin_of[a] ** 2 + cos_of[a] ** 2 - 1, sin_of[a]))
-    return num == 0
+    if num == 0:
+        return sp.S.Zero
+    back = {**{sin_of[a]: sp.sin(a) for a in args}, **{cos_of[a]: sp.cos(a) for a in args}}
+    return sp.factor(num / den).xreplace(back)
+
+
+def _vanishes_on_the_circles(e: sp.Expr) -> bool:
+    """Whether ``e`` is identically zero by :func:`_circle_normal_form` (``False``: not zero, or not decided)."""
+    normal = _circle_normal_form(e)
+    return normal is not None and normal == 0
 
 
 def _residual(A: sp.Matrix, B: sp.Matrix) -> sp.Matrix:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import sympy as sp
 
@@ -90,7 +92,8 @@ def test_rotational_gap_is_first_order_in_attitude():
 def test_the_exact_zero_test_decides_identities_on_the_circles_and_only_those():
     """``_vanishes_on_the_circles`` (sᵃ² + cᵃ² = 1 reduction): true identities, rational ones included, are
     zero; a residual that is not an identity is not (checked at random angles too); what it cannot read (a tan)
-    is left undecided for trigsimp.  ``_simp`` gives trigsimp's answer either way."""
+    is left undecided for trigsimp.  A residual that is not zero keeps its value in the normal form ``_simp``
+    prints, and two ways of writing one function print alike."""
     a, b, c, m = sp.symbols("a b c m", positive=True)
     sa, ca, sb, cb = sp.sin(a), sp.cos(a), sp.sin(b), sp.cos(b)
     identities = [
@@ -108,7 +111,13 @@ def test_the_exact_zero_test_decides_identities_on_the_circles_and_only_those():
     for e in others:
         assert not Q._vanishes_on_the_circles(sp.expand(e)), e
         f = sp.lambdify((a, b, c, m), e)
-        assert max(abs(f(*rng.uniform(0.1, 3.0, 4))) for _ in range(5)) > 0  # truly not zero
-        assert Q._simp(e) != 0
+        points = rng.uniform(0.1, 3.0, (5, 4))
+        assert max(abs(f(*p)) for p in points) > 0  # truly not zero
+        printed = Q._simp(e)
+        assert printed != 0
+        g = sp.lambdify((a, b, c, m), printed)
+        assert all(math.isclose(g(*p), f(*p), rel_tol=1e-12, abs_tol=1e-14) for p in points)
+    # the same function written two ways (sin² against 1 - cos²) has one normal form
+    assert Q._simp(sa**2 * cb - ca) == Q._simp((1 - ca**2) * cb - ca) != 0
     assert not Q._vanishes_on_the_circles(sp.tan(a) * ca - sa)  # undecided: trigsimp's turn
     assert Q._simp(sp.tan(a) * ca - sa) == 0
