@@ -68,3 +68,23 @@ def test_a_bracket_without_a_sign_change_is_refused():
     with pytest.raises(ValueError):  # a NaN inside the bracket, as brentq refuses it
         bracketed_root(lambda x: x - 1.5 if abs(x - 1.5) > 0.1 else math.nan, 1.0, 2.0)
     assert bracketed_root(lambda x: x - 1.0, 1.0, 2.0) == 1.0  # a root at an end is returned as it is
+
+
+@pytest.mark.parametrize("f, a, b, root, most", [
+    (lambda x: math.cos(x), 1.0, 2.0, math.pi / 2, 10),  # smooth: interpolation steps, a few evaluations
+    (lambda x: (x - 0.3) ** 9, -1.0, 2.0, 0.3, 130),  # flat at a ninefold root: interpolation crawls, bisection rescues
+    (lambda x: -1.0 if x < 0.7 else 1.0, 0.0, 1.0, 0.7, 45),  # a jump: nothing to interpolate, bisection alone (41)
+])
+def test_brent_steps_shrink_the_bracket_and_keep_the_root_inside(f, a, b, root, most):
+    """Brent's method against its two failure modes: a step that leaves the bracket (the root is always kept) and
+    interpolation that stalls (bisection takes over, so the evaluations stay within 3x of bisection's 41-43)."""
+    calls = []
+
+    def counted(x):
+        calls.append(x)
+        return f(x)
+
+    got = bracketed_root(counted, a, b)
+    assert abs(got - root) <= 2e-12 + 4 * np.finfo(float).eps * abs(root)
+    assert all(a <= x <= b for x in calls)
+    assert len(calls) <= most, len(calls)

@@ -9,7 +9,8 @@ spline of FITPACK's ``splprep`` with ``s = 0`` and refines each crossover by ``b
   places the knots of an interpolating spline of odd degree at the inner data points), that is the cubic spline
   with **not-a-knot** end conditions; with fewer than 4 samples ``splprep`` uses the degree ``len(x) - 1``, which is
   the interpolating polynomial.  The weights ``splprep`` is given do not change an interpolating spline.
-* ``brentq`` returns a point within ``xtol + rtol |x|`` of a sign change; bisection does the same.
+* ``brentq`` returns a point within ``xtol + rtol |x|`` of a sign change; :func:`bracketed_root` is Brent's method
+  too (secant and inverse quadratic steps, bisection when they do not shrink the bracket fast enough).
 
 ``tests/test_interpolation.py`` compares both with scipy's own functions.
 """
@@ -89,7 +90,13 @@ class InterpolatingSpline:
 
 def bracketed_root(f: Callable[[float], float], a: float, b: float, xtol: float = 2e-12,
                    rtol: float = 4.0 * np.finfo(float).eps, max_iter: int = 200) -> float:
-    """A point within ``xtol + rtol |x|`` of a sign change of ``f`` on ``[a, b]`` (bisection).
+    """A point within ``xtol + rtol |x|`` of a sign change of ``f`` on ``[a, b]`` (Brent's method).
+
+    Brent's algorithm (R. P. Brent, *Algorithms for Minimization without Derivatives*, 1973, ch. 4): the bracket
+    ``[x, x_blk]`` around the sign change always holds it, and each step is a secant or inverse quadratic step from
+    the best point when that step is short enough, else a bisection.  A smooth function takes about a quarter of
+    the evaluations of pure bisection (the margins evaluate a 30-state frequency response at each), and the
+    answer has the same guarantee.
 
     Parameters
     ----------
@@ -99,30 +106,55 @@ def bracketed_root(f: Callable[[float], float], a: float, b: float, xtol: float 
         The bracket.
     xtol, rtol
         The absolute and relative width at which the bracket is taken as the root (``brentq``'s defaults).
+    max_iter
+        Evaluations of ``f`` after the two ends; then the best point found is returned.
 
     Raises
     ------
     ValueError
         ``f`` has the same strict sign at both ends, or a non-finite value at an end or inside.
     """
-    fa, fb = float(f(a)), float(f(b))
-    if not (math.isfinite(fa) and math.isfinite(fb)) or fa * fb > 0.0:
+    x_pre, x_cur = float(a), float(b)
+    f_pre, f_cur = float(f(a)), float(f(b))
+    if not (math.isfinite(f_pre) and math.isfinite(f_cur)) or f_pre * f_cur > 0.0:
         raise ValueError("f must have a sign change on [a, b]")
-    if fa == 0.0:
-        return float(a)
-    if fb == 0.0:
-        return float(b)
+    if f_pre == 0.0:
+        return x_pre
+    if f_cur == 0.0:
+        return x_cur
+    x_blk, f_blk = x_pre, f_pre  # the other end of the bracket: f_blk and f_cur have opposite signs
+    step_pre = step_cur = x_cur - x_pre
     for _ in range(max_iter):
-        m = 0.5 * (a + b)
-        if abs(b - a) <= xtol + rtol * abs(m):
-            return m
-        fm = float(f(m))
-        if not math.isfinite(fm):  # as brentq: a NaN inside the bracket is an error, not a direction
-            raise ValueError(f"f is not finite at {m!r}")
-        if fm == 0.0:
-            return m
-        if (fm < 0.0) == (fa < 0.0):
-            a, fa = m, fm
-        else:
-            b = m
-    return 0.5 * (a + b)
+        if (f_pre < 0.0) != (f_cur < 0.0):  # the last step crossed the root: its start is the new other end
+            x_blk, f_blk = x_pre, f_pre
+            step_pre = step_cur = x_cur - x_pre
+        if abs(f_blk) < abs(f_cur):  # keep the smaller residual as the current point
+            x_pre, x_cur, x_blk = x_cur, x_blk, x_cur
+            f_pre, f_cur, f_blk = f_cur, f_blk, f_cur
+        tol = 0.5 * (xtol + rtol * abs(x_cur))
+        half = 0.5 * (x_blk - x_cur)
+        if f_cur == 0.0 or abs(half) < tol:
+            return x_cur
+        step_pre, step_cur = _brent_step(x_pre, x_cur, x_blk, f_pre, f_cur, f_blk, step_pre, step_cur, half, tol)
+        x_pre, f_pre = x_cur, f_cur
+        x_cur += step_cur if abs(step_cur) > tol else math.copysign(tol, half)
+        f_cur = float(f(x_cur))
+        if not math.isfinite(f_cur):  # as brentq: a NaN inside the bracket is an error, not a direction
+            raise ValueError(f"f is not finite at {x_cur!r}")
+    return x_cur
+
+
+def _brent_step(x_pre: float, x_cur: float, x_blk: float, f_pre: float, f_cur: float, f_blk: float,
+                step_pre: float, step_cur: float, half: float, tol: float) -> tuple[float, float]:
+    """The next ``(previous step, step)`` of :func:`bracketed_root`: interpolation if it is safe, else bisection."""
+    if abs(step_pre) > tol and abs(f_cur) < abs(f_pre):
+        with np.errstate(all="ignore"):  # numpy floats: a zero or overflowing denominator is a nan, i.e. bisect
+            if x_pre == x_blk:  # two points: the secant
+                trial = -f_cur * (x_cur - x_pre) / np.float64(f_cur - f_pre)
+            else:  # three points: inverse quadratic interpolation
+                d_pre = (f_pre - f_cur) / np.float64(x_pre - x_cur)
+                d_blk = (f_blk - f_cur) / np.float64(x_blk - x_cur)
+                trial = -f_cur * (f_blk * d_blk - f_pre * d_pre) / (d_blk * d_pre * (f_blk - f_pre))
+        if 2.0 * abs(trial) < min(abs(step_pre), 3.0 * abs(half) - tol):  # short enough: it shrinks the bracket
+            return step_cur, float(trial)
+    return half, half
