@@ -185,10 +185,17 @@ def _add_decrease(prob: ConicProblem, iP: np.ndarray, at_points: np.ndarray, E: 
     prob.psd(np.zeros((AEA.shape[0], n, n)), iP, _affine_terms(at_points, rho * rho * E[None] - AEA))
 
 
+#: Clarabel's relative gap and feasibility tolerance for :func:`reach_lyapunov`.  Its answer is a witness only if
+#: numpy finds it contracting with margins above rounding (:func:`witness_margins`), so the solver's accuracy does not
+#: decide; at 1e-8 the solve often ended ``AlmostSolved`` after Clarabel's whole iteration budget (5.6 s, against
+#: 1.0 s at 1e-7, on the widened box of ``tests/test_cascade_roa.py``).
+_REACH_SOLVER_TOL = 1e-7
+
+
 def _solved_affine(prob: ConicProblem, it: np.ndarray, iP: np.ndarray, E: np.ndarray, Sinv: np.ndarray,
-                   A_v: np.ndarray, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, str] | None:
-    """Minimise ``z[it]`` for an affine ``P(θ)`` posed in scaled coordinates; ``(P_k stacked, contraction per
-    point, status)``.
+                   A_v: np.ndarray, theta: np.ndarray, tol: float = 1e-8) -> tuple[np.ndarray, np.ndarray, str] | None:
+    """Minimise ``z[it]`` for an affine ``P(θ)`` posed in scaled coordinates, to Clarabel's tolerance ``tol``;
+    ``(P_k stacked, contraction per point, status)``.
 
     The problem is handed to Clarabel directly (:class:`nniquad.analysis.robust.conic.ConicProblem`): cvxpy took
     about 0.8 s to canonicalise each problem, a tenth of that per solve, three times the solves in all.  The
@@ -197,7 +204,7 @@ def _solved_affine(prob: ConicProblem, it: np.ndarray, iP: np.ndarray, E: np.nda
     """
     cost = np.zeros(prob.n)
     cost[it] = 1.0
-    status, z = prob.solve(cost)
+    status, z = prob.solve(cost, tol=tol)
     if z is None:
         return None
     Pt = np.einsum("ke,eij->kij", z[iP].reshape(-1, E.shape[0]), E)
@@ -268,7 +275,7 @@ def reach_lyapunov(A_v: np.ndarray, T: float, K: np.ndarray, L: float, rho: floa
     Eb = np.zeros((E.shape[0], n + 1, n + 1))
     Eb[:, :n, :n] = E
     prob.psd(np.broadcast_to(F0, (nv, n + 1, n + 1)), iP, _affine_terms(at_points, Eb))
-    solved = _solved_affine(prob, top, iP, E, Sinv, A_v, th)
+    solved = _solved_affine(prob, top, iP, E, Sinv, A_v, th, tol=_REACH_SOLVER_TOL)
     if solved is None:
         return None
     Po, rv, status = solved
