@@ -11,7 +11,7 @@ another way:
   eigenvalues of ``A_0`` set the frequency range);
 * a log-spaced grid of :data:`N_FREQUENCIES` frequencies spanning the poles; every
   sign change of ``|L| - 1`` (gain crossover) and of ``Im L`` with ``Re L < 0``
-  (phase crossover) is refined by bisection on the exact modal response;
+  (phase crossover) is refined by Brent's method on the exact response;
 * the phase margin is the smallest ``180° - |∠(-L)|`` over the gain crossovers,
   the gain interval ``(k_lo, k_hi)`` the phase-crossover gains ``-1/L`` nearest to 1
   on either side that the closed-loop eigenvalues of ``A_0 + k b c`` confirm as
@@ -36,7 +36,7 @@ from nniquad.config import CONTROL_RATE_HZ, REQUIRED_GM_DB, REQUIRED_PM_DEG
 __all__ = ["N_FREQUENCIES", "FastMargins", "fast_loop_margins", "fast_cascade_margins", "design_margins",
            "margin_shortfall"]
 
-#: Log-spaced frequencies of the crossover search (refined by bisection afterwards).
+#: Log-spaced frequencies of the crossover search (refined by Brent's method afterwards).
 N_FREQUENCIES = 400
 
 
@@ -147,7 +147,7 @@ class _Modal:
 
 
 def _bisect(f, a: float, b: float, fa: float) -> float:
-    """Root of a scalar function with a sign change on [a, b] (bisection in log frequency)."""
+    """Root of a scalar function with a sign change on [a, b] (Brent's method in log frequency)."""
     from nniquad.analysis.interpolation import bracketed_root
 
     return math.exp(bracketed_root(lambda u: f(math.exp(u)), math.log(a), math.log(b), xtol=1e-12, rtol=1e-12))

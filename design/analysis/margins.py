@@ -214,7 +214,7 @@ def frd_crossings(resp: np.ndarray, omega: np.ndarray) -> tuple[np.ndarray, np.n
     parametric cubic spline through its real and imaginary parts (``splprep``,
     ``s = 0``, weights ``1/(|L| + 0.001)``); a sign change of ``∠(-L)`` between two
     grid frequencies with ``Re L <= 0`` at the first is a phase crossover, a sign
-    change of ``|L| - 1`` a gain crossover, each refined by bisection (``brentq``'s tolerances) on the
+    change of ``|L| - 1`` a gain crossover, each refined by Brent's method (``brentq``'s tolerances) on the
     interpolated response.
 
     Parameters
