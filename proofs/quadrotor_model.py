@@ -119,8 +119,8 @@ def _simp(e: sp.Expr) -> sp.Expr:
     """Targeted simplification of a trigonometric residual.
 
     A residual that :func:`_circle_normal_form` can read is returned in that normal form: exactly 0 when it is
-    an identity, else a form unique to the function it represents.  Anything else (a ``tan``, the sine of a
-    sum) goes through ``trigsimp``.  The audit prints what this returns.
+    an identity, else its remainder modulo ``sin² + cos² = 1``.  Anything else (a ``tan``, the sine of a sum) goes
+    through ``trigsimp``.  The audit prints what this returns.
     """
     e = sp.expand(sp.expand_trig(e))
     if e == 0:
@@ -137,9 +137,9 @@ def _circle_normal_form(e: sp.Expr) -> sp.Expr | None:
     product of circles, is irreducible and its real points are Zariski-dense in it; the denominator is nonzero on
     a dense part of it).  The relations have pairwise coprime leading terms ``s_a²``, so they are a Gröbner
     basis: dividing ``N`` by each in turn (``s_a² → 1 - c_a²``) leaves a remainder that is 0 iff ``N`` is in the
-    ideal, and that is the same for any two numerators of one function.  Exact, and a fraction of
-    ``trigsimp``'s time on the model's residuals.  Returns the remainder over the denominator, in sines and
-    cosines again; ``None`` (not decided) for anything else, such as a ``tan`` or the sine of a sum, which
+    ideal, and that is the same for two numerators that differ by a multiple of the relations.  Exact, and a
+    fraction of ``trigsimp``'s time on the model's residuals.  Returns the remainder over the denominator, in sines
+    and cosines again; ``None`` (not decided) for anything else, such as a ``tan`` or the sine of a sum, which
     ``expand_trig`` has already opened where it can.
     """
     from sympy.functions.elementary.hyperbolic import HyperbolicFunction

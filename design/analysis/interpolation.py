@@ -107,7 +107,7 @@ def bracketed_root(f: Callable[[float], float], a: float, b: float, xtol: float 
     xtol, rtol
         The absolute and relative width at which the bracket is taken as the root (``brentq``'s defaults).
     max_iter
-        Evaluations of ``f`` after the two ends; then the best point found is returned.
+        Evaluations of ``f`` after the two ends; then the last point evaluated is returned.
 
     Raises
     ------
