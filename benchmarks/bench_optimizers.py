@@ -1,8 +1,10 @@
 """The tuner's two optimisers on the same budget (issue 14 item 2): BIPOP-CMA-ES (pycma) against MADS (NOMAD 4).
 
-Each backend tunes the paper's vehicle on the ``full`` model with the reach
-check off (``TuneOptions(model="full", roa_radius_m=0, budget=B, reruns=0)``)
-from ``SEEDS`` seeds; a seed changes the Sobol sweep and the optimiser's
+Each backend tunes the paper's vehicle on the ``full`` model under the robust
+default of ``nniquad tune --model full`` (``TuneOptions(model="full", budget=B,
+reruns=0)``: the paper class, its certified reach of 2.5 m required, as issue
+24's five-seed target names it; until stop 38 the row ran with the reach check
+off, 2.83 % at stop 37, and the quick mode still does) from ``SEEDS`` seeds; a seed changes the Sobol sweep and the optimiser's
 random choices, and both backends get the same sweep and the same number of
 optimiser evaluations (:data:`nniquad.tuning.options.BUDGETS`).  Rows per
 backend: the best settling time of each seed, the spread ``(max - min) / best``
@@ -52,7 +54,9 @@ def run(quick: bool = False) -> list[dict]:
     for method in methods:
         best, sims, wall = [], 0, 0.0
         for seed in range(n_seeds):
-            opts = TuneOptions(model=model, roa_radius_m=0.0, budget=budget, reruns=0, seed=seed, optimizer=method)
+            # full: the default certified reach (the robust default); quick: the reduced model with the reach off
+            opts = TuneOptions(model=model, roa_radius_m=0.0 if quick else None, budget=budget, reruns=0, seed=seed,
+                               optimizer=method)
             t0 = time.perf_counter()
             res = tune(PAPER_VEHICLE, opts)
             dt = time.perf_counter() - t0
@@ -60,13 +64,16 @@ def run(quick: bool = False) -> list[dict]:
             sims += res.n_simulations
             wall += dt
             table.append(f"{method:<9} {seed:>4} {res.settling_s:>9.4f} {res.n_simulations:>6} {dt:>8.1f}")
-            rows.append({"name": f"{method} ({model}, {budget}), seed {seed}: best settling", "value": res.settling_s,
+            reach = f"reach {res.options.roa_radius_m:g} m" if res.options.roa_radius_m > 0 else "reach off"
+            rows.append({"name": f"{method} ({model}, {budget}, {reach}), seed {seed}: best settling",
+                         "value": res.settling_s,
                          "unit": "s", "target": "", "ok": True})
         spread = 100.0 * (max(best) - min(best)) / min(best)
         table.append(f"{method:<9} spread (max-min)/best = {spread:.2f} %, best {min(best):.4f} s, "
                      f"{sims} simulations, {wall:.0f} s")
         rows += [
-            {"name": f"{method} ({model}, {budget}): spread (max-min)/best of {n_seeds} seeds", "value": spread,
+            {"name": f"{method} ({model}, {budget}, {reach}): spread (max-min)/best of {n_seeds} seeds",
+             "value": spread,
              "unit": "%",
              "target": f"<= {SPREAD_TARGET_PCT:g}", "ok": spread <= SPREAD_TARGET_PCT},
             {"name": f"{method} ({budget}): best of {n_seeds} seeds", "value": min(best), "unit": "s", "target": "",

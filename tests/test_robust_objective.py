@@ -74,6 +74,35 @@ def test_scenario_set_is_fixed_and_holds_the_corners_of_the_box():
         assert math.hypot(*s.xi0_m) <= 2.5 + 1e-12
 
 
+def test_the_scenario_noise_range_sets_the_noise_of_the_robust_set_and_nothing_else():
+    """``scenario_noise_range_m`` replaces the position-noise range of the robust set: the corners take its upper
+    end, the draws lie in it; plants, winds, starts and noise seeds stay the default set's."""
+    from dataclasses import replace
+
+    from nniquad.tuning.objective import robust_scenarios
+
+    default = robust_scenarios(V, TuneOptions(model="full"))
+    assert default == tuning_scenarios(V, seed=TUNING_SCENARIO_SEED, roa_radius_m=2.5)  # the Monte Carlo ranges
+    assert TuneOptions(model="full").robust_noise_range_m == DEFAULT_RANGES.noise_sigma_m
+    quiet = robust_scenarios(V, TuneOptions(model="full", scenario_noise_range_m=(0.0, 0.0)))
+    assert all(s.noise_sigma_m == 0.0 for s in quiet)
+    lo, hi = 0.004, 0.006
+    opts = TuneOptions(model="full", scenario_noise_range_m=[lo, hi])
+    assert opts.scenario_noise_range_m == (lo, hi) and opts.to_json()["scenario_noise_range_m"] == [lo, hi]
+    mid = robust_scenarios(V, opts)
+    corners = [s for s in mid if s.label.startswith("corner")]
+    draws = [s for s in mid if s.label.startswith("random")]
+    assert len(corners) == 8 and all(s.noise_sigma_m == hi for s in corners)
+    assert len(draws) == N_RANDOM and all(lo <= s.noise_sigma_m <= hi for s in draws)
+    assert len({s.noise_sigma_m for s in draws}) == N_RANDOM  # drawn, not one value
+    assert mid[0].noise_sigma_m == 0.0  # the nominal run keeps the tuner's own --noise
+    without_sigma = lambda scen: [replace(s, noise_sigma_m=0.0) for s in scen]  # noqa: E731
+    assert without_sigma(mid) == without_sigma(default) == without_sigma(quiet)
+    for bad in ((0.02, 0.01), (-0.01, 0.01), (0.0, math.inf), (0.01,), 0.01):
+        with pytest.raises(NniquadError, match="scenario noise range"):
+            TuneOptions(model="full", scenario_noise_range_m=bad)
+
+
 def test_every_candidate_gets_the_same_perturbations_and_keeps_its_own_gains():
     """Common random numbers: plant, wind, start and noise are the scenario's; gains and inner loops the candidate's."""
     from nniquad.tuning.objective import robust_scenarios

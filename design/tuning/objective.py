@@ -300,17 +300,21 @@ def simulations_run() -> int:
 def robust_scenarios(vehicle: Vehicle, options: TuneOptions) -> list:
     """The fixed tuning set of these options (:func:`nniquad.tuning.scenarios.tuning_scenarios`), cached.
 
-    The first entry is the nominal scenario (simulated by the nominal objective);
+    The ranges are the Monte Carlo defaults with the position noise of
+    :attr:`TuneOptions.robust_noise_range_m`.  The first entry is the nominal scenario (simulated by the nominal objective);
     the same list, and so the same plants, noise sequences, winds and start
     points, is used for every candidate (common random numbers).
     """
     from nniquad.tuning.scenarios import tuning_scenarios
 
-    key = (vehicle, options.scenario_seed, options.roa_radius_m, options.noise_sigma_m)
+    from nniquad.study.ranges import DEFAULT_RANGES
+
+    key = (vehicle, options.scenario_seed, options.roa_radius_m, options.noise_sigma_m, options.robust_noise_range_m)
     if key not in _SCENARIO_CACHE:
         _SCENARIO_CACHE.clear()
-        _SCENARIO_CACHE[key] = tuning_scenarios(vehicle, seed=options.scenario_seed,
-                                                roa_radius_m=options.roa_radius_m, noise_sigma_m=options.noise_sigma_m)
+        ranges = DEFAULT_RANGES.with_(noise_sigma_m=options.robust_noise_range_m)
+        _SCENARIO_CACHE[key] = tuning_scenarios(vehicle, seed=options.scenario_seed, roa_radius_m=options.roa_radius_m,
+                                                ranges=ranges, noise_sigma_m=options.noise_sigma_m)
     return _SCENARIO_CACHE[key]
 
 

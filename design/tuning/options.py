@@ -158,6 +158,14 @@ class TuneOptions:
     scenario_seed
         Seed of the robust scenario set (default :data:`nniquad.config.TUNING_SCENARIO_SEED`);
         a benchmark Monte Carlo study must use a different seed.
+    scenario_noise_range_m
+        ``(σ_lo, σ_hi)`` [m]: the position-noise standard deviations of the robust
+        scenario set (the box corners take ``σ_hi``, the random draws are uniform in
+        the range; 100 Hz).  ``None`` (default): the Monte Carlo default range
+        (:data:`nniquad.study.ranges.DEFAULT_RANGES`), resolved by
+        :attr:`robust_noise_range_m`; unused by the nominal objective.  Set it to the sensor's noise: a velocity-free
+        law differentiates the measured position, so the noise it must tolerate
+        limits how fast it can be (FINDINGS.md §25).
     require_margins
         ``full`` only: demand gain margin >= ``config.REQUIRED_GM_DB`` both ways at both
         break points of the linearised cascade (:mod:`nniquad.analysis.fast_margins`),
@@ -199,6 +207,7 @@ class TuneOptions:
     optimizer: str = DEFAULT_OPTIMIZER
     law_class: str | None = None
     rate_hz: float = CONTROL_RATE_HZ
+    scenario_noise_range_m: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         from nniquad.control.law_classes import LAW_CLASSES
@@ -252,6 +261,17 @@ class TuneOptions:
             raise NniquadError("the robust objective perturbs the full vehicle: use model 'full' or objective 'nominal'")
         if isinstance(self.scenario_seed, bool) or not isinstance(self.scenario_seed, int) or self.scenario_seed < 0:
             raise NniquadError(f"scenario seed must be a non-negative integer, got {self.scenario_seed!r}")
+        if self.scenario_noise_range_m is not None:
+            try:
+                pair = tuple(self.scenario_noise_range_m)
+            except TypeError:
+                pair = ()
+            if len(pair) != 2:
+                raise NniquadError(f"scenario noise range must be a pair (LO, HI) in m, got {self.scenario_noise_range_m!r}")
+            lo, hi = (_finite("scenario noise range", v) for v in pair)
+            if not 0.0 <= lo <= hi:
+                raise NniquadError(f"scenario noise range must satisfy 0 <= LO <= HI (m), got {lo:g} {hi:g}")
+            object.__setattr__(self, "scenario_noise_range_m", (lo, hi))
         if self.require_margins is None:  # the cascade margins are those of the NNI law's split
             object.__setattr__(self, "require_margins", self.model == "full" and self.nni_image)
         if self.require_margins and not self.nni_image:
@@ -282,9 +302,20 @@ class TuneOptions:
         """Whether the robust objective is used."""
         return self.objective == "robust"
 
+    @property
+    def robust_noise_range_m(self) -> tuple[float, float]:
+        """The position-noise σ range of the robust scenario set [m]: :attr:`scenario_noise_range_m`, or the Monte
+        Carlo default."""
+        if self.scenario_noise_range_m is not None:
+            return self.scenario_noise_range_m
+        from nniquad.study.ranges import DEFAULT_RANGES
+
+        return DEFAULT_RANGES.noise_sigma_m
+
     def to_json(self) -> dict[str, Any]:
         d = asdict(self)
-        d["mass_range"] = None if self.mass_range is None else list(self.mass_range)
+        for key in ("mass_range", "scenario_noise_range_m"):
+            d[key] = None if d[key] is None else list(d[key])
         return d
 
 

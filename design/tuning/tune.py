@@ -315,6 +315,7 @@ class TuneResult:
             "nominal_settling_s": self.nominal_settling_s,
             "scenario_count": self.scenario_count,
             "scenario_seed": self.options.scenario_seed if self.objective == "robust" else None,
+            "scenario_noise_range_m": list(self.options.robust_noise_range_m) if self.objective == "robust" else None,
             "worst_scenario": self.worst_scenario,
             "scenario_costs": self.scenario_costs,
             "margins": self.margins,

@@ -35,6 +35,11 @@ once, not regenerated to check this.  On 2 idle cores a tuning step takes 3-5 mi
 ``nni_cascade_no_margins``
     The cascade-class NNI design tuned without the gain-margin requirement, as the unrestricted filtered PD
     is (item 2: what the margins cost; a certificate of the class, not a design the notebooks recommend).
+``pd_velocity_quiet``, ``pd_filtered_quiet``, ``pd_image_quiet``
+    The two PD laws tuned again on the same robust set without position noise (``--scenario-noise-range 0 0``;
+    every other perturbation the same), and the certificate of the quiet filtered PD's NNI image in the cascade
+    class: what the 2 cm of noise in the corners costs a law that differentiates the measured position
+    (notebook 04's last section, FINDINGS.md §25).
 ``families``
     Notebook 03 section 5: every law's design run λ times faster and slower (``time_scaled``), each member
     on the nominal run and a small Monte Carlo study (:data:`FAMILY_LAMBDAS`, :data:`FAMILY_SAMPLES`,
@@ -78,6 +83,13 @@ STEPS: dict[str, list[str]] = {
     "sni2_cascade_seeded": ["certify", "--model", "full", "--controller", "sni2", "--law-class", "cascade",
                             "--warm-start", "designs/pd_filtered.json",
                             "--out", "designs/sni2_cascade_seeded_certificate.json"],
+    "pd_velocity_quiet": ["tune", "--model", "full", "--controller", "pd_velocity", "--scenario-noise-range", "0", "0",
+                          "--json", "designs/pd_velocity_quiet.json"],
+    "pd_filtered_quiet": ["tune", "--model", "full", "--controller", "pd_filtered", "--scenario-noise-range", "0", "0",
+                          "--json", "designs/pd_filtered_quiet.json"],
+    "pd_image_quiet": ["certify", "--model", "full", "--law-class", "cascade", "--scenario-noise-range", "0", "0",
+                       "--gains-from", "designs/pd_filtered_quiet.json",
+                       "--out", "designs/pd_filtered_quiet_image_certificate.json"],
     "nni_cascade_no_margins": ["certify", "--model", "full", "--law-class", "cascade", "--no-margins",
                                "--warm-start", "designs/pd_filtered_held.json",
                                "--out", "designs/nni_cascade_no_margins_certificate.json"],

@@ -99,6 +99,11 @@ def add_tuning_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scenario-seed", type=int, default=TUNING_SCENARIO_SEED, metavar="N",
                         help=f"seed of the robust tuning scenarios (default {TUNING_SCENARIO_SEED}; a Monte Carlo "
                              "study of the result should use another seed)")
+    parser.add_argument("--scenario-noise-range", type=float, nargs=2, default=None, metavar=("LO", "HI"),
+                        help="position-noise standard deviations in m of the robust tuning scenarios: the box corners "
+                             "take HI, the random draws U[LO, HI], sampled at 100 Hz (default 0 0.02, the Monte Carlo "
+                             "study's; set it to your sensor's: a velocity-free law differentiates the position, so "
+                             "the noise it must tolerate limits its speed)")
 
 
 def tune_options_from_args(args: argparse.Namespace):
@@ -113,15 +118,21 @@ def tune_options_from_args(args: argparse.Namespace):
 
     controller = getattr(args, "controller", "nni")  # certify: its own --controller (an NI law)
     in_class = controller in NI_LAWS or (controller == "pd_filtered" and args.law_class is not None)
+    robust = not (args.nominal or args.model != "full")
+    if args.scenario_noise_range is not None and not robust:
+        raise NniquadError("--scenario-noise-range sets the noise of the robust objective's scenarios: it needs "
+                           "--model full without --nominal")
     return TuneOptions(model=args.model, gamma_max=args.gamma_max, roa_radius_m=args.roa_radius,
                        law_class=args.law_class, rate_hz=rate,
                        mass_range=None if args.mass_range is None else tuple(args.mass_range),
                        noise_sigma_m=args.noise, tilt_limit_deg=args.tilt_limit, budget=args.budget,
                        seed=args.seed, reruns=args.reruns, margin=args.margin,
-                       objective="nominal" if (args.nominal or args.model != "full") else "robust",
+                       objective="robust" if robust else "nominal",
                        require_margins=args.model == "full" and not args.no_margins and in_class,
                        require_pm=args.require_pm and not args.no_margins,
                        scenario_seed=args.scenario_seed, controller=controller,
+                       scenario_noise_range_m=(None if args.scenario_noise_range is None
+                                               else tuple(args.scenario_noise_range)),
                        optimizer=args.optimizer)
 
 
@@ -215,6 +226,9 @@ def print_tune_result(res) -> None:
         ("simulations / LMI solves", f"{res.n_simulations} / {res.n_lmi}", ""),
         ("time taken", fmt(res.elapsed_s, digits=3), "s"),
     ]
+    if res.objective == "robust":
+        lo, hi = res.options.robust_noise_range_m
+        rows.append(("robust scenarios' position noise", f"sigma {fmt(lo)} to {fmt(hi)} (corners {fmt(hi)})", "m"))
     if res.worst_scenario is not None:
         rows.append(("worst robust scenario", f"{res.worst_scenario['label']}: {res.worst_scenario['cost_s']:.4g}", "s"))
     for bp, mg in (res.margins or {}).items():
