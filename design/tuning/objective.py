@@ -301,13 +301,12 @@ def robust_scenarios(vehicle: Vehicle, options: TuneOptions) -> list:
     """The fixed tuning set of these options (:func:`nniquad.tuning.scenarios.tuning_scenarios`), cached.
 
     The ranges are the Monte Carlo defaults with the position noise of
-    :attr:`TuneOptions.robust_noise_range_m`.  The first entry is the nominal scenario (simulated by the nominal objective);
-    the same list, and so the same plants, noise sequences, winds and start
+    :attr:`TuneOptions.robust_noise_range_m`.  The first entry is the nominal
+    scenario (simulated by the nominal objective); the same list, and so the same plants, noise sequences, winds and start
     points, is used for every candidate (common random numbers).
     """
-    from nniquad.tuning.scenarios import tuning_scenarios
-
     from nniquad.study.ranges import DEFAULT_RANGES
+    from nniquad.tuning.scenarios import tuning_scenarios
 
     key = (vehicle, options.scenario_seed, options.roa_radius_m, options.noise_sigma_m, options.robust_noise_range_m)
     if key not in _SCENARIO_CACHE:

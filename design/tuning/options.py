@@ -161,11 +161,12 @@ class TuneOptions:
     scenario_noise_range_m
         ``(σ_lo, σ_hi)`` [m]: the position-noise standard deviations of the robust
         scenario set (the box corners take ``σ_hi``, the random draws are uniform in
-        the range; 100 Hz).  ``None`` (default): the Monte Carlo default range
+        the range; one noise value per position sample at :attr:`rate_hz`).  ``None`` (default): the Monte Carlo default range
         (:data:`nniquad.study.ranges.DEFAULT_RANGES`), resolved by
-        :attr:`robust_noise_range_m`; unused by the nominal objective.  Set it to the sensor's noise: a velocity-free
-        law differentiates the measured position, so the noise it must tolerate
-        limits how fast it can be (FINDINGS.md §25).
+        :attr:`robust_noise_range_m`; unused by the nominal objective.  Set it to
+        the sensor's noise: a velocity-free law differentiates the measured
+        position, so the noise it must tolerate limits how fast it can be
+        (FINDINGS.md §25).
     require_margins
         ``full`` only: demand gain margin >= ``config.REQUIRED_GM_DB`` both ways at both
         break points of the linearised cascade (:mod:`nniquad.analysis.fast_margins`),
@@ -267,7 +268,8 @@ class TuneOptions:
             except TypeError:
                 pair = ()
             if len(pair) != 2:
-                raise NniquadError(f"scenario noise range must be a pair (LO, HI) in m, got {self.scenario_noise_range_m!r}")
+                raise NniquadError(f"scenario noise range must be a pair (LO, HI) in m, "
+                                   f"got {self.scenario_noise_range_m!r}")
             lo, hi = (_finite("scenario noise range", v) for v in pair)
             if not 0.0 <= lo <= hi:
                 raise NniquadError(f"scenario noise range must satisfy 0 <= LO <= HI (m), got {lo:g} {hi:g}")
