@@ -39,7 +39,7 @@ once, not regenerated to check this.  On 2 idle cores a tuning step takes 3-5 mi
     The two PD laws tuned again on the same robust set without position noise (``--scenario-noise-range 0 0``;
     every other perturbation the same), and the certificate of the quiet filtered PD's NNI image in the cascade
     class: what the 2 cm of noise in the corners costs a law that differentiates the measured position
-    (notebook 04's last section, FINDINGS.md §25).
+    (notebook 03, section 6; FINDINGS.md §25).
 ``families``
     Notebook 03 section 5: every law's design run λ times faster and slower (``time_scaled``), each member
     on the nominal run and a small Monte Carlo study (:data:`FAMILY_LAMBDAS`, :data:`FAMILY_SAMPLES`,
