@@ -5,11 +5,12 @@ default of ``nniquad tune --model full`` (``TuneOptions(model="full", budget=B,
 reruns=0)``: the paper class, its certified reach of 2.5 m required, as issue
 24's five-seed target names it; until stop 38 the row ran with the reach check
 off, 2.83 % at stop 37, and the quick mode still does) from ``SEEDS`` seeds; a
-seed changes the Sobol sweep and the optimiser's random choices, and both backends get the same sweep and the same number of
-optimiser evaluations (:data:`nniquad.tuning.options.BUDGETS`).  Rows per
-backend: the best settling time of each seed, the spread ``(max - min) / best``
-of the five in % (target: within 2 % of the best of them), the wall time and
-the simulations.  The table printed to stderr is the one for the report.
+seed changes the Sobol sweep and the optimiser's random choices, and both
+backends get the same sweep and the same number of optimiser evaluations
+(:data:`nniquad.tuning.options.BUDGETS`).  Rows per backend: the best settling
+time of each seed, the spread ``(max - min) / best`` of the five in % (target:
+within 2 % of the best of them), the wall time and the simulations.  The table
+printed to stderr is the one for the report.
 
 Environment: ``NNIQUAD_BENCH_OPT_BUDGET`` (default ``normal`` in the full mode: the
 robust default of ``nniquad tune --model full``, the budget issue 24's five-seed

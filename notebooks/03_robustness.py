@@ -556,6 +556,7 @@ for law, r in overall.items():
 
 # %%
 from nniquad import design_margins, gain_limits, LAW_CLASSES, margin_shortfall, nni_from_filtered_pd
+from nniquad.control.gains import CONTROLLER_GAINS
 
 LIM = gain_limits(V, TILT)
 GD_MAX = LIM["gamma_delta_max"]
@@ -563,9 +564,10 @@ GD_MAX = LIM["gamma_delta_max"]
 IMAGE_CERT = read_certificate(DATA / "designs" / "pd_filtered_image_certificate.json")
 
 
-def pd_record(name):
+def design_record(name):
+    """(gains, inner loops, 'tune --json' record) of designs/<name>.json (the law is the file's)."""
     rec = json.loads((DATA / "designs" / f"{name}.json").read_text())
-    return PDFilteredGains(**rec["gains"]), InnerLoopGains(**rec["inner_loop"]), rec
+    return CONTROLLER_GAINS[rec["controller"]](**rec["gains"]), InnerLoopGains(**rec["inner_loop"]), rec
 
 
 def cascade_summary(cert):
@@ -577,7 +579,7 @@ def cascade_summary(cert):
 rows6 = []
 for label, name in (("filtered PD, no class", "pd_filtered"), ("filtered PD, paper class", "pd_filtered_paper"),
                     ("filtered PD, cascade class", "pd_filtered_cascade")):
-    pd_g, pd_inner, rec = pd_record(name)
+    pd_g, pd_inner, rec = design_record(name)
     rows6.append({"label": label, "nni": nni_from_filtered_pd(pd_g, V.m), "inner": pd_inner, "p95": rec["settling_s"],
                   "pd": pd_g, "cert": IMAGE_CERT if name == "pd_filtered" else None})
 # written by `nniquad certify --law-class cascade --no-margins ...` (make_data.py, step nni_cascade_no_margins)
@@ -639,7 +641,7 @@ print(f"certified NNI against the best filtered PD of its class: paper {nni_pape
 from nniquad.tuning.coordinates import attitude_accel_headroom, encode
 from nniquad.tuning.objective import evaluate_details
 
-held_g, held_inner, held_rec = pd_record("pd_filtered_held")
+held_g, held_inner, held_rec = design_record("pd_filtered_held")
 held_opts = TuneOptions(model="full", controller="pd_filtered", require_margins=False, roa_radius_m=0.0)
 held_q = encode(held_g, V.m, held_opts.gamma_max, held_inner, attitude_accel_headroom(V, TILT))[None]
 held_eval = evaluate_details(V, held_q, held_opts, held_rec["metrics"]["horizon_s"], full_report=True)[0]
@@ -671,39 +673,31 @@ for label, sc in (("SNI2, cascade class (certified)", SNI2_CERT),
 # the four designs is scored here on both sets.
 
 # %%
-from nniquad.control.gains import CONTROLLER_GAINS
 from nniquad.tuning.objective import simulation_options
 
 QUIET = (0.0, 0.0)
 OUTPUT_DT_S = simulation_options(TuneOptions(model="full"), 1.0).output_dt_s  # the grid settling times are read on
 
 
-def design_record(name):
-    """(gains, inner loops, 'tune --json' record) of designs/<name>.json."""
-    rec = json.loads((DATA / "designs" / f"{name}.json").read_text())
-    return CONTROLLER_GAINS[rec["controller"]](**rec["gains"]), InnerLoopGains(**rec["inner_loop"]), rec
-
-
-def robust_p95s(names, noise_range):
+def robust_p95s(designs, noise_range):
     """Each design's robust p95 on the tuning set with the given noise range (None: the default range), one batch
-    per law; None where a scenario fails."""
-    designs = [design_record(n) for n in names]
+    per law; None where a scenario fails.  ``designs``: name -> :func:`design_record`."""
     out = {}
-    for law in sorted({rec["controller"] for _, _, rec in designs}):
-        mine = [(n, d) for n, d in zip(names, designs) if d[2]["controller"] == law]
+    for law in sorted({rec["controller"] for _, _, rec in designs.values()}):
+        mine = [(n, d) for n, d in designs.items() if d[2]["controller"] == law]
         opts = TuneOptions(model="full", controller=law, require_margins=False, scenario_noise_range_m=noise_range)
-        q = np.array([encode(g, V.m, opts.gamma_max, inner, attitude_accel_headroom(V, TILT)) for _, (g, inner, _) in mine])
+        alpha = attitude_accel_headroom(V, TILT)
+        q = np.array([encode(g, V.m, opts.gamma_max, inner, alpha) for _, (g, inner, _) in mine])
         horizon = max(rec["horizon_s"] for _, (_, _, rec) in mine)
         for (n, _), d in zip(mine, evaluate_details(V, q, opts, horizon, full_report=True)):
             out[n] = d["robust_settling_s"]
     return out
 
 
-NOISE_DESIGNS = ("pd_velocity", "pd_velocity_quiet", "pd_filtered", "pd_filtered_quiet")
+NOISE_DESIGNS = {n: design_record(n) for n in ("pd_velocity", "pd_velocity_quiet", "pd_filtered", "pd_filtered_quiet")}
 scored = {"default": robust_p95s(NOISE_DESIGNS, None), "quiet": robust_p95s(NOISE_DESIGNS, QUIET)}
 noise_rows = {}
-for name in NOISE_DESIGNS:
-    g, _, rec = design_record(name)
+for name, (g, _, rec) in NOISE_DESIGNS.items():
     # files tuned before the option existed were tuned on the default range (their record does not state it)
     tuned_on = tuple(rec.get("scenario_noise_range_m") or TuneOptions(model="full").robust_noise_range_m)
     scores = {k: v[name] for k, v in scored.items()}
@@ -718,7 +712,8 @@ md_table(["design", "tuned on noise σ [cm]", "p95, default set [s]", "p95, no n
           "gain from position noise to command [1/s²]"],
          [[n, f"{100 * r['tuned_on'][0]:g} to {100 * r['tuned_on'][1]:g}", show_p95(r["default"]), show_p95(r["quiet"]),
            f"{r['kp_hf']:.3g}"] for n, r in noise_rows.items()])
-# written by `nniquad certify --law-class cascade --scenario-noise-range 0 0 --gains-from designs/pd_filtered_quiet.json`
+# written by `nniquad certify --law-class cascade --scenario-noise-range 0 0 --gains-from
+# designs/pd_filtered_quiet.json` (make_data.py, step pd_image_quiet)
 QUIET_IMAGE_CERT = read_certificate(DATA / "designs" / "pd_filtered_quiet_image_certificate.json")
 quiet_gap = noise_rows["pd_filtered_quiet"]["quiet"] / noise_rows["pd_velocity_quiet"]["quiet"] - 1.0
 noisy_gap = noise_rows["pd_filtered"]["default"] / noise_rows["pd_velocity"]["default"] - 1.0
@@ -726,8 +721,9 @@ print(f"without noise the filtered PD is {100 * quiet_gap:+.1f} % from the PD wi
       f"({noise_rows['pd_filtered_quiet']['quiet']:.3f} s against {noise_rows['pd_velocity_quiet']['quiet']:.3f} s); "
       f"with the default noise {100 * noisy_gap:+.1f} % ({noise_rows['pd_filtered']['default']:.3f} s against "
       f"{noise_rows['pd_velocity']['default']:.3f} s)")
+quiet_gamma = ReducedLoop.from_vehicle(V, QUIET_IMAGE_CERT.gains).smallest_gamma
 print(f"the quiet filtered PD's NNI image, certified in the cascade class: robust p95 on the noise-free set "
-      f"{QUIET_IMAGE_CERT.tuning['settling_s']:.3f} s, γ = {ReducedLoop.from_vehicle(V, QUIET_IMAGE_CERT.gains).smallest_gamma:.3f}; "
+      f"{QUIET_IMAGE_CERT.tuning['settling_s']:.3f} s, γ = {quiet_gamma:.3f}; "
       f"cascade certificate: {cascade_summary(QUIET_IMAGE_CERT)}")
 
 # %% [markdown]
@@ -827,8 +823,8 @@ print(f"- Sections 5 and 6: the filtered PD is the NNI law (k_p' = k_p + k_d/τ_
       f"{best_pd_in['paper']['p95']:.2f} s), cascade class {nni_seeded['p95']:.2f} s seeded with the PD's image "
       f"(best filtered PD in the class {best_pd_in['cascade']['p95']:.2f} s). "
       f"Fastest certified velocity-free design: {fastest_certified[0]}, {fastest_certified[1]:.3f} s robust p95. "
-      f"Position noise: without it the filtered PD is {100 * quiet_gap:+.1f} % from the PD with true velocity, with the "
-      f"default 2 cm in the corners {100 * noisy_gap:+.1f} %: "
+      f"Position noise: without it the filtered PD is {100 * quiet_gap:+.1f} % from the PD with true velocity, "
+      f"with the default 2 cm in the corners {100 * noisy_gap:+.1f} %: "
       + ("most of what the velocity sensor buys is immunity to the noise that a velocity-free law differentiates."
          if abs(quiet_gap) < 0.5 * noisy_gap else "the noise is not the larger part of what the velocity sensor buys."))
 print(f"(notebook ran in {elapsed:.0f} s)")

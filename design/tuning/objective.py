@@ -302,8 +302,9 @@ def robust_scenarios(vehicle: Vehicle, options: TuneOptions) -> list:
 
     The ranges are the Monte Carlo defaults with the position noise of
     :attr:`TuneOptions.robust_noise_range_m`.  The first entry is the nominal
-    scenario (simulated by the nominal objective); the same list, and so the same plants, noise sequences, winds and start
-    points, is used for every candidate (common random numbers).
+    scenario (simulated by the nominal objective); the same list, and so the
+    same plants, noise sequences, winds and start points, is used for every
+    candidate (common random numbers).
     """
     from nniquad.study.ranges import DEFAULT_RANGES
     from nniquad.tuning.scenarios import tuning_scenarios

@@ -161,7 +161,8 @@ class TuneOptions:
     scenario_noise_range_m
         ``(σ_lo, σ_hi)`` [m]: the position-noise standard deviations of the robust
         scenario set (the box corners take ``σ_hi``, the random draws are uniform in
-        the range; one noise value per position sample at :attr:`rate_hz`).  ``None`` (default): the Monte Carlo default range
+        the range; one noise value per position sample at :attr:`rate_hz`).
+        ``None`` (default): the Monte Carlo default range
         (:data:`nniquad.study.ranges.DEFAULT_RANGES`), resolved by
         :attr:`robust_noise_range_m`; unused by the nominal objective.  Set it to
         the sensor's noise: a velocity-free law differentiates the measured

@@ -101,9 +101,9 @@ def add_tuning_options(parser: argparse.ArgumentParser) -> None:
                              "study of the result should use another seed)")
     parser.add_argument("--scenario-noise-range", type=float, nargs=2, default=None, metavar=("LO", "HI"),
                         help="position-noise standard deviations in m of the robust tuning scenarios: the box corners "
-                             "take HI, the random draws U[LO, HI], one draw per position sample at --rate (default 0 0.02, the Monte Carlo "
-                             "study's; set it to your sensor's: a velocity-free law differentiates the position, so "
-                             "the noise it must tolerate limits its speed)")
+                             "take HI, the random draws U[LO, HI], one draw per position sample at --rate (default "
+                             "0 0.02, the Monte Carlo study's; set it to your sensor's: a velocity-free law "
+                             "differentiates the position, so the noise it must tolerate limits its speed)")
 
 
 def tune_options_from_args(args: argparse.Namespace):
