@@ -75,7 +75,7 @@ _export("nniquad.analysis.metrics", "settling_time", "settling_time_batch", "ove
 _export("nniquad.analysis.verdicts", "Metrics", "compute_metrics")
 # figures and tables (matplotlib and IPython are imported only when these are used)
 _export("nniquad.reporting.plots", "paper_figure", "trajectory_plot")
-_export("nniquad.reporting.display", "show_figure", "show_table", "markdown_table")
+_export("nniquad.reporting.display", "show_figure", "show_table", "markdown_table", "notebook_size", "sized")
 _export("nniquad.format", "fmt")
 _export("nniquad.progress", "Progress")
 # errors, by kind

@@ -51,6 +51,8 @@ from nniquad import (
     tune,
     TuneOptions,
     XI0_M,
+    notebook_size,
+    sized,
 )
 
 
@@ -118,8 +120,9 @@ print(f"its linear closed loop: smallest damping ζ = {pd_opt.min_damping:.3f}, 
 
 # %%
 lo, hi = search_box(TuneOptions(model="reduced"))
-KP = np.geomspace(math.exp(lo[0]), math.exp(hi[0]), 40)
-U = np.geomspace(1.02, 5.0, 28)
+# sized(full, smoke): `make test` runs this notebook on the smoke grids (NNIQUAD_NOTEBOOK_SIZE=smoke)
+KP = np.geomspace(math.exp(lo[0]), math.exp(hi[0]), sized(40, 14))
+U = np.geomspace(1.02, 5.0, sized(28, 10))
 GAMMA_FACTORS = (0.2, 1.0, 5.0)
 MAP_OPTS = SimOptions(model="reduced", horizon_s=10.0)
 RK4_LIMIT = 2.5 / MAP_OPTS.dt_s  # largest Γδ the integrator accepts [1/s]
@@ -284,7 +287,7 @@ print(f"the tuned optimum's own linear loop: ζ = {pd_opt.min_damping:.3f}, deca
 # settled during its sweep.
 
 # %%
-GAMMA_TUNE = (0.5, 0.6, 0.7, 0.8, 0.9, 0.97)
+GAMMA_TUNE = sized((0.5, 0.6, 0.7, 0.8, 0.9, 0.97), (0.5, 0.7, 0.8, 0.9))
 tuned = {}
 t0 = time.perf_counter()
 for gm in GAMMA_TUNE:
@@ -374,7 +377,7 @@ reach_time = time.perf_counter() - t0
 print(f"{reach_ref.size + len(checks)} certified_reach calls in {reach_time:.1f} s; "
       f"largest relative deviation from reach ∝ 1/kp: {100 * scaling_err:.2f} %")
 
-KP_FAM = np.geomspace(0.3, 400.0, 40)
+KP_FAM = np.geomspace(0.3, 400.0, sized(40, 16))
 FAM_HORIZON_S = 12.0
 fam = [(kp, r, u) for u in U_SHAPES for r in R_SHAPES for kp in KP_FAM]
 t0 = time.perf_counter()
@@ -453,4 +456,4 @@ print(f"- γ_max limits the damping of the linear loop: with γ_max = {GAMMA_PAP
 print(f"- Certified reach scales as 1/kp (checked to {100 * scaling_err:.2f} %), so it trades directly against speed: "
       f"the unconstrained optimum certifies only {opt.certified_reach_m:.2f} m; the fastest swept gain set that certifies "
       f"the paper's {XI0_NORM:g} m start settles in {s_start:.2f} s ({s_start / opt.settling_s:.1f} × slower).")
-print(f"(notebook ran in {elapsed:.0f} s)")
+print(f"(notebook ran in {elapsed:.0f} s, {notebook_size()} grids)")

@@ -68,6 +68,8 @@ from nniquad import (
     simulate,
     TILT_SLACK_DEG,
     TuneOptions,
+    notebook_size,
+    sized,
 )
 
 from nniquad.control.gains import SNI2Gains
@@ -157,16 +159,17 @@ print(f"inner loops: ω_a = {INNER.attitude_wn_rad_s:.4g} rad/s, ζ_a = {INNER.a
 # passes it on to the tilt.
 
 # %%
-PD_KP = np.geomspace(1.0, 60.0, 12)
-PD_ZETA = (0.4, 0.55, 0.7, 0.85, 1.0, 1.3)  # k_d = 2 ζ √k_p
-PF_KP = np.geomspace(1.0, 60.0, 10)
-PF_ZETA = (0.4, 0.6, 0.8, 1.0, 1.3)
-PF_TAU = (0.01, 0.03, 0.1)  # τ_f [s]
-NNI_KP = np.geomspace(1.0, 60.0, 12)
+# sized(full, smoke): `make test` runs this notebook on the smoke grids (NNIQUAD_NOTEBOOK_SIZE=smoke)
+PD_KP = np.geomspace(1.0, 60.0, sized(12, 5))
+PD_ZETA = sized((0.4, 0.55, 0.7, 0.85, 1.0, 1.3), (0.55, 0.85, 1.3))  # k_d = 2 ζ √k_p
+PF_KP = np.geomspace(1.0, 60.0, sized(10, 5))
+PF_ZETA = sized((0.4, 0.6, 0.8, 1.0, 1.3), (0.6, 1.0))
+PF_TAU = sized((0.01, 0.03, 0.1), (0.01, 0.03))  # τ_f [s]
+NNI_KP = np.geomspace(1.0, 60.0, sized(12, 5))
 NNI_MARGIN = (1.0, 1.25)  # m kp δ in units of the sector bound 1/γ_max
-NNI_R = (0.75, 1.0, 1.35, 1.8)  # controller pole Γδ in units of √k_p
+NNI_R = sized((0.75, 1.0, 1.35, 1.8), (1.0, 1.35))  # controller pole Γδ in units of √k_p
 NNI_CASCADE_MKD = (1.05, 1.15)  # m kp δ below the sector bound's 1/γ_max = 1.25 (cascade class only)
-SNI2_LAMBDA = (0.6, 0.8, 0.9, 1.1, 1.25, 1.6)  # the certified SNI2 design run λ times faster (time_scaled)
+SNI2_LAMBDA = sized((0.6, 0.8, 0.9, 1.1, 1.25, 1.6), (0.8, 1.25))  # the certified SNI2 design run λ times faster
 
 CANDIDATES = {
     "pd_velocity": [PDGains(kp, 2 * z * math.sqrt(kp)) for kp in PD_KP for z in PD_ZETA],
@@ -421,4 +424,4 @@ for cap in JITTER_CAPS:
 vf = {cap: [c for c in ("nni", "nni_cascade", "sni2", "pd_filtered") if c in picks[cap]] for cap in JITTER_CAPS}
 vf_win = {cap: min(vf[cap], key=lambda c: picks[cap][c]["settling"]) for cap in JITTER_CAPS if vf[cap]}
 print("- Among the velocity-free laws: " + "; ".join(f"≤ {cap:g}°: {CTRL_LABEL[c]}" for cap, c in vf_win.items()) + ".")
-print(f"(notebook ran in {elapsed:.0f} s)")
+print(f"(notebook ran in {elapsed:.0f} s, {notebook_size()} grids)")
