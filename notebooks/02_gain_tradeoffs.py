@@ -41,6 +41,7 @@ from nniquad import (
     bound as time_optimal_bound,
     certified_reach as _reach,
     Gains,
+    notebook_size,
     PAPER_VEHICLE,
     ReducedLoop,
     search_box,
@@ -48,11 +49,10 @@ from nniquad import (
     show_table as md_table,
     SimOptions,
     simulate,
+    sized,
     tune,
     TuneOptions,
     XI0_M,
-    notebook_size,
-    sized,
 )
 
 

@@ -56,6 +56,7 @@ from nniquad import (
     certified_reach,
     decode,
     DEFAULT_TAU_F_S,
+    notebook_size,
     PAPER_VEHICLE,
     PDFilteredGains,
     PDGains,
@@ -66,10 +67,9 @@ from nniquad import (
     show_table as md_table,
     SimOptions,
     simulate,
+    sized,
     TILT_SLACK_DEG,
     TuneOptions,
-    notebook_size,
-    sized,
 )
 
 from nniquad.control.gains import SNI2Gains
