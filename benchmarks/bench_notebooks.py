@@ -23,7 +23,7 @@ def run(quick: bool = False) -> list[dict]:
 
     from nniquad.reporting.display import NOTEBOOK_SIZE_ENV
 
-    os.environ[NOTEBOOK_SIZE_ENV] = "full"  # the kernels inherit it, whatever the caller's environment says
+    env = {**os.environ, NOTEBOOK_SIZE_ENV: "full"}  # the kernels' environment, whatever the caller's says
     rows = []
     for path in NOTEBOOKS[:1] if quick else NOTEBOOKS:
         nb = jupytext.read(path)
@@ -31,7 +31,7 @@ def run(quick: bool = False) -> list[dict]:
         client = nbclient.NotebookClient(nb, timeout=600, kernel_name="python3",
                                          resources={"metadata": {"path": str(path.parent)}})
         t0 = time.perf_counter()
-        client.execute()
+        client.execute(env=env)  # passed on to the kernel's launch
         wall = time.perf_counter() - t0
         last = nb.cells[-1]
         printed = "".join(o.get("text", "") for o in last.get("outputs", []) if o.get("output_type") == "stream")
