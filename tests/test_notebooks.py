@@ -7,7 +7,7 @@ take is a speed target, measured in ``benchmarks/bench_notebooks.py`` (timed
 tests on a shared machine measure the machine, not the notebook).
 
 The kernel runs with ``NNIQUAD_NOTEBOOK_SIZE=smoke``: a notebook's large grids
-(``nniquad.sized(full, smoke)``) are coarser, every cell, check and the printed
+(``nniquad.sized(full, smoke)``) are coarser; every cell, check and the printed
 conclusion are the same code.  ``make bench`` runs every notebook at full size,
 with the same conclusion check.
 """
