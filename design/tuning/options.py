@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
-from typing import Any
+from typing import Any, Callable
 
 
 from nniquad.config import CONTROL_RATE_HZ, GAMMA_MAX, TILT_LIMIT_DEG, TUNING_SCENARIO_SEED, XI0_NORM_M
@@ -236,10 +236,8 @@ class TuneOptions:
         if r < 0:
             raise NniquadError(f"roa radius must not be negative, got {self.roa_radius_m!r}")
         if self.mass_range is not None:
-            lo, hi = (_finite("mass range", v) for v in self.mass_range)
-            if not 0 < lo <= hi:
-                raise VehicleError(f"mass range must satisfy 0 < LO <= HI, got {lo:g} {hi:g}")
-            object.__setattr__(self, "mass_range", (lo, hi))
+            object.__setattr__(self, "mass_range", _range("mass range", self.mass_range, "0 < LO <= HI",
+                                                          lambda lo, hi: 0 < lo <= hi, VehicleError))
         if _finite("noise sigma", self.noise_sigma_m) < 0:
             raise NniquadError(f"noise sigma must not be negative, got {self.noise_sigma_m!r}")
         t = _finite("tilt limit", self.tilt_limit_deg)
@@ -264,17 +262,9 @@ class TuneOptions:
         if isinstance(self.scenario_seed, bool) or not isinstance(self.scenario_seed, int) or self.scenario_seed < 0:
             raise NniquadError(f"scenario seed must be a non-negative integer, got {self.scenario_seed!r}")
         if self.scenario_noise_range_m is not None:
-            try:
-                pair = tuple(self.scenario_noise_range_m)
-            except TypeError:
-                pair = ()
-            if len(pair) != 2:
-                raise NniquadError(f"scenario noise range must be a pair (LO, HI) in m, "
-                                   f"got {self.scenario_noise_range_m!r}")
-            lo, hi = (_finite("scenario noise range", v) for v in pair)
-            if not 0.0 <= lo <= hi:
-                raise NniquadError(f"scenario noise range must satisfy 0 <= LO <= HI (m), got {lo:g} {hi:g}")
-            object.__setattr__(self, "scenario_noise_range_m", (lo, hi))
+            object.__setattr__(self, "scenario_noise_range_m",
+                               _range("scenario noise range", self.scenario_noise_range_m, "0 <= LO <= HI (m)",
+                                      lambda lo, hi: 0.0 <= lo <= hi, NniquadError))
         if self.require_margins is None:  # the cascade margins are those of the NNI law's split
             object.__setattr__(self, "require_margins", self.model == "full" and self.nni_image)
         if self.require_margins and not self.nni_image:
@@ -324,3 +314,19 @@ class TuneOptions:
 
 def _finite(name: str, value: Any) -> float:
     return finite_number(name, value)
+
+
+def _range(name: str, value: Any, rule: str, holds: Callable[[float, float], bool],
+           error: type[NniquadError]) -> tuple[float, float]:
+    """``value`` as a pair ``(LO, HI)`` of finite numbers for which ``holds(LO, HI)``, else ``error`` naming
+    ``name`` and the ``rule``."""
+    try:
+        pair = tuple(value)
+    except TypeError:
+        pair = ()
+    if len(pair) != 2:
+        raise error(f"{name} must be a pair (LO, HI) with {rule}, got {value!r}")
+    lo, hi = (_finite(name, v) for v in pair)
+    if not holds(lo, hi):
+        raise error(f"{name} must satisfy {rule}, got {lo:g} {hi:g}")
+    return lo, hi
