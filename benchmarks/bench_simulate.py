@@ -2,8 +2,8 @@
 
 Rows: the full vehicle as one 20 s trajectory and as a batch of 100 gain sets
 (target: the batch in under 10 s on a 2-core machine), the same 100 runs one
-by one and the ratio of the two throughputs (issue 14: the batch, a CasADi
-``map`` over threads, at least 1.8 x one by one on 2 cores), the linear and reduced
+by one and the ratio of the two throughputs (issue 14: the batch, a serial CasADi
+``map`` per thread on one thread per core, at least 1.8 x one by one on 2 cores), the linear and reduced
 models, and the accuracy of the full model's RK4 (1 ms) against scipy's DOP853
 (rtol 1e-11) over 4 s from the paper's initial state.  The one-off C
 compilation is paid in a warm-up and reported separately.

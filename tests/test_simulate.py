@@ -604,3 +604,37 @@ def test_batch_threads_follow_the_usable_cpus_and_do_not_change_results(monkeypa
         np.testing.assert_array_equal(a.state, b.state)
     with pytest.raises(SimulationError, match="batch threads"):
         runner.set_batch_threads(0)
+
+
+def test_batch_slices_cover_every_run_once_and_leave_the_callers_arrays_alone():
+    """The runs are split into contiguous, nearly equal slices, one per thread; run_batch overwrites its own copy
+    of the state after every segment, never the caller's x0 (a batch of 3 on 2 threads, against runs of one)."""
+    from nniquad.control.gains import PAPER_GAINS, Gains
+    from nniquad.model.vehicle import PAPER_VEHICLE
+    from nniquad.sim import SimOptions, SimParams
+    from nniquad.sim import runner
+
+    for B in range(1, 12):
+        for threads in range(1, 5):
+            parts = runner._thread_slices(B, threads)
+            covered = [i for part in parts for i in range(part.start, part.stop)]
+            sizes = [part.stop - part.start for part in parts]
+            assert covered == list(range(B)) and len(parts) == min(B, threads) and max(sizes) - min(sizes) <= 1
+    o = SimOptions(model="full", horizon_s=0.5)
+    params = [SimParams.from_options(PAPER_VEHICLE, g, o) for g in (PAPER_GAINS, Gains(4.0, 120.0, 0.7),
+                                                                      Gains(6.0, 200.0, 0.5))]
+    P = np.stack([p.vector() for p in params])
+    X0 = np.stack([runner.initial_state("full", p) for p in params])
+    X0_before = X0.copy()
+    E = runner.exogenous_inputs(o)
+    try:
+        runner.set_batch_threads(2)
+        X, _ = runner.run_batch("full", P, X0, E, steps_per_sample=o.steps_per_sample, n_samples=o.n_samples)
+    finally:
+        runner.set_batch_threads(None)
+    np.testing.assert_array_equal(X0, X0_before)
+    for b in range(3):
+        alone, _ = runner.run_batch("full", P[b:b + 1], X0[b:b + 1], E, steps_per_sample=o.steps_per_sample,
+                                    n_samples=o.n_samples)
+        np.testing.assert_array_equal(X[b], alone[0])
+        assert np.all(np.isfinite(X[b])) and not np.array_equal(X[b, -1], X0[b])
