@@ -97,8 +97,8 @@ def _segment_function(model: str, K: int, M: int, B: int, shared_exo: bool, cont
 
     The runs of a batch are spread over threads by :func:`run_batch`, one such function
     per thread, not by CasADi's ``"thread"`` map: CasADi's Python binding releases the GIL
-    during the call, and separate functions on separate threads share no memory objects.
-    Measured on 2 cores, 40 full-model runs of 20 s: 0.38 s this way against 0.43-0.47 s
+    during the call, so the threads run at once.  Why the ``"thread"`` map is slower was not
+    isolated (FINDINGS §27); measured on 2 cores, 40 full-model runs of 20 s: 0.38 s this way against 0.43-0.47 s
     with the ``"thread"`` map, and 0.76 s one by one (``benchmarks/bench_simulate.py``).
     """
     chunk = chunk_function(model, K, controller)
@@ -315,9 +315,9 @@ def run_batch(
         for _ in range(n_seg):
             m_here = min(M, N - done)
             lo, hi = done * K, (done + M) * K
-            Eseg[...] = 0.0
             piece = E[lo:min(hi, E.shape[0])] if shared else E[:, lo:min(hi, E.shape[1])]
             Eseg[..., : piece.shape[-2], :] = piece
+            Eseg[..., piece.shape[-2] :, :] = 0.0  # only a last, short segment has a tail past the run
             others = [pool.submit(trigger) for _, trigger in calls[1:]] if pool is not None else []
             calls[0][1]()  # the calling thread runs the first slice
             for future in others:
