@@ -292,3 +292,34 @@ def test_gains_from_keeps_the_record_of_the_tune_that_found_them(monkeypatch):
     assert captured[-1] == {"source": "given gains"}  # a record of another model is not this certificate's
     job.certify(V, gains, inner=inner, options=TuneOptions(model="full"))
     assert captured[-1] == {"source": "given gains"}
+
+
+def test_the_sector_face_the_tuner_decodes_is_inside_the_bound_as_verify_recomputes_it():
+    """The fastest paper-class designs sit on ``u = 0`` (γ = γ_max); recomputed from the stated gains γ lands an
+    ulp or two either side, and must read as inside the bound (the ``sni2`` tune once printed "0.8 > gamma_max
+    0.8").  The allowance is rounding-sized: a design 1e-9 outside is still outside, and is refused."""
+    from nniquad.analysis.sni_loop import reduced_loop
+    from nniquad.control.gains import SNI2Gains
+    from nniquad.control.law_classes import SECTOR_RTOL, within_sector_bound
+
+    g_max = 0.8
+    assert within_sector_bound(g_max * (1 + 2.0**-52), g_max) and within_sector_bound(g_max, g_max)
+    assert not within_sector_bound(g_max * (1 + 1e-9), g_max) and 1e-9 >= 1e3 * SECTOR_RTOL
+    rng = np.random.default_rng(24)
+    above = 0
+    for controller, rest in (("sni2", lambda: [math.log(rng.uniform(0.5, 300.0)), math.log(rng.uniform(0.1, 4.0))]),
+                             ("nni", lambda: [math.log(rng.uniform(0.05, 300.0))])):
+        law = law_of(controller, "paper")
+        for _ in range(200):
+            q = [math.log(rng.uniform(0.5, 2000.0)), 0.0, *rest()]
+            gains = law.decode(q, V.m, g_max)
+            gamma = reduced_loop(V, gains).smallest_gamma
+            assert within_sector_bound(gamma, g_max), (controller, q, gamma)
+            assert abs(gamma - g_max) <= 8 * 2.0**-52 * g_max  # on the face to rounding: the test's premise
+            above += gamma > g_max
+    # an sni2 design a relative 1e-9 above the face is refused by certify, in one message naming the bound
+    face = law_of("sni2", "paper").decode([math.log(40.0), 0.0, math.log(10.0), math.log(0.6)], V.m, g_max)
+    outside = SNI2Gains(kp=face.kp, k=face.k * (1 + 1e-9), omega=face.omega, zeta=face.zeta)
+    with pytest.raises(CertificateError, match="sector bound of the paper class"):
+        build_certificate(V, outside, model="full", box=SMALL_BOX)
+    print(f"{above} of 400 face designs recompute a gamma above gamma_max by rounding")

@@ -289,3 +289,32 @@ def test_reduced_loop_picks_the_class_and_refuses_a_pd():
     assert type(reduced_loop(V, Gains(5.0, 160.0, 0.6))).__name__ == "ReducedLoop"
     with pytest.raises(GainError, match="no reduced NI loop"):
         reduced_loop(V, PDFilteredGains(kp=8.0, kd=4.0))
+
+
+def test_at_the_sector_bound_sni2_decays_sqrt5_times_faster_than_the_best_nni_design():
+    """Why the ``sni2`` law reaches the nominal target the NNI law misses in the paper class (FINDINGS.md §28).
+
+    Hand derivation, high-frequency stiffness k_p = p² fixed, γ = γ_max = 0.8:
+    * ``sni2``: ``s⁴ + 2ζω s³ + (ω² + k_p) s² + 2ζω k_p s + k_p ω² (1 - γ) = (s + p)⁴`` for ω = √5 p,
+      ζ = 2/√5 (then 1 - γ = p⁴/(k_p ω²) = 1/5): a quadruple pole, decay rate p;
+    * NNI: ``s³ + a s² + k_p s + a k_p (1 - γ)``; its best decay puts all three poles on one vertical line,
+      ``(s + σ)((s + σ)² + β²)``, which gives σ² = k_p (3γ - 2)/2 = p²/5: decay p/√5, found here by a sweep of
+      the controller pole a = Γδ instead.
+    (The decay is the slowest pole's -Re; ``PolesDamping.decay_rate`` is twice it, an energy rate.)
+    """
+    p, g_max = 4.0, 0.8
+    omega, zeta = math.sqrt(5.0) * p, 2.0 / math.sqrt(5.0)
+    quad = SNI2Gains(kp=p * p, k=g_max * V.m * p * p * omega**2, omega=omega, zeta=zeta)
+    loop = reduced_loop(V, quad)
+    assert loop.smallest_gamma == pytest.approx(g_max, rel=1e-12)
+    poles = np.asarray(loop.poles_and_damping().poles)
+    # a quadruple root moves by ~eps^(1/4) |p| under rounding: 1e-3 is far above that and far below any other design
+    assert np.allclose(poles, -p, atol=1e-3 * p), poles
+    best_nni = 0.0
+    for a in np.geomspace(0.2 * p, 5.0 * p, 2001):  # Γδ; δ on the sector bound: m kp δ = 1/γ_max
+        delta = 1.0 / (g_max * V.m * p * p)
+        nni = reduced_loop(V, Gains(kp=p * p, Gamma=a / delta, delta=delta))
+        assert nni.smallest_gamma == pytest.approx(g_max, rel=1e-12)
+        best_nni = max(best_nni, -nni.poles_and_damping().max_real_part)
+    assert best_nni == pytest.approx(p * math.sqrt((3 * g_max - 2) / 2), rel=2e-3)
+    assert -loop.poles_and_damping().max_real_part / best_nni == pytest.approx(math.sqrt(5.0), rel=3e-3)

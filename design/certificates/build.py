@@ -16,7 +16,7 @@ from nniquad.config import (CASCADE_GRID_POINTS_PER_AXIS, CONTROL_RATE_HZ, DT_S,
                             TILT_LIMIT_DEG, XI0_M)
 from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, InnerLoopGains, SNI2Gains
 from nniquad.control.law_classes import DEFAULT_LAW_CLASS
-from nniquad.control.law_classes import law_class as law_class_of
+from nniquad.control.law_classes import law_class as law_class_of, within_sector_bound
 from nniquad.errors import CertificateError
 from nniquad.model.vehicle import Vehicle
 
@@ -236,7 +236,7 @@ def build_certificate(vehicle: Vehicle, gains: Gains | SNI2Gains, *, inner: Inne
     loop = reduced_loop(vehicle, gains)
     m = vehicle.m
     gamma = loop.smallest_gamma
-    if cls.sector_bound and gamma > gamma_max * (1 + 1e-12):
+    if cls.sector_bound and not within_sector_bound(gamma, gamma_max):
         if isinstance(gains, SNI2Gains):
             what = (f"k = {gains.k:.6g} > gamma_max m kp omega^2 = {loop.sector_k_max(gamma_max):.6g} (DC loop gain "
                     f"k/(m kp omega^2) = {gamma:.6g} > gamma_max {gamma_max:g})")

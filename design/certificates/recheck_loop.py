@@ -50,7 +50,7 @@ def ni_storage_check(name: str, P: np.ndarray, A: np.ndarray, B: np.ndarray, C: 
 
 def sector_check(cert: Certificate, tol: Mapping[str, float]) -> Check:
     """The stated sector numbers, recomputed; the paper class (only) needs gamma <= gamma_max."""
-    from nniquad.control.law_classes import LAW_CLASSES
+    from nniquad.control.law_classes import LAW_CLASSES, within_sector_bound
 
     loop = cert.loop
     sec = cert.sector
@@ -63,7 +63,7 @@ def sector_check(cert: Certificate, tol: Mapping[str, float]) -> Check:
     gamma = loop.smallest_gamma
     ok = abs(gamma - gamma_stated) <= tol["sector_relative"] * gamma and 0 < gamma_max < 1 and gamma < 1
     if bound:
-        ok = ok and gamma <= gamma_max * (1 + 1e-12)
+        ok = ok and within_sector_bound(gamma, gamma_max)
     sni2 = cert.controller == "sni2"
     key = "k_max" if sni2 else "delta_min"
     if 0 < gamma_max < 1:
@@ -73,7 +73,7 @@ def sector_check(cert: Certificate, tol: Mapping[str, float]) -> Check:
     ok = ok and close(sec.get(key), limit, tol["sector_relative"])
     claim = (f"<= gamma_max = {gamma_max:g} < 1 (the paper class's sector bound)" if bound else
              f"< 1 (class {cert.law_class_name}: the sector bound with gamma_max = {gamma_max:g} is not claimed"
-             f"{'' if gamma <= gamma_max else '; it does not hold'})")
+             f"{'' if within_sector_bound(gamma, gamma_max) else '; it does not hold'})")
     what = "the DC loop gain k/(m kp omega^2) is" if sni2 else "delta m kp gamma >= 1 holds with"
     return Check("sector", ok, f"{what} gamma = {gamma:.6g} (stated {gamma_stated:.6g}) {claim}; {key} "
                                f"{limit:.6g} (stated {fmt_value(sec.get(key))})")

@@ -22,7 +22,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-__all__ = ["LawClass", "LAW_CLASSES", "DEFAULT_LAW_CLASS", "law_class", "theorem_of"]
+__all__ = ["LawClass", "LAW_CLASSES", "DEFAULT_LAW_CLASS", "law_class", "theorem_of", "SECTOR_RTOL",
+           "within_sector_bound"]
 
 
 @dataclass(frozen=True)
@@ -77,3 +78,22 @@ def law_class(name: str) -> LawClass:
 def theorem_of(name: str) -> str:
     """The theorem that certifies a design of the class ``name``."""
     return law_class(name).theorem
+
+
+#: Relative rounding allowance of the sector bound ``γ <= γ_max``.  The tuner's fastest designs sit on the
+#: face ``γ = γ_max`` (``u = 0``), where ``γ`` recomputed from the stated gains lands an ulp or two either
+#: side; the theorem itself needs only ``γ < 1``, which ``γ_max < 1`` keeps far away.
+SECTOR_RTOL: float = 1e-12
+
+
+def within_sector_bound(gamma: float, gamma_max: float) -> bool:
+    """Whether ``γ <= γ_max`` holds, to the rounding allowance :data:`SECTOR_RTOL`.
+
+    Parameters
+    ----------
+    gamma
+        The design's sector (DC loop gain) constant.
+    gamma_max
+        The class's bound, in (0, 1).
+    """
+    return float(gamma) <= float(gamma_max) * (1.0 + SECTOR_RTOL)

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 from typing import Sequence
 
+from nniquad.control.law_classes import SECTOR_RTOL
 from nniquad.control.gains import Gains, PDFilteredGains, positive_gain
 from nniquad.errors import GainError
 
@@ -131,4 +132,4 @@ def filtered_pd_in_sector(pd: PDFilteredGains, gamma_max: float) -> bool:
     gamma_max
         The sector constant, in (0, 1).
     """
-    return (pd.kp * pd.tau_f / pd.kd + 1.0) * float(gamma_max) >= 1.0 - 1e-12
+    return (pd.kp * pd.tau_f / pd.kd + 1.0) * float(gamma_max) >= 1.0 - SECTOR_RTOL

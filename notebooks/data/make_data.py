@@ -40,6 +40,10 @@ once, not regenerated to check this.  On 2 idle cores a tuning step takes 3-5 mi
     every other perturbation the same), and the certificate of the quiet filtered PD's NNI image in the cascade
     class: what the 2 cm of noise in the corners costs a law that differentiates the measured position
     (notebook 03, section 6; FINDINGS.md §25).
+``sni2_paper``
+    The second-order SNI law in the paper class (the sector bound ``k/(m kp ω²) <= γ_max``), unseeded: the
+    fastest certified design that also keeps the paper's theorem and its 2.5 m certified reach (FINDINGS.md
+    §28; ``benchmarks/bench_robust.py`` certifies it again and studies it).
 ``families``
     Notebook 03 section 5: every law's design run λ times faster and slower (``time_scaled``), each member
     on the nominal run and a small Monte Carlo study (:data:`FAMILY_LAMBDAS`, :data:`FAMILY_SAMPLES`,
@@ -93,6 +97,7 @@ STEPS: dict[str, list[str]] = {
     "nni_cascade_no_margins": ["certify", "--model", "full", "--law-class", "cascade", "--no-margins",
                                "--warm-start", "designs/pd_filtered_held.json",
                                "--out", "designs/nni_cascade_no_margins_certificate.json"],
+    "sni2_paper": ["certify", "--model", "full", "--controller", "sni2", "--out", "designs/sni2_paper_certificate.json"],
 }
 
 #: The laws of notebook 03 section 5 -> the file of their design (a certificate or a 'tune --json' file).

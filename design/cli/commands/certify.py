@@ -7,6 +7,7 @@ import math
 from pathlib import Path
 
 from nniquad.config import CONTROL_RATE_HZ
+from nniquad.control.law_classes import within_sector_bound
 from nniquad.errors import NniquadError
 from nniquad.format import fmt
 
@@ -154,7 +155,7 @@ def run(args: argparse.Namespace) -> int:
 
     listed = ", ".join(f"{f.name} = {fmt(getattr(gains, f.name), digits=6)} {field_unit(f)[0]}".rstrip(" -")
                        for f in fields(gains) if getattr(gains, f.name) is not None)
-    print(f"  {cert.controller} gains {listed}; gamma = {fmt(gamma)} {'<=' if gamma <= gamma_max else '>'} "
+    print(f"  {cert.controller} gains {listed}; gamma = {fmt(gamma)} {'<=' if within_sector_bound(gamma, gamma_max) else '>'} "
           f"{gamma_max:g}")
     print(f"  law class {cert.law_class['name']}: certified by {cert.law_class['theorem']}")
     for model in ("reduced", "full"):

@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 
 from nniquad.config import GAMMA_MAX, TUNING_SCENARIO_SEED
+from nniquad.control.law_classes import within_sector_bound
 from nniquad.format import fmt
 
 from .common import add_json_option, add_tilt_limit_option, add_vehicle_option, vehicle_from_args, write_json_if_asked
@@ -201,7 +202,7 @@ def print_tune_result(res) -> None:
     if res.options.controller in ("nni", "sni2"):
         rows.append(("smallest gamma (sector)" if res.options.controller == "nni" else "DC loop gain gamma (sector)",
                      fmt(res.gamma, digits=5),
-                     f"{'<=' if res.gamma <= res.options.gamma_max else '>'} gamma_max {res.options.gamma_max:g}"))
+                     f"{'<=' if within_sector_bound(res.gamma, res.options.gamma_max) else '>'} gamma_max {res.options.gamma_max:g}"))
     image = res.nni_image()
     if image is not None:
         rows.append(("NNI image (kp, Gamma, delta)", ", ".join(fmt(v, digits=5) for v in
