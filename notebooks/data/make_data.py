@@ -105,6 +105,7 @@ FAMILY_DESIGNS: dict[str, str] = {
     "nni": "paper_model_certificate.json",
     "nni_cascade": "cascade_model_certificate.json",
     "sni2_cascade": "sni2_cascade_certificate.json",
+    "sni2_paper": "designs/sni2_paper_certificate.json",
     "pd_velocity": "designs/pd_velocity.json",
     "pd_filtered": "designs/pd_filtered.json",
 }
