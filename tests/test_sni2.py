@@ -298,7 +298,8 @@ def test_at_the_sector_bound_sni2_decays_sqrt5_times_faster_than_the_best_nni_de
     * ``sni2``: ``s⁴ + 2ζω s³ + (ω² + k_p) s² + 2ζω k_p s + k_p ω² (1 - γ) = (s + p)⁴`` for ω = √5 p,
       ζ = 2/√5 (then 1 - γ = p⁴/(k_p ω²) = 1/5): a quadruple pole, decay rate p;
     * NNI: ``s³ + a s² + k_p s + a k_p (1 - γ)``; its best decay puts all three poles on one vertical line,
-      ``(s + σ)((s + σ)² + β²)``, which gives σ² = k_p (3γ - 2)/2 = p²/5: decay p/√5, found here by a sweep of
+      ``(s + σ)((s + σ)² + β²)``, which gives σ² = k_p (3γ - 2)/2 = p²/5 (for 2/3 <= γ <= 8/9, where β² >= 0 and
+      σ² >= 0): decay p/√5, found here by a sweep of
       the controller pole a = Γδ instead.
     (The decay is the slowest pole's -Re; ``PolesDamping.decay_rate`` is twice it, an energy rate.)
     """
