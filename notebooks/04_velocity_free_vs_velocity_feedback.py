@@ -192,6 +192,7 @@ CANDIDATES = {
     # time scaling keeps the DC loop gain k/(m kp omega^2), so the family stays in the paper class
     "sni2_paper": [SNI2_PAPER_REF.time_scaled(lam) for lam in SNI2_LAMBDA] + [SNI2_PAPER_REF],
 }
+NI_SETS = tuple(c for c in CANDIDATES if not c.startswith("pd_"))  # the certified NI laws' candidate sets
 CONTROLLER_OF = {"nni_cascade": "nni", "sni2_paper": "sni2"}  # the candidate set's law where its name is not the law's
 assert all(within_sector_bound(reduced_loop(V, g).smallest_gamma, GAMMA_MAX)
            for c in ("nni", "sni2_paper") for g in CANDIDATES[c])
@@ -249,7 +250,14 @@ clean_time = time.perf_counter() - t0
 n_clean = sum(len(v) for v in clean.values())
 best_clean = {c: min((r for r in rows if r["ok"]), key=lambda r: r["settling"]) for c, rows in clean.items()
               if any(r["ok"] for r in rows)}
-ref_clean = [r for r in clean["nni"] if r["gains"] is NNI_REF and r["options"].inner == INNER][0]
+
+
+def row_of(results, law, gains):
+    """The scored row of ``gains`` (one of the law's candidates) on the tuned inner loops."""
+    return next(r for r in results[law] if r["gains"] is gains and r["options"].inner == INNER)
+
+
+ref_clean = row_of(clean, "nni", NNI_REF)
 md_table(["controller", "best gains on the grid", "ω_a [rad/s]", "settling [s]", "peak tilt [deg]", "admissible / tried"],
          [[CTRL_LABEL[c], fmt_gains(r["gains"]), f"{r['options'].inner.attitude_wn_rad_s:.0f}", f"{r['settling']:.3f}",
            f"{r['tilt']:.1f}",
@@ -288,7 +296,7 @@ noisy = score_all(BASE.with_(**NOISE))
 noisy_time = time.perf_counter() - t0
 n_noisy = sum(len(v) for v in noisy.values())
 print(f"{n_noisy} noisy full-model runs of {HORIZON_S:g} s in {noisy_time:.1f} s")
-ref_noisy = [r for r in noisy["nni"] if r["gains"] is NNI_REF and r["options"].inner == INNER][0]
+ref_noisy = row_of(noisy, "nni", NNI_REF)
 print(f"the noise-free NNI reference under noise, unchanged: settling "
       f"{'not within ' + format(MAX_SETTLING_S, 'g') + ' s' if ref_noisy['settling'] is None else format(ref_noisy['settling'], '.2f') + ' s'}, "
       f"altitude deviation {ref_noisy['alt']:.2f} m, admissible: {ref_noisy['ok']}")
@@ -384,12 +392,12 @@ md_table(["controller", f"gains (jitter ≤ {CHECK_CAP:g}°)", "ω_a [rad/s]", "
 # conclusion -- every number below was computed in this notebook
 elapsed = time.perf_counter() - T_START
 nni_c, nnic_c, pdv_c, pdf_c = (best_clean[c]["settling"] for c in ("nni", "nni_cascade", "pd_velocity", "pd_filtered"))
-ref_cascade = [r for r in clean["nni_cascade"] if r["gains"] is NNI_CASCADE_REF and r["options"].inner == INNER][0]
-ref_sni2 = [r for r in clean["sni2"] if r["gains"] is SNI2_REF and r["options"].inner == INNER][0]
+ref_cascade = row_of(clean, "nni_cascade", NNI_CASCADE_REF)
+ref_sni2 = row_of(clean, "sni2", SNI2_REF)
 sni2_c = best_clean["sni2"]["settling"] if "sni2" in best_clean else math.nan
-ref_sni2p = [r for r in clean["sni2_paper"] if r["gains"] is SNI2_PAPER_REF and r["options"].inner == INNER][0]
+ref_sni2p = row_of(clean, "sni2_paper", SNI2_PAPER_REF)
 sni2p_c = best_clean["sni2_paper"]["settling"] if "sni2_paper" in best_clean else math.nan
-certified_best = min(("nni", "nni_cascade", "sni2", "sni2_paper"), key=lambda c: best_clean[c]["settling"] if c in best_clean
+certified_best = min(NI_SETS, key=lambda c: best_clean[c]["settling"] if c in best_clean
                      else math.inf)
 print("Conclusion")
 print(f"- Without noise (same inner-loop candidates for all): NNI paper class {nni_c:.2f} s (the tuned "
@@ -438,7 +446,7 @@ for cap in JITTER_CAPS:
     missing = [CTRL_LABEL[c] for c in CANDIDATES if c not in b]
     print(f"- Jitter ≤ {cap:g}° RMS: {parts}" + (f" ({', '.join(missing)}: none admissible)" if missing else "")
           + (f" → {CTRL_LABEL[winners[cap]]} wins." if winners[cap] else "."))
-vf = {cap: [c for c in ("nni", "nni_cascade", "sni2", "sni2_paper", "pd_filtered") if c in picks[cap]] for cap in JITTER_CAPS}
+vf = {cap: [c for c in (*NI_SETS, "pd_filtered") if c in picks[cap]] for cap in JITTER_CAPS}
 vf_win = {cap: min(vf[cap], key=lambda c: picks[cap][c]["settling"]) for cap in JITTER_CAPS if vf[cap]}
 print("- Among the velocity-free laws: " + "; ".join(f"≤ {cap:g}°: {CTRL_LABEL[c]}" for cap, c in vf_win.items()) + ".")
 print(f"(notebook ran in {elapsed:.0f} s, {notebook_size()} grids)")

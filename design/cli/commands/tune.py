@@ -78,9 +78,8 @@ def add_tuning_options(parser: argparse.ArgumentParser) -> None:
     add_tilt_limit_option(parser)
     parser.add_argument("--budget", choices=tuple(BUDGETS), default="normal",
                         help="search effort (default normal; quick for a fast look; with the robust objective "
-                             "the sni2 law's normal is the thorough search without extra seeds, about 100 s a seed "
-                             "on the paper's vehicle, because its 4 gains spread 28 %% over seeds at the NNI "
-                             "law's normal)")
+                             "the sni2 law's normal is the thorough search without its extra seeds: at the NNI "
+                             "law's normal its optimum depended on the seed, FINDINGS.md section 28)")
     parser.add_argument("--optimizer", choices=OPTIMIZERS, default=DEFAULT_OPTIMIZER,
                         help=f"optimiser after the sweep: cma (BIPOP-CMA-ES) or nomad (MADS, NOMAD 4; needs PyNomadBBO) "
                              f"(default {DEFAULT_OPTIMIZER})")
