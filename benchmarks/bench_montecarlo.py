@@ -21,7 +21,7 @@ import time
 from pathlib import Path
 
 import nniquad.study as mc
-from nniquad.analysis.robust_cascade import ParameterBox
+from nniquad.analysis.cascade.certificate import ParameterBox
 from nniquad.certificates import build_certificate, load_certificate, write_certificate
 from nniquad.control.gains import InnerLoopGains
 from nniquad.control.gains import Gains

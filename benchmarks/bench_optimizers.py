@@ -7,7 +7,7 @@ reruns=0)``: the paper class, its certified reach of 2.5 m required, as issue
 off, 2.83 % at stop 37, and the quick mode still does) from ``SEEDS`` seeds; a
 seed changes the Sobol sweep and the optimiser's random choices, and both
 backends get the same sweep and the same number of optimiser evaluations
-(:data:`nniquad.tuning.options.BUDGETS`).  Rows per backend: the best settling
+(:data:`nniquad.tuning.tune_options.BUDGETS`).  Rows per backend: the best settling
 time of each seed, the spread ``(max - min) / best`` of the five in % (target:
 within 2 % of the best of them), the wall time and the simulations.  The table
 printed to stderr is the one for the report.
@@ -19,7 +19,7 @@ minute each on the 2-core reference machine; ``quick`` in the quick mode),
 ``NNIQUAD_BENCH_OPT_SEEDS`` (default 5),
 ``NNIQUAD_BENCH_OPT_METHODS`` (default ``cma``; ``cma,nomad`` compares both).  ``TuneOptions(model="full")``
 takes the robust objective by default, so the budgets are
-:data:`nniquad.tuning.options.ROBUST_BUDGETS`.
+:data:`nniquad.tuning.tune_options.ROBUST_BUDGETS`.
 """
 
 from __future__ import annotations

@@ -145,7 +145,7 @@ print(f"inner loops: ω_a = {INNER.attitude_wn_rad_s:.4g} rad/s, ζ_a = {INNER.a
 # slack, and it holds altitude within 0.5 m (a chattering attitude loop can
 # settle horizontally while the vehicle sinks, see notebook 3).  The tilt
 # jitter is the RMS tilt over the second half of the run
-# (`nniquad.analysis.metrics.rms_after`), when every admissible run has arrived, so it
+# (`nniquad.sim.metrics.rms_after`), when every admissible run has arrived, so it
 # measures the response to noise and not the tail of the manoeuvre;
 # `Metrics.tilt_jitter_rms_deg` (RMS tilt from the settling time on) is shown
 # as well for the chosen designs.

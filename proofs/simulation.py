@@ -6,7 +6,7 @@ exponential and cross-checked with python-control -- and, for
 ``full-model-stability``, on the 12-state vehicle of :mod:`nniquad.sim`
 (realistic attitude loop, 30 deg tilt limit, rotor saturation).
 Conventions follow DESIGN.md: start at xi_h(0) = (2, -1.5) m at rest, z(0) = 0;
-overshoot and settling from :mod:`nniquad.analysis.metrics`.
+overshoot and settling from :mod:`nniquad.sim.metrics`.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ import numpy as np
 import sympy as sp
 
 from nniquad.analysis import linear as L
-from nniquad.analysis import metrics as MT
+from nniquad.sim import metrics as MT
 from nniquad.analysis.linear import PAPER_LOOP, ReducedLoop
 from nniquad.config import TILT_LIMIT_DEG, XI0_M
 from nniquad.control.gains import Gains, PAPER_GAINS
@@ -101,8 +101,8 @@ def _shape(t: np.ndarray, xy: np.ndarray) -> dict:
     big = np.abs(dp) > 1e-12 * abs(p[0])
     ds = np.sign(dp[big])
     extrema = int(np.sum(ds[1:] != ds[:-1]))
-    return {"overshoot_pct (nniquad.analysis.metrics)": MT.overshoot_pct(t, xy),
-            "settling_s (nniquad.analysis.metrics, 2 % band)": MT.settling_time(t, xy),
+    return {"overshoot_pct (nniquad.sim.metrics)": MT.overshoot_pct(t, xy),
+            "settling_s (nniquad.sim.metrics, 2 % band)": MT.settling_time(t, xy),
             "zero crossings along the initial direction": crossings,
             "local extrema (oscillations)": extrema}
 
@@ -119,7 +119,7 @@ def smooth_response(shape: dict) -> bool:
     shape
         The summary of :func:`_shape`.
     """
-    return (shape["overshoot_pct (nniquad.analysis.metrics)"] <= 0.1
+    return (shape["overshoot_pct (nniquad.sim.metrics)"] <= 0.1
             and shape["zero crossings along the initial direction"] == 0
             and shape["local extrema (oscillations)"] == 0)
 
@@ -161,21 +161,21 @@ def simulation_claim(loop: ReducedLoop = PAPER_LOOP, state0: Sequence[float] | N
     if smooth_response(shape):
         return Finding(HOLDS, "no overshoot, no zero crossing, no oscillation", ev)
     period = 2 * np.pi / float(np.max(np.abs(pdmp.poles.imag))) if np.any(pdmp.poles.imag != 0) else None
-    cex = {"overshoot_pct": shape["overshoot_pct (nniquad.analysis.metrics)"],
+    cex = {"overshoot_pct": shape["overshoot_pct (nniquad.sim.metrics)"],
            "zero crossings": shape["zero crossings along the initial direction"],
            "oscillation period [s]": period, "dominant damping ratio": pdmp.min_damping,
-           "settling_s": shape["settling_s (nniquad.analysis.metrics, 2 % band)"]}
+           "settling_s": shape["settling_s (nniquad.sim.metrics, 2 % band)"]}
     correction = {
         "no gain set can make it hold": f"for x(0) = (x0, 0, 0) the Laplace transform X(s) = x0 {X_s} vanishes at "
                                         "s = 0, so for every stabilising (kp, Gamma, delta) the integral of x(t) over "
                                         "[0, inf) is 0: x(t) must change sign, i.e. overshoot > 0, whatever the gains",
         "corrected sentence": (f"the positions converge to zero as a lightly damped oscillation (damping ratio "
                                f"{pdmp.min_damping:.3f}, period {period:.2f} s), overshooting by "
-                               f"{shape['overshoot_pct (nniquad.analysis.metrics)']:.1f} % and settling into the 2 % band after "
-                               f"{shape['settling_s (nniquad.analysis.metrics, 2 % band)']:.0f} s") if period else
+                               f"{shape['overshoot_pct (nniquad.sim.metrics)']:.1f} % and settling into the 2 % band after "
+                               f"{shape['settling_s (nniquad.sim.metrics, 2 % band)']:.0f} s") if period else
                               "the response overshoots",
     }
-    return Finding(FAILS, f"overshoot {shape['overshoot_pct (nniquad.analysis.metrics)']:.0f} %, "
+    return Finding(FAILS, f"overshoot {shape['overshoot_pct (nniquad.sim.metrics)']:.0f} %, "
                           f"{shape['zero crossings along the initial direction']} zero crossings, dominant damping "
                           f"{pdmp.min_damping:.3f}; integral of x is 0 for any gains, so overshoot is unavoidable",
                    ev, cex, correction)

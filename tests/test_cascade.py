@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 
-from nniquad.analysis.cascade import linearise, linearise_cascade
+from nniquad.analysis.cascade.linearised import linearise, linearise_cascade
 from nniquad.analysis.linear import ReducedLoop
 from nniquad.control.gains import PAPER_GAINS, Gains, InnerLoopGains, PDGains
 from nniquad.errors import CascadeError, NniquadError
@@ -188,7 +188,7 @@ def test_evaluate_map_equals_casadis_own_map(n):
     """evaluate_map (buffers, blocks of points) against fn.map(n) called on numpy and converted by CasADi."""
     import casadi as ca
 
-    from nniquad.analysis.mapped import evaluate_map
+    from nniquad.analysis.batch_eval import evaluate_map
 
     x, p = ca.SX.sym("x", 3), ca.SX.sym("p", 2)
     f = ca.vertcat(x[0] * p[0], ca.sin(x[2]) + p[1] * x[1] ** 2, x[0])

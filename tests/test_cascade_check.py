@@ -16,7 +16,7 @@ from typing import Any, Callable
 import numpy as np
 import pytest
 
-from nniquad.analysis import robust_cascade as RC
+from nniquad.analysis.cascade import certificate as RC
 from nniquad.config import CASCADE_GRID_MAX_POINTS_PER_AXIS
 from tests.test_robust_cascade import BOX, GAINS, INNER, RATE, TILT, V
 
@@ -49,8 +49,8 @@ def test_a_true_section_gives_every_row_passing_with_a_detail(section):
     assert details["grid check"].startswith(f"{section['grid']['size']} points")
     assert details["margins at the stated worst vertices"].endswith("vertices recomputed")
     # the rows whose detail is fixed, or is the stated value itself
-    from nniquad.analysis.robust.box import ParameterBox
-    from nniquad.analysis.robust.family import SUBSYSTEMS
+    from nniquad.analysis.cascade.box import ParameterBox
+    from nniquad.analysis.cascade.family import SUBSYSTEMS
 
     assert details["Monte Carlo default box"] == str(ParameterBox.monte_carlo_default().to_json())
     assert details["stated method texts and subsystem states"] == "form, coverage, notes, states"
@@ -214,7 +214,7 @@ def test_an_edit_fails_exactly_its_rows(section, name):
     assert fast == rows[:len(fast)] and not fast[-1][1] and fast[-1][0] == next(n for n in ROWS if n in expected)
     # verify's cache (grid check, region, margins by their exact inputs), holding the true section's results,
     # gives the same rows: none of them is handed back for an input the edit changed
-    from nniquad.certificates.check import memo
+    from nniquad.certificates.check_record import memo
 
     _rows(section, cache=memo)
     assert _rows(sec, cache=memo) == rows, name
@@ -314,7 +314,7 @@ def test_numbers_moved_within_their_tolerances_still_pass(section):
 
 def test_the_largest_grid_allowed_is_allowed(section, monkeypatch):
     """The grid-size limit is inclusive: with the limit lowered to this section's 2 points, it still passes."""
-    import nniquad.analysis.robust.lyapunov as rule  # the one grid-size rule, shared with certify
+    import nniquad.analysis.cascade.lyapunov as rule  # the one grid-size rule, shared with certify
 
     monkeypatch.setattr(rule, "CASCADE_GRID_MAX_POINTS_PER_AXIS", section["grid"]["points_per_axis"])
     assert all(ok for _, ok, _ in _rows(section))
@@ -327,7 +327,7 @@ def test_the_largest_grid_allowed_is_allowed(section, monkeypatch):
 # exact multiples, so the differences below are exact in binary and sit on the tolerance itself.
 
 def test_close_by_hand():
-    from nniquad.analysis.robust.check import _close
+    from nniquad.analysis.cascade.recheck import _close
 
     assert _close(1.5, 1.0, rtol=0.5) and not _close(1.5 + 2.0 ** -40, 1.0, rtol=0.5)  # |a - b| = rtol max(|b|, 1)
     assert _close(0.0, 0.0, rtol=0.0) and not _close(1e-290, 0.0, rtol=0.0)  # exact equality at rtol 0
@@ -346,7 +346,7 @@ TOL = 2.0 ** -20  # a rounding bound above _same_worst's floor of 1e-9, exact in
 
 
 def _grid_check(rho: list[float], spectral: list[float]):
-    from nniquad.analysis.robust.lyapunov import GridCheck
+    from nniquad.analysis.cascade.lyapunov import GridCheck
 
     pts = np.array([[1.0] * 6, [2.0] * 6])
     i, j = int(np.argmax(rho)), int(np.argmax(spectral))
@@ -357,7 +357,7 @@ def _grid_check(rho: list[float], spectral: list[float]):
 
 
 def _stated(rho: float, rho_row: int, sr: float, sr_row: int, margin: float) -> dict:
-    from nniquad.analysis.robust.box import POINT_NAMES
+    from nniquad.analysis.cascade.box import POINT_NAMES
 
     point = lambda row: dict(zip(POINT_NAMES, [float(row + 1)] * 6))  # noqa: E731
     return {"worst_rho": rho, "worst_point": point(rho_row), "worst_spectral_radius": sr,
@@ -367,7 +367,7 @@ def _stated(rho: float, rho_row: int, sr: float, sr_row: int, margin: float) -> 
 @pytest.mark.parametrize("k, ok", [(0, True), (1, True), (2, False)])
 def test_same_worst_compares_values_within_the_rounding_bound(k, ok):
     """Every value that _same_worst compares, moved by k rounding bounds: up to one is the same worst."""
-    from nniquad.analysis.robust.check import _same_worst
+    from nniquad.analysis.cascade.recheck import _same_worst
 
     gc, pts = _grid_check([0.5, 0.25], [0.25, 0.5])
     d = k * TOL
@@ -381,7 +381,7 @@ def test_same_worst_compares_values_within_the_rounding_bound(k, ok):
 
 
 def test_same_worst_refuses_a_point_off_the_grid_and_a_value_that_is_no_number():
-    from nniquad.analysis.robust.check import _same_worst
+    from nniquad.analysis.cascade.recheck import _same_worst
 
     gc, pts = _grid_check([0.5, 0.25], [0.25, 0.5])
     assert _same_worst(_stated(0.5, 0, 0.5, 1, 0.5), gc, pts)
@@ -392,7 +392,7 @@ def test_same_worst_refuses_a_point_off_the_grid_and_a_value_that_is_no_number()
 
 
 def test_a_stated_margin_is_compared_on_its_own_scale():
-    from nniquad.analysis.robust.check import BOUND_RTOL, SCALED_EIG_ATOL, _stated_margin_ok
+    from nniquad.analysis.cascade.recheck import BOUND_RTOL, SCALED_EIG_ATOL, _stated_margin_ok
 
     assert BOUND_RTOL * 1000.0 == 1.0 and SCALED_EIG_ATOL == 1e-9  # the exact boundaries used below
     # the scaled smallest eigenvalue: absolutely, within 1e-9
@@ -413,7 +413,7 @@ def test_a_stated_margin_is_compared_on_its_own_scale():
 # ----------------------------------------------------------------------------- rows decided inside the re-check
 
 def test_a_family_that_cannot_be_rebuilt_is_a_failed_row_that_stops_the_recheck(section, monkeypatch):
-    import nniquad.analysis.robust.check as check
+    import nniquad.analysis.cascade.recheck as check
     from nniquad.errors import CascadeError
 
     def refuse(*args, **kwargs):
@@ -427,7 +427,7 @@ def test_a_family_that_cannot_be_rebuilt_is_a_failed_row_that_stops_the_recheck(
 
 
 def test_the_coupling_is_measured_on_the_nominal_loop_and_its_limit_is_inclusive(section, monkeypatch):
-    import nniquad.analysis.robust.check as check
+    import nniquad.analysis.cascade.recheck as check
 
     sizes: list[int] = []
     real = check.coupling
@@ -464,7 +464,7 @@ def test_a_stated_rho_equals_the_contraction_within_its_rounding_bound(section, 
     """
     import dataclasses
 
-    import nniquad.analysis.robust.check as check
+    import nniquad.analysis.cascade.recheck as check
 
     sec = copy.deepcopy(section)
     x = sec["lyapunov"]["subsystems"]["x"]["rho"]
@@ -489,7 +489,7 @@ def test_a_stated_margin_over_its_bound_is_known_to_one_plus_a_share_of_itself(s
     recomputed ratio replaced by 1000 (dyadic offsets below are exact), 1000 +- 2 passes and 1000 +- 2.5 fails."""
     import dataclasses
 
-    import nniquad.analysis.robust.check as check
+    import nniquad.analysis.cascade.recheck as check
 
     real = check.grid_check
     monkeypatch.setattr(check, "grid_check", lambda *a: dataclasses.replace(real(*a), margin_over_bound=1000.0))
@@ -521,10 +521,10 @@ def test_a_linear_zone_region_states_the_linear_zone_reach_and_nothing_else(sect
 def test_the_region_is_rechecked_at_each_horizontal_axis_own_lmi_points(section, monkeypatch):
     """The Lur'e block of an axis is re-checked on the family at that axis's LMI points (the subgrid of the box
     in the axis's coordinates), rebuilt here independently."""
-    import nniquad.analysis.robust.check as check
-    from nniquad.analysis.robust.box import POINT_NAMES, ParameterBox, _subgrid
-    from nniquad.analysis.robust.roa import HORIZONTAL
-    from nniquad.analysis.robust.section import LMI_POINTS_PER_AXIS
+    import nniquad.analysis.cascade.recheck as check
+    from nniquad.analysis.cascade.box import POINT_NAMES, ParameterBox, _subgrid
+    from nniquad.analysis.cascade.region import HORIZONTAL
+    from nniquad.analysis.cascade.section import LMI_POINTS_PER_AXIS
 
     seen: dict = {}
     real = check.check_lure_block
@@ -552,7 +552,7 @@ def test_the_region_is_rechecked_at_each_horizontal_axis_own_lmi_points(section,
 ])
 def test_the_stated_lure_reach_is_the_recomputed_one_never_larger_and_past_the_linear_zone(section, monkeypatch,
                                                                                            recomputed, stated, ok):
-    import nniquad.analysis.robust.check as check
+    import nniquad.analysis.cascade.recheck as check
     from nniquad.config import XI0_M
 
     monkeypatch.setattr(check, "linear_zone_reach", lambda *a: 1.0)

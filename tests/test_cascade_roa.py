@@ -1,4 +1,4 @@
-"""The cascade's region of attraction under the norm tilt limit (nniquad.analysis.robust.roa, roa_lmi).
+"""The cascade's region of attraction under the norm tilt limit (nniquad.analysis.cascade.region, roa_lmi).
 
 Each test compares the stated region against something independent of its LMI: the saturated sampled loop
 simulated step by step (V along it, and where it ends), the closed-form level of a start, a perturbed input
@@ -17,9 +17,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nniquad.analysis import robust_cascade as RC
-from nniquad.analysis.robust import family as RF, roa as RR
-from nniquad.analysis.robust.box import _subgrid
+from nniquad.analysis.cascade import certificate as RC
+from nniquad.analysis.cascade import family as RF
+from nniquad.analysis.cascade import region as RR
+from nniquad.analysis.cascade.box import _subgrid
 from tests.test_robust_cascade import BOX, GAINS, INNER, RATE, TILT, V
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -225,7 +226,7 @@ def test_a_cut_spreads_over_every_failing_spot_and_keeps_the_worst():
     """The cutting plane's choice (``roa_lmi._spread_worst``) against a hand-made failing set: a dense cluster of
     bad points around one corner and three mild ones far apart.  The worst-first choice of four would take the
     cluster alone; the spread choice takes the worst point and then one from each distant spot."""
-    from nniquad.analysis.robust.roa_lmi import _spread_worst
+    from nniquad.analysis.cascade.region_lmi import _spread_worst
 
     rng = np.random.default_rng(7)
     cluster = np.array([1.0, 1.0, 1.0]) + 0.01 * rng.standard_normal((10, 3))
@@ -244,7 +245,7 @@ def test_a_cut_spreads_over_every_failing_spot_and_keeps_the_worst():
 def test_corner_points_by_hand():
     """The corners of a 3 x 3 grid in two coordinates are its four points with both coordinates at ±1; with no
     coordinate every point is one."""
-    from nniquad.analysis.robust.roa_lmi import corner_points
+    from nniquad.analysis.cascade.region_lmi import corner_points
 
     theta = np.array(list(itertools.product((-1.0, 0.0, 1.0), (-0.5, 0.0, 0.5))))
     assert list(corner_points(theta)) == [0, 2, 6, 8]
@@ -257,7 +258,7 @@ def test_a_level_refused_at_a_corner_is_infeasible_on_the_whole_box(section):
     level, the screen refuses (in milliseconds), and the LMI posed with ``P, Ĝ, μ`` quadratic in θ at all 81 LMI
     points is infeasible, solved independently of the screen (seconds: what the screen saves).  At the stated level
     (which the search solved) the screen passes."""
-    from nniquad.analysis.robust import roa_lmi as RL
+    from nniquad.analysis.cascade import region_lmi as RL
     from nniquad.config import CASCADE_LURE_MARGIN as eta
 
     dims, region = _dims(section), _region(section)

@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from nniquad.analysis.robust_cascade import ParameterBox
+from nniquad.analysis.cascade.certificate import ParameterBox
 
 from nniquad.certificates import (SCHEMA_VERSION, SCHEMA_VERSIONS, Certificate, build_certificate, canonical_digest, load_certificate,
                                   read_certificate, verify_certificate, write_certificate)
@@ -23,7 +23,7 @@ INNER = InnerLoopGains(attitude_wn_rad_s=101.56, attitude_zeta=1.132, attitude_a
 
 #: The tests that build this design's certificate run on one xdist worker (here and test_cli_rate's ``certify``):
 #: the worker builds it once, in the shared fixture, and ``certify`` of the same design then reuses the cascade
-#: section computed in that process (nniquad.analysis.robust.section.cascade_section); spread over two workers,
+#: section computed in that process (nniquad.analysis.cascade.section.cascade_section); spread over two workers,
 #: one would wait for the other's build and then build it again.
 pytestmark = pytest.mark.xdist_group("small_certificate")
 
@@ -87,7 +87,7 @@ def test_certificate_verifies_and_states_independent_numbers(cert, tmp_path):
             "lmi.robust_mass", "lmi.region_of_attraction", "performance.reduced", "performance.full",
             "margins"} <= names
     # the margins section: both break points, against python-control on the same linearised cascade
-    from nniquad.analysis.cascade import linearise_cascade
+    from nniquad.analysis.cascade.linearised import linearise_cascade
     from nniquad.analysis.margins import cascade_margins
 
     ref = cascade_margins(linearise_cascade(V, GAINS, INNER), 100.0)
@@ -247,7 +247,7 @@ def test_library_certify_refuses_an_unsettled_reference_run():
                                                (None, "did not settle"), (1.0, "diverged")])
 def test_reference_run_must_be_seen_in_the_band_for_the_hold_time(cert, settling, verdict):
     """On a 20 s run a last exit at s counts only if s + max(5 s, 2 s) <= 20 s, i.e. s <= 6.67 s."""
-    from nniquad.certificates.job import unsettled_reference_run
+    from nniquad.jobs.certify import unsettled_reference_run
 
     c = copy.deepcopy(cert)
     assert unsettled_reference_run(c) is None  # the fixture's runs settle at about 2-3 s
@@ -438,7 +438,7 @@ def test_tilt_limit_alone_changed_to_60_fails_and_a_consistent_60_certificate_is
     """Every tilt limit of the document 30 -> 60 deg, re-signed: the recomputed u0, bound and runs refuse it.  A
     certificate derived at 60 deg throughout is a true statement about 60 deg: it verifies, and the Monte Carlo
     setup simulates at 60 deg over that certificate's own reach."""
-    from nniquad.study.scenarios import study_setup
+    from nniquad.scenarios.draws import study_setup
 
     c = copy.deepcopy(cert)
     c["tilt_limit_deg"] = c["region_of_attraction"]["tilt_limit_deg"] = 60.0
@@ -552,7 +552,7 @@ def test_schema_2_cascade_section_is_checked_by_robust_cascade(certificate, monk
         seen.update(section=section, vehicle=vehicle, gains=gains, inner=inner, tilt=tilt_limit_deg)
         return [("lyapunov", True, "stub"), ("grid", section.get("grid_ok", True), "stub")]
 
-    monkeypatch.setitem(sys.modules, "nniquad.analysis.robust_cascade",
+    monkeypatch.setitem(sys.modules, "nniquad.analysis.cascade.certificate",
                         types.SimpleNamespace(check_cascade_section=stub))
     section = {"rate_hz": 100.0, "region_of_attraction": {"tilt_limit_deg": 30.0}}
     two = dataclasses.replace(certificate, cascade=section).signed()

@@ -58,7 +58,7 @@ def test_simulate_bad_rate(run_cli, args, message):
 
 
 def _small_box():
-    from nniquad.analysis.robust_cascade import ParameterBox
+    from nniquad.analysis.cascade.certificate import ParameterBox
 
     return ParameterBox.monte_carlo_default().scaled(0.1)
 

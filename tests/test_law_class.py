@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from nniquad.analysis.linear import ReducedLoop
-from nniquad.analysis.robust_cascade import ParameterBox
+from nniquad.analysis.cascade.certificate import ParameterBox
 from nniquad.certificates import build_certificate, canonical_digest, verify_certificate
 from nniquad.control.gains import Gains, InnerLoopGains, PDFilteredGains
 from nniquad.control.law_classes import LAW_CLASSES
@@ -26,7 +26,7 @@ from nniquad.errors import CertificateError, NniquadError
 from nniquad.model.vehicle import PAPER_VEHICLE as V
 from nniquad.tuning.coordinates import decode, encode, gain_limits, search_box, warm_start_coordinates
 from nniquad.tuning.laws import law_of
-from nniquad.tuning.options import TuneOptions
+from nniquad.tuning.tune_options import TuneOptions
 
 # issue 14's tuned filtered PD and its inner loops (notebooks/data/designs/pd_filtered_held.json): outside gamma = 0.8
 PD = PDFilteredGains(kp=9.111984627754474, kd=4.426807306344244, tau_f=0.05246651970835971)
@@ -270,9 +270,9 @@ def test_gains_from_keeps_the_record_of_the_tune_that_found_them(monkeypatch):
     section, a ``tune --json`` document), when that tune ran on the certified model; otherwise only the source."""
     from pathlib import Path
 
-    import nniquad.certificates.job as job
+    import nniquad.jobs.certify as job
     from nniquad.certificates import read_certificate
-    from nniquad.cli.commands.tune import designs_from_files
+    from nniquad.cli.commands.tune_command import designs_from_files
     from nniquad.tuning.tune import TuneOptions
 
     data = Path(__file__).resolve().parents[1] / "notebooks" / "data"

@@ -195,7 +195,7 @@ def test_verify_exit_status(run_cli, tmp_path):
     (RuntimeError("a bug"), EXIT_INTERNAL_ERROR, "internal error"),
 ])
 def test_main_maps_every_failure_to_its_status(run_cli, monkeypatch, exc, code, word):
-    import nniquad.cli.commands.vehicle as vehicle_cmd
+    import nniquad.cli.commands.vehicle_command as vehicle_cmd
 
     def boom(args):
         raise exc
@@ -222,7 +222,7 @@ def _sigterm_self_then_wait():
 
 def test_sigterm_during_a_command_ends_it_cleanly_with_143(run_cli, monkeypatch, tmp_path):
     """A real SIGTERM mid-write: the temporary file is removed, one line, exit 143, the old handler back."""
-    import nniquad.cli.commands.vehicle as vehicle_cmd
+    import nniquad.cli.commands.vehicle_command as vehicle_cmd
     from nniquad.io import atomic_write_with
 
     def writer(tmp):
@@ -239,7 +239,7 @@ def test_sigterm_during_a_command_ends_it_cleanly_with_143(run_cli, monkeypatch,
 
 def test_a_swallowed_sigterm_still_ends_the_command_with_143(run_cli, monkeypatch):
     """CasADi clears the exception a signal raises inside its loops (IPOPT then fails): the request is sticky."""
-    import nniquad.cli.commands.vehicle as vehicle_cmd
+    import nniquad.cli.commands.vehicle_command as vehicle_cmd
     from nniquad.errors import SolverError
     from nniquad.progress import Progress
 

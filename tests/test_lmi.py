@@ -252,8 +252,8 @@ def test_norm_limited_region_certifies_the_2d_loop_in_simulation():
 # LMI function that skipped (part of) its re-check would report the wrong answer as certified.
 
 def _lmi_cases():
-    from nniquad.analysis.lmi import decay, ni, roa
-
+    from nniquad.analysis.lmi import decay, ni
+    from nniquad.analysis.lmi import reduced_region as roa
     A, B, C, D = PAPER_LOOP.plant_matrices()
     Ac, Bc, Cc, _ = PAPER_LOOP.controller_matrices()
     u0 = lmi.axis_acceleration_limit(PAPER_LOOP.g)
@@ -419,8 +419,8 @@ def test_region_of_attraction_is_certified_at_every_corner_of_the_old_search_box
 def test_region_of_attraction_scaling_names_are_checked():
     with pytest.raises(GainError, match="scaling"):
         lmi.region_of_attraction(PAPER_LOOP, 5.0, scaling="tilted")
-    scalings = lmi.roa.roa_scalings(*[np.asarray(m) for m in _split(PAPER_LOOP)], 5.0)
-    assert set(scalings) == set(lmi.roa.ROA_SCALINGS)
+    scalings = lmi.reduced_region.roa_scalings(*[np.asarray(m) for m in _split(PAPER_LOOP)], 5.0)
+    assert set(scalings) == set(lmi.reduced_region.ROA_SCALINGS)
     d, omega, psi = scalings["physical"]
     kp, m = PAPER_LOOP.gains.kp, PAPER_LOOP.m
     np.testing.assert_allclose(d, 5.0 / kp * np.array([1.0, np.sqrt(kp), m * kp]))

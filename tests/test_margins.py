@@ -9,7 +9,7 @@ import control as ct
 import numpy as np
 import pytest
 
-from nniquad.analysis.cascade import linearise_cascade
+from nniquad.analysis.cascade.linearised import linearise_cascade
 from nniquad.analysis.margins import cascade_margins, frequency_grid, frequency_response, loop_margins
 from nniquad.analysis.sampled import sampled_gain_interval
 from nniquad.config import REQUIRED_GM_DB, REQUIRED_PM_DEG

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from nniquad.errors import NniquadError, SimulationError
-from nniquad.analysis.metrics import overshoot_pct, overshoot_pct_batch, peak_abs, peak_tilt_deg, rms_after, settling_time, settling_time_batch, tilt_deg, time_on_limit_fraction
-from nniquad.analysis.verdicts import Metrics, compute_metrics, diverged, diverged_batch
+from nniquad.sim.metrics import overshoot_pct, overshoot_pct_batch, peak_abs, peak_tilt_deg, rms_after, settling_time, settling_time_batch, tilt_deg, time_on_limit_fraction
+from nniquad.sim.verdicts import Metrics, compute_metrics, diverged, diverged_batch
 
 E0 = np.array([2.0, -1.5]) / 2.5  # paper's initial direction
 E_PERP = np.array([-E0[1], E0[0]])
@@ -275,7 +275,7 @@ def test_divergence_scale_threshold_and_non_finite_altitude():
 
 
 def test_altitude_loss_and_the_one_failure_verdict():
-    from nniquad.analysis.verdicts import altitude_lost_batch, failure_reason
+    from nniquad.sim.verdicts import altitude_lost_batch, failure_reason
     from nniquad.config import ALTITUDE_LIMIT_M
 
     z = np.array([[0.0, ALTITUDE_LIMIT_M, 0.0], [0.0, -1.01 * ALTITUDE_LIMIT_M, 0.0], [0.0, np.nan, 0.0]])
@@ -430,7 +430,7 @@ def test_raw_int16_counts_at_their_most_negative_value():
 
 def test_diverged_means_lost_and_the_verdict_names_the_cause():
     """Hand-built runs with known answers: blown up (nan, far), fallen, fine -- flags, verdict and settling."""
-    from nniquad.analysis.verdicts import altitude_lost_batch, blew_up_batch
+    from nniquad.sim.verdicts import altitude_lost_batch, blew_up_batch
     from nniquad.config import ALTITUDE_LIMIT_M, DIVERGENCE_FACTOR
 
     t = np.linspace(0.0, 10.0, 1001)

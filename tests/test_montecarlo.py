@@ -17,7 +17,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from nniquad.analysis.robust_cascade import ParameterBox
+from nniquad.analysis.cascade.certificate import ParameterBox
 
 import nniquad.study as mc
 from nniquad.study import executors

@@ -228,7 +228,7 @@ def test_sigterm_on_a_real_process_keeps_every_finished_scenario(cert_path, tmp_
 
 def test_second_sigint_while_writing_the_partial_file(run_cli, cert_path, tmp_path, monkeypatch):
     """The second Ctrl-C lands exactly while the partial file is written: it is ignored, the file is whole."""
-    import nniquad.cli.commands.montecarlo as cli
+    import nniquad.cli.commands.montecarlo_command as cli
 
     real_write = cli.atomic_write_json
     handlers = []

@@ -111,7 +111,7 @@ def test_a_narrow_box_leaves_no_draw_outside_it():
 
 
 def test_small_study_inside_the_box_converges():
-    from nniquad.study.job import montecarlo
+    from nniquad.jobs.montecarlo import montecarlo
 
     res = montecarlo(_with_cascade(), 6, 0, within_certificate=True, horizon_s=6.0, workers=1)
     assert res.run.n_requested == 6 and len(res.run.results) == 6

@@ -13,7 +13,7 @@ import pytest
 
 from nniquad.errors import NniquadError
 from nniquad.tuning.optimizers import minimise
-from nniquad.tuning.options import OPTIMIZERS
+from nniquad.tuning.tune_options import OPTIMIZERS
 from nniquad.tuning.search import Candidate
 
 

@@ -18,7 +18,7 @@ _spec.loader.exec_module(planted)
 def _source(file: str) -> str:
     if file.startswith("proofs/"):
         return (ROOT / file).read_text()
-    return (ROOT / "design" / file).read_text()
+    return (ROOT / "design" / "nniquad" / file).read_text()
 
 
 @pytest.mark.parametrize("bug", planted.PLANTED, ids=lambda b: b.name)
@@ -32,6 +32,6 @@ def test_each_planted_line_occurs_once_and_the_edit_changes_it(bug):
 
 def test_a_stale_entry_is_refused_not_counted(tmp_path, monkeypatch):
     monkeypatch.setattr(planted, "BUILD", tmp_path)
-    stale = planted.Planted("stale", "a line that is not there", "analysis/metrics.py", "no such line", "x", ())
+    stale = planted.Planted("stale", "a line that is not there", "sim/metrics.py", "no such line", "x", ())
     with pytest.raises(LookupError, match="occurs 0 times"):
         planted.stage(stale)

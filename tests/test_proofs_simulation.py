@@ -7,7 +7,7 @@ from scipy.integrate import solve_ivp
 
 from nniquad.analysis import linear as L
 from nniquad.control.gains import Gains
-from nniquad.analysis import metrics as MT
+from nniquad.sim import metrics as MT
 from nniquad.proofs import simulation as SIM
 from nniquad.proofs.claims import FAILS, HOLDS, HOLDS_WITH_CORRECTION
 
@@ -29,9 +29,9 @@ def test_simulation_claim_fails_with_numbers_from_a_second_integrator():
     xy = sol.y[[0, 3]].T
     ov = MT.overshoot_pct(t, xy)
     shape = r.evidence["response (expm, dt = 0.01 s, 400 s)"]
-    assert abs(ov - shape["overshoot_pct (nniquad.analysis.metrics)"]) < 0.05  # percent points
+    assert abs(ov - shape["overshoot_pct (nniquad.sim.metrics)"]) < 0.05  # percent points
     st = MT.settling_time(t, xy)
-    assert abs(st - shape["settling_s (nniquad.analysis.metrics, 2 % band)"]) < 0.05  # s
+    assert abs(st - shape["settling_s (nniquad.sim.metrics, 2 % band)"]) < 0.05  # s
 
 
 def test_simulation_claim_can_hold_from_a_slow_eigenvector():
@@ -69,12 +69,12 @@ def test_smooth_response_needs_all_three_conditions():
     assert SIM.smooth_response(smooth)
     # wiggles without ever passing the origin: no overshoot, no zero crossing, but local extrema
     wiggle = _shape_of(lambda t: np.exp(-t) * (1.0 + 0.5 * np.sin(6.0 * t)))
-    assert wiggle["overshoot_pct (nniquad.analysis.metrics)"] <= 0.1
+    assert wiggle["overshoot_pct (nniquad.sim.metrics)"] <= 0.1
     assert wiggle["zero crossings along the initial direction"] == 0
     assert wiggle["local extrema (oscillations)"] > 0
     assert not SIM.smooth_response(wiggle)
     # dips 0.05 % past the origin and comes back: overshoot within 0.1 %, but a zero crossing
     dip = _shape_of(lambda t: np.exp(-t) - 0.0005 * (1 - np.exp(-t)) * np.exp(-(t - 10.0) ** 2 / 20.0))
-    assert dip["overshoot_pct (nniquad.analysis.metrics)"] <= 0.1
+    assert dip["overshoot_pct (nniquad.sim.metrics)"] <= 0.1
     assert dip["zero crossings along the initial direction"] > 0
     assert not SIM.smooth_response(dip)

@@ -181,8 +181,8 @@ def stubbed(monkeypatch):
         raise _Reached(REACHED)
 
     # the first expensive call of each command (looked up at call time by the command modules)
-    for module, name in (("nniquad.sim", "simulate"), ("nniquad.analysis.lmi.report", "lmis"),
-                         ("nniquad.cli.commands.bound", "time_optimal_bound"), ("nniquad.study.job", "montecarlo"),
+    for module, name in (("nniquad.sim", "simulate"), ("nniquad.analysis.lmi.overview", "lmis"),
+                         ("nniquad.cli.commands.bound_command", "time_optimal_bound"), ("nniquad.jobs.montecarlo", "montecarlo"),
                          ("nniquad.study", "run_scenarios")):
         monkeypatch.setattr(importlib.import_module(module), name, stop)
     monkeypatch.setattr(resources, "available_memory_bytes", lambda: 16 * 2**30)

@@ -13,7 +13,7 @@ import pytest
 
 from nniquad.certificates import canonical_digest, load_certificate, read_certificate, verify_certificate
 from nniquad.reporting.folder import MANIFEST, MANIFEST_MARKER, file_digest
-from nniquad.reporting.report import fmt
+from nniquad.jobs.report_sections import fmt
 
 #: One xdist worker runs this module: its module fixture runs a whole report (audit, bound, paper-gain runs, a tune,
 #: a certificate with both reference runs and the sampled cascade section, verification, figures), built once.

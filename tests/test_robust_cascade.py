@@ -1,4 +1,4 @@
-"""The robust sampled cascade certificate (nniquad.analysis.robust_cascade), each against something independent."""
+"""The robust sampled cascade certificate (nniquad.analysis.cascade.certificate), each against something independent."""
 
 from __future__ import annotations
 
@@ -10,14 +10,14 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from nniquad.analysis import robust_cascade as RC
-from nniquad.analysis.robust import family as RF, lyapunov as RL, section as RS
-from nniquad.analysis.cascade import linearise_cascade
+from nniquad.analysis.cascade import certificate as RC
+from nniquad.analysis.cascade import family as RF, lyapunov as RL, section as RS
+from nniquad.analysis.cascade.linearised import linearise_cascade
 from nniquad.analysis.sampled import contraction, sampled_cascade, sampled_loop_from_blocks
 from nniquad.control.gains import Gains, InnerLoopGains
 from nniquad.errors import CascadeError, SolverError
 from nniquad.model.vehicle import PAPER_VEHICLE as V
-from nniquad.study.scenarios import DEFAULT_RANGES
+from nniquad.scenarios.draws import DEFAULT_RANGES
 
 # the cheaper test design of tests/test_certificate.py
 GAINS = Gains(13.148341568334407, 25.27258951977003, 0.19046572101699574)
@@ -83,7 +83,7 @@ def test_an_invalid_grid_size_is_refused_even_after_a_valid_one_was_computed(mon
     section with 3 (or 1) per axis is in that store (``int(3.0) == 3`` found it, before the size was checked first:
     the suite failed only when the tamper loop's grid-3 build ran earlier on the same worker).  The builder is
     replaced by a stub, so nothing is solved."""
-    import nniquad.analysis.robust.section as S
+    import nniquad.analysis.cascade.section as S
 
     monkeypatch.setattr(S, "_SECTIONS", {})
     monkeypatch.setattr(S, "_cascade_section", lambda *a, **k: {"stub": k["grid_points_per_axis"]})
@@ -129,7 +129,7 @@ def test_family_with_mass_and_inertia_vs_finite_differences():
     """A perturbed true mass and inertia: the equilibrium by a root solve and the Jacobian by finite differences."""
     from scipy.optimize import root
 
-    from nniquad.analysis.cascade import _hover_params
+    from nniquad.analysis.cascade.linearised import _hover_params
     from nniquad.sim import EXO_FIELDS, STATE_NAMES, initial_state, rhs_function
 
     pt = np.array([1.15, 0.85, 1.1, 0.9, 1.2, 1.4])
@@ -387,7 +387,7 @@ def test_mirrored_y_block_is_found_and_rechecked_on_its_own_loops():
 def test_spectral_norms_equal_the_largest_singular_value_and_fail_as_the_svd_does():
     """``√λ_max(MᵀM)`` against numpy's SVD on random, rank-one and scaled stacks; an infinite entry gives NaN and
     a NaN entry raises, as the SVD does (callers rely on both)."""
-    from nniquad.analysis.robust.lyapunov import spectral_norms
+    from nniquad.analysis.cascade.lyapunov import spectral_norms
 
     rng = np.random.default_rng(7)
     stacks = [rng.standard_normal((64, n, n)) * 10.0 ** rng.uniform(-6, 6, (64, 1, 1)) for n in (1, 6, 23)]

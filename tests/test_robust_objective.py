@@ -12,9 +12,9 @@ from nniquad.config import TUNING_SCENARIO_SEED
 from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, InnerLoopGains
 from nniquad.errors import NniquadError
 from nniquad.model.vehicle import PAPER_VEHICLE as V
-from nniquad.study.scenarios import DEFAULT_RANGES
-from nniquad.tuning.options import ROBUST_QUANTILE, TuneOptions
-from nniquad.tuning.scenarios import N_RANDOM, tuning_scenarios
+from nniquad.scenarios.draws import DEFAULT_RANGES
+from nniquad.tuning.tune_options import ROBUST_QUANTILE, TuneOptions
+from nniquad.tuning.robust_scenarios import N_RANDOM, tuning_scenarios
 
 # the old design at the Routh limit of the nominal motor (FINDINGS.md): fails every slow-motor corner
 OLD_GAINS = Gains(13.148341568334407, 25.27258951977003, 0.19046572101699574)
@@ -33,7 +33,7 @@ def test_option_defaults_and_the_nominal_switch():
         TuneOptions(model="reduced", objective="robust")
     with pytest.raises(NniquadError, match="objective must be"):
         TuneOptions(model="full", objective="p95")
-    from nniquad.cli.commands.tune import add_tuning_options, tune_options_from_args
+    from nniquad.cli.commands.tune_command import add_tuning_options, tune_options_from_args
     from nniquad.cli.commands.common import add_tilt_limit_option
 
     p = argparse.ArgumentParser()
@@ -185,7 +185,7 @@ def test_a_candidate_that_fails_one_corner_pays_the_penalty(monkeypatch):
     (Gains(5.0, 20.0, 0.6), DEFAULT_INNER_LOOP_GAINS, None),
 ])
 def test_fast_margins_agree_with_python_control(gains, inner, rate):
-    from nniquad.analysis.cascade import linearise_cascade
+    from nniquad.analysis.cascade.linearised import linearise_cascade
     from nniquad.analysis.fast_margins import fast_cascade_margins
     from nniquad.analysis.margins import cascade_margins
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import scipy.signal as sig
 
-from nniquad.analysis.cascade import linearise_cascade
+from nniquad.analysis.cascade.linearised import linearise_cascade
 from nniquad.analysis.sampled import discrete_lyapunov_decay, nni_zoh_closed_form, sampled_cascade, \
     sampled_reduced_loop, zoh
 from nniquad.control.discrete import DiscreteNNI

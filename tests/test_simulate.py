@@ -22,7 +22,7 @@ from nniquad.control.inner_loops import allocate
 from nniquad.control.gains import InnerLoopGains
 from nniquad.analysis.linear import ReducedLoop
 from nniquad.control.gains import PAPER_GAINS, Gains
-from nniquad.analysis.metrics import settling_time
+from nniquad.sim.metrics import settling_time
 from nniquad.model.numeric import dynamics_function, mixer_function, param_vector
 from nniquad.sim import SimOptions, SimParams, simulate
 from nniquad.model.vehicle import PAPER_VEHICLE
@@ -523,7 +523,7 @@ def test_per_run_options_and_params_equal_separate_runs():
 def test_one_verdict_for_a_vehicle_that_falls():
     """A vehicle that cannot hover falls: altitude lost, in simulate's metrics and in the Monte Carlo verdict alike."""
     import nniquad.study as mc
-    from nniquad.analysis.verdicts import failure_reason
+    from nniquad.sim.verdicts import failure_reason
 
     o = SimOptions(model="full", horizon_s=3.0)
     heavy = SimParams.from_options(V, FAST, o).with_(plant={"m": 1.5 * V.max_thrust() / V.g})

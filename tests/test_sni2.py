@@ -269,7 +269,7 @@ def test_coordinates_round_trip_and_mean_the_dc_loop_gain(law_class):
 
 def test_nni_and_filtered_pd_designs_seed_the_law():
     from nniquad.tuning.coordinates import attitude_accel_headroom, search_box, warm_start_coordinates
-    from nniquad.tuning.options import TuneOptions
+    from nniquad.tuning.tune_options import TuneOptions
 
     opts = TuneOptions(model="full", controller="sni2", law_class="cascade", roa_radius_m=0.0)
     pd = PDFilteredGains(kp=8.0, kd=4.0, tau_f=0.06)

@@ -128,8 +128,8 @@ def test_resigned_edit_of_the_law_is_refused(doc, edit):
 
 def test_monte_carlo_runs_the_certified_law(doc):
     """The study of an sni2 certificate simulates the sni2 law in discrete time from its take-over state."""
-    from nniquad.study.job import montecarlo
-    from nniquad.study.scenarios import study_setup
+    from nniquad.jobs.montecarlo import montecarlo
+    from nniquad.scenarios.draws import study_setup
 
     setup = study_setup(doc)
     assert setup.controller == "sni2" and setup.controller_sampling == "discrete"

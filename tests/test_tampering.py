@@ -42,7 +42,7 @@ from nniquad.certificates import TOLERANCES, build_certificate, canonical_digest
 from nniquad.certificates.verify import RECORD_FIELDS, clear_cache
 from nniquad.errors import NniquadError
 from nniquad.model.vehicle import PAPER_VEHICLE as V
-from nniquad.study.scenarios import study_setup
+from nniquad.scenarios.draws import study_setup
 from tests.test_certificate import GAINS, INNER, SMALL_BOX
 
 #: One xdist worker runs the loop: each of its two documents is built once, and no other worker waits for it (a
@@ -275,7 +275,7 @@ def test_record_sections_replaced_whole_change_no_check_and_no_monte_carlo_setup
     """``software`` and ``tuning`` (but for ``tuning.model``) and the vehicle's name are records: replaced whole,
     every check gives the same result and detail, and ``study_setup`` / ``study_setup_from`` the same setup."""
     from nniquad.certificates import certificate_gains, certificate_inner_loop, certificate_vehicle
-    from nniquad.study.scenarios import study_setup_from
+    from nniquad.scenarios.draws import study_setup_from
 
     ref = verify_certificate(doc)
     for edit in (lambda c: c.update(software={}), lambda c: c.update(tuning=None),

@@ -12,7 +12,7 @@ from nniquad.errors import GainError, NniquadError
 from nniquad.analysis.linear import ReducedLoop
 from nniquad.analysis.lmi import certified_reach
 from nniquad.control.gains import Gains
-from nniquad.analysis.metrics import settling_time
+from nniquad.sim.metrics import settling_time
 from nniquad.tuning.tune import (BUDGETS, SECTOR_FACE_SHARE, TuneOptions, attitude_accel_headroom, decode, encode,
                                 initial_design, search_box, tune)
 from nniquad.model.vehicle import PAPER_VEHICLE as V
@@ -167,7 +167,7 @@ def test_mass_range_tunes_the_worst_case():
 
 
 def test_margin_scenario_and_altitude_penalty():
-    from nniquad.analysis.verdicts import Metrics
+    from nniquad.sim.verdicts import Metrics
     from nniquad.tuning.objective import _cost, _scenario_options
     from nniquad.tuning.tune import ALTITUDE_CAP_M, simulation_options
 
@@ -186,7 +186,7 @@ def test_margin_scenario_and_altitude_penalty():
 
 def test_objective_ranks_every_lost_run_above_every_run_that_is_not():
     """Costs from real verdicts (compute_metrics on hand-built runs), in the order a designer would rank them."""
-    from nniquad.analysis.verdicts import compute_metrics
+    from nniquad.sim.verdicts import compute_metrics
     from nniquad.config import ALTITUDE_LIMIT_M
     from nniquad.tuning.objective import _cost
 
@@ -215,7 +215,7 @@ def test_objective_ranks_every_lost_run_above_every_run_that_is_not():
 
 def test_settling_counts_only_when_the_run_is_seen_to_stay_in_the_band():
     """A last exit at s counts only with max(5 s, 2 s) of horizon after it."""
-    from nniquad.analysis.verdicts import Metrics
+    from nniquad.sim.verdicts import Metrics
     from nniquad.tuning.objective import _cost
     from nniquad.tuning.tune import honest_horizon_s, required_hold_s, settling_shown
 

@@ -1,7 +1,7 @@
 """Run verdicts (divergence, altitude loss, the one failure) and the metrics bundle, by hand.
 
-Each case is derived from the definitions in :mod:`nniquad.analysis.verdicts` and
-:mod:`nniquad.analysis.metrics` (most were written for the survivors of
+Each case is derived from the definitions in :mod:`nniquad.sim.verdicts` and
+:mod:`nniquad.sim.metrics` (most were written for the survivors of
 ``make mutation MODULE=verdicts``).
 """
 
@@ -13,7 +13,7 @@ import math
 import numpy as np
 import pytest
 
-from nniquad.analysis.verdicts import Metrics, altitude_lost_batch, compute_metrics, diverged, diverged_batch
+from nniquad.sim.verdicts import Metrics, altitude_lost_batch, compute_metrics, diverged, diverged_batch
 from nniquad.config import ALTITUDE_LIMIT_M, DIVERGENCE_FACTOR
 from nniquad.errors import SimulationError
 

@@ -14,7 +14,7 @@ import pytest
 
 from nniquad.certificates import TOLERANCES, Certificate, canonical_digest, verify_certificate, write_certificate
 from nniquad.certificates.verify import RECORD_FIELDS, SECTION_KEYS, Verification, coverage_notes
-from nniquad.certificates.check import Check
+from nniquad.certificates.check_record import Check
 from nniquad.errors import CertificateCheckError, CertificateError
 from tests.test_certificate import build_small_certificate, build_small_certificate_schema_1
 
@@ -421,8 +421,7 @@ def test_a_section_that_is_not_an_object_is_a_one_line_error(cert, path, bad):
 def test_the_recomputation_cache_keeps_what_is_used_and_evicts_the_least_recently_used():
     """``memo`` holds at most ``_CACHE_SIZE`` results.  A result used again stays, however many one-off
     results follow it (the tamper loop's edits), and the one not used for longest is the one that goes."""
-    from nniquad.certificates import check
-
+    from nniquad.certificates import check_record as check
     check.clear_cache()
     computed = []
 

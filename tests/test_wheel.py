@@ -1,8 +1,8 @@
 """The built wheel installs into a fresh virtual environment and ``import nniquad`` works there.
 
-The editable install maps the folders ``design/`` and ``proofs/`` onto the
-import names ``nniquad`` and ``nniquad.proofs`` with an import hook; a wheel
-must carry the same mapping in its files.  The test builds the wheel without
+The package folder is ``design/nniquad`` (``design/`` plays the role of
+``src/``), and the audit's folder ``proofs/`` is linked into it as
+``nniquad/proofs``; a wheel must carry both under the import name.  The test builds the wheel without
 network access, installs it (without dependencies) into a temporary venv that
 sees this environment's third-party packages through a ``.pth`` file, and
 imports the package there, from a folder that is not the checkout.
@@ -34,8 +34,8 @@ def test_wheel_installs_and_imports(tmp_path):
     assert "nniquad/__init__.py" in names and "nniquad/proofs/__init__.py" in names
     assert not any(n.startswith(("design/", "proofs/")) for n in names), "the folders leaked as import names"
     # every sub-package of the source tree is in the wheel (a package missing from pyproject's list fails here)
-    for init in (ROOT / "design").rglob("__init__.py"):
-        rel = init.relative_to(ROOT / "design").as_posix()
+    for init in (ROOT / "design" / "nniquad").rglob("__init__.py"):
+        rel = init.relative_to(ROOT / "design" / "nniquad").as_posix()
         assert f"nniquad/{rel}" in names, f"nniquad/{rel} missing from the wheel"
 
     env = tmp_path / "venv"

@@ -46,7 +46,7 @@ PLANTED: tuple[Planted, ...] = (
             "analysis/linear.py", "return self.smallest_gamma < 1.0", "return self.smallest_gamma <= 1.0",
             ("tests/test_linear.py",)),
     Planted("verify-ni-checks-p-only", "verify's NI checks test only P > 0, not the dissipation inequality",
-            "certificates/recheck_loop.py", "ok = definite > bound and worst <= tol", "ok = definite > bound",
+            "certificates/recheck_reduced_loop.py", "ok = definite > bound and worst <= tol", "ok = definite > bound",
             ("tests/test_certificate.py",)),
     Planted("smooth-response-or", "the simulation claim's smoothness holds if any one of its conditions holds",
             "proofs/simulation.py", "            and shape[\"zero crossings along the initial direction\"] == 0\n"
@@ -55,7 +55,7 @@ PLANTED: tuple[Planted, ...] = (
             "            or shape[\"local extrema (oscillations)\"] == 0)",
             ("tests/test_proofs_simulation.py",)),
     Planted("overshoot-past-the-origin", "overshoot measured as the distance past the origin, not along the start "
-            "direction", "analysis/metrics.py", "past = np.maximum(np.max(-proj, axis=1), 0.0)",
+            "direction", "sim/metrics.py", "past = np.maximum(np.max(-proj, axis=1), 0.0)",
             "past = np.maximum(np.max(np.where(proj < 0, np.hypot(a[..., 0], a[..., 1]), 0.0), axis=1), 0.0)",
             ("tests/test_metrics.py",)),
 )
@@ -66,8 +66,7 @@ def stage(bug: Planted) -> Path:
     root = BUILD / bug.name
     shutil.rmtree(root, ignore_errors=True)
     pkg = root / "nniquad"
-    shutil.copytree(ROOT / "design", pkg, ignore=shutil.ignore_patterns("__pycache__"))
-    shutil.copytree(ROOT / "proofs", pkg / "proofs", ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copytree(ROOT / "design" / "nniquad", pkg, ignore=shutil.ignore_patterns("__pycache__"))  # proofs link followed
     target = pkg / bug.file
     source = target.read_text()
     if source.count(bug.old) != 1:

@@ -11,16 +11,15 @@ target (90 % unless the module says otherwise), 1 a module is below it, 2 a
 bad option or a stale configuration (a function pattern or an equivalence entry
 that matches no mutant), 3 mutmut itself failed.
 
-Why a staging folder.  The package ``nniquad`` lives in the folder ``design/``
-(``package-dir`` in pyproject.toml), but mutmut names a mutant after its file
-path and its trampolines compare that name with ``__module__`` at run time; a
-file ``design/analysis/metrics.py`` would be named ``design.analysis.metrics``
-and never be switched on.  So each run copies ``design/`` to
-``build/mutation/<module>/nniquad`` (and ``proofs/`` to ``nniquad/proofs``),
-where path and import name agree.  mutmut puts its ``mutants/`` folder first on
-``sys.path``; the editable install's finder comes after the path finder on
-``sys.meta_path``, so ``import nniquad`` loads the mutated copy.  mutmut's own
-forced-fail run (every trampoline raises) stops the run if it does not.
+Why a staging folder.  The package folder is ``design/nniquad`` and mutmut names a
+mutant after its file path relative to where it runs, so the run happens in
+``build/mutation/<module>/``, which holds a copy of ``design/nniquad`` as
+``nniquad`` (path and import name agree; the link ``nniquad/proofs`` is copied
+as the folder it points at).  The copy exists for the two rewrites below, not to
+rename anything.  mutmut puts its ``mutants/`` folder first on ``sys.path``; the
+editable install's finder comes after the path finder on ``sys.meta_path``, so
+``import nniquad`` loads the mutated copy.  mutmut's own forced-fail run (every
+trampoline raises) stops the run if it does not.
 
 Two rewrites of the staged copy keep mutmut from missing code:
 
@@ -88,11 +87,11 @@ class Module:
     def import_name(self) -> str:
         rel = Path(self.file).with_suffix("")
         parts = rel.parts
-        if parts[0] == "design":
-            return ".".join(("nniquad",) + parts[1:])
+        if parts[:2] == ("design", "nniquad"):
+            return ".".join(parts[1:])
         if parts[0] == "proofs":
             return ".".join(("nniquad", "proofs") + parts[1:])
-        raise SystemExit(f"mutation: error: {self.file} is not under design/ or proofs/")
+        raise SystemExit(f"mutation: error: {self.file} is not under design/nniquad/ or proofs/")
 
     @property
     def staged_file(self) -> str:
@@ -228,14 +227,13 @@ def _toml_list(items: list[str]) -> str:
 
 
 def stage(module: Module) -> Path:
-    """A fresh staging folder where the package folder is named ``nniquad``."""
+    """A fresh staging folder holding a copy of the package folder ``design/nniquad`` (proofs included)."""
     d = STAGE_ROOT / module.name
     if d.exists():
         shutil.rmtree(d)
     d.mkdir(parents=True)
     ignore = shutil.ignore_patterns("__pycache__", "*.pyc")
-    shutil.copytree(ROOT / "design", d / "nniquad", ignore=ignore)
-    shutil.copytree(ROOT / "proofs", d / "nniquad" / "proofs", ignore=ignore)
+    shutil.copytree(ROOT / "design" / "nniquad", d / "nniquad", ignore=ignore)  # follows the proofs link
     shutil.copytree(ROOT / "tests", d / "tests", ignore=shutil.ignore_patterns("__pycache__", "*.pyc", "mutation"))
     shutil.copytree(ROOT / "notebooks" / "data", d / "notebooks" / "data", ignore=ignore)
     shutil.copy2(ROOT / "README.md", d / "README.md")

@@ -1,0 +1,435 @@
+"""The sampled cascade at many parameter points, its decoupled subsystems, and the coordinates that reach each.
+
+:func:`sampled_family` linearises the simulator's full model at hover and samples it at every point of a box
+at once (one mapped CasADi evaluation, one stacked ``expm``).  After a fixed orthogonal change of the rotor
+coordinates (:func:`mode_transform`) the loop splits into four blocks that do not feed each other
+(:data:`SUBSYSTEMS`); :func:`coupling` measures what is left and :func:`relevant_coordinates` which of the six
+point coordinates change each block.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+from functools import cached_property
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+import scipy.linalg as sla
+
+from nniquad.analysis.cascade.linearised import SPLIT_TOL, LinearCascade, _hover_params, allocation_jacobian
+from nniquad.analysis.cascade.hover_jacobian import EQUILIBRIUM_TOL, LINEARISATION_OFFSET_M, Linearisation, _jacobian_function
+from nniquad.analysis.batch_eval import evaluate_map
+from nniquad.analysis.cascade.box import POINT_NAMES, ParameterBox
+from nniquad.analysis.sampled import _period
+from nniquad.config import CONTROL_RATE_HZ, TILT_LIMIT_DEG
+from nniquad.control.gains import Gains, InnerLoopGains, SNI2Gains
+from nniquad.errors import CascadeError
+from nniquad.model.vehicle import Vehicle
+from nniquad.sim import CONTROLLER_STATES, initial_state, param_layout, state_names
+
+__all__ = ["CascadeFamily", "sampled_family", "SUBSYSTEMS", "subsystems", "COUPLING_TOL", "RELEVANCE_TOL",
+           "RELEVANCE_BAND", "mode_transform", "coupling", "relevant_coordinates", "relevance_consistent"]
+
+# =============================================================================== the family of sampled loops
+
+
+@dataclass(frozen=True)
+class CascadeFamily:
+    """The sampled cascade at many parameter points (batched; index 0 of every array is a point).
+
+    Attributes
+    ----------
+    points : ndarray (N, 6)
+        The parameter points (:data:`POINT_NAMES`).
+    state_names
+        Plant states then the controller states (``zc_x, zc_y``; ``sni2``: ``zc_x, zc_y, zcd_x, zcd_y``).
+    T
+        Sample period [s].
+    A_p, B_p : ndarray (N, n_p, n_p), (N, n_p, 2)
+        Continuous plant, input the held acceleration command ``a_h`` [m/s²].
+    C_p : ndarray (2, n_p)
+        Position output.
+    A_k, B_k, C_k, D_k
+        The controller (continuous; the same at every point: it is the flight code's).
+    A_kd, B_kd
+        Its exact ZOH equivalent.
+    Phi, Gam : ndarray (N, n_p, n_p), (N, n_p, 2)
+        The plant's exact ZOH discretisation.
+    A_d : ndarray (N, n, n)
+        Closed loop ``x_{k+1} = A_d x_k`` (``n = n_p + 2``).
+    A0, B : ndarray (N, n, n), (N, n, 2)
+        Saturation split ``x_{k+1} = A0 x_k + B a_k`` with ``a_k = sat_L(K x_k)``.
+    K : ndarray (2, n)
+        The acceleration command ``a_k = K x_k`` before the tilt limit.
+    accel_limit : ndarray (N,)
+        Norm limit ``L = g_z tan(tilt)`` of ``a_h`` at hover, ``g_z = (m/m̂) g`` [m/s²].
+    residual : ndarray (N,)
+        ``max |f(x_eq)|`` of each equilibrium.
+    W_r, W_a, A_rw
+        Motor-command blocks (for :meth:`cascade_at`).
+    """
+
+    points: np.ndarray
+    state_names: tuple[str, ...]
+    T: float
+    A_p: np.ndarray
+    B_p: np.ndarray
+    C_p: np.ndarray
+    A_k: np.ndarray
+    B_k: np.ndarray
+    C_k: np.ndarray
+    D_k: np.ndarray
+    A_kd: np.ndarray
+    B_kd: np.ndarray
+    Phi: np.ndarray
+    Gam: np.ndarray
+    A_d: np.ndarray
+    A0: np.ndarray
+    B: np.ndarray
+    K: np.ndarray
+    accel_limit: np.ndarray
+    residual: np.ndarray
+    W_r: np.ndarray
+    W_a: np.ndarray
+    A_rw: np.ndarray
+    tau_motor: np.ndarray
+    context: Any = None
+
+    def __len__(self) -> int:
+        return self.points.shape[0]
+
+    @cached_property
+    def spectral_radius(self) -> np.ndarray:
+        """Spectral radius of ``A_d`` at every point (computed once per family: :func:`_take` keeps it)."""
+        return np.max(np.abs(np.linalg.eigvals(self.A_d)), axis=-1)
+
+    def cascade_at(self, i: int) -> LinearCascade:
+        """The :class:`LinearCascade` of point ``i`` (for the continuous-time margins)."""
+        ctx = self.context
+        n_k = self.A_k.shape[0]
+        return LinearCascade(
+            vehicle=ctx["vehicle"], gains=ctx["gains"], inner=ctx["inner"], motor_lag=True, lin=ctx["lin"],
+            plant_states=self.state_names[:-n_k], rigid_states=ctx["rigid"], controller_states=self.state_names[-n_k:],
+            A_p=self.A_p[i], B_p=self.B_p[i], C_p=self.C_p, A_k=self.A_k, B_k=self.B_k, C_k=self.C_k, D_k=self.D_k,
+            W_r=self.W_r[i], W_a=self.W_a[i], A_rw=self.A_rw[i], tau_motor=float(self.tau_motor[i]),
+            M_alloc=ctx["M_alloc"])
+
+
+def _batched_expm(M: np.ndarray) -> np.ndarray:
+    return sla.expm(M)  # scipy >= 1.9 exponentiates a stack (..., n, n)
+
+
+def sampled_family(vehicle: Vehicle, gains: Gains | SNI2Gains, inner: InnerLoopGains, points: np.ndarray, *,
+                   tilt_limit_deg: float = TILT_LIMIT_DEG, rate_hz: float = CONTROL_RATE_HZ) -> CascadeFamily:
+    """Linearise and sample the cascade at many parameter points at once.
+
+    One mapped CasADi evaluation of the simulator's Jacobians (at ``±ε`` on the
+    held measurement, as :func:`nniquad.analysis.cascade.linearised.linearise` does) and
+    one stacked ``expm`` give every point's plant; the split into plant and
+    controller is that of :func:`nniquad.analysis.cascade.linearised.linearise_cascade`
+    (its exactness is checked at every point).
+
+    Parameters
+    ----------
+    vehicle, gains, inner
+        The nominal design.
+    points : array (N, 6)
+        Parameter points (:data:`POINT_NAMES`).
+    tilt_limit_deg
+        Tilt limit [deg] (sets :attr:`CascadeFamily.accel_limit`; inactive at hover).
+    rate_hz
+        Sample rate [Hz].
+
+    Raises
+    ------
+    CascadeError
+        A point that is not an equilibrium, an inexact split, a bad point.
+    """
+    T = _period(rate_hz)
+    pts = np.atleast_2d(np.asarray(points, float))
+    if pts.shape[1] != len(POINT_NAMES) or not np.all(np.isfinite(pts)) or np.any(pts <= 0):
+        raise CascadeError(f"parameter points must be positive factors of shape (N, {len(POINT_NAMES)})")
+    N = pts.shape[0]
+    base = _hover_params(vehicle, gains, inner, tilt_limit_deg, None).with_(run={"sample_hold": 1.0})
+    law = base.controller
+    names = [f.name for f in param_layout(law)]
+    col = {n: i for i, n in enumerate(names)}
+    pv = np.tile(base.vector(), (N, 1))
+    nom = base.plant
+    pv[:, col["plant.m"]] = nom.m * pts[:, 0]
+    pv[:, col["plant.Jx"]] = nom.Jx * pts[:, 1]
+    pv[:, col["plant.Jy"]] = nom.Jy * pts[:, 2]
+    pv[:, col["plant.Jz"]] = nom.Jz * pts[:, 3]
+    pv[:, col["inner.attitude_gain_scale"]] = base.inner.attitude_gain_scale * pts[:, 4]
+    tau = nom.tau_motor * pts[:, 5]
+    pv[:, col["plant.tau_motor"]] = tau
+    # the hover equilibrium of a heavier/lighter vehicle: the altitude integrator holds a_z = g (1 - m/m̂)
+    snames = state_names("full", law)
+    si = {n: i for i, n in enumerate(snames)}
+    x_eq = np.tile(initial_state("full", base, (0.0, 0.0)), (N, 1))
+    m_true = pv[:, col["plant.m"]]
+    g = base.nominal.g
+    a_z = g * (1.0 - m_true / base.nominal.m)
+    x_eq[:, si["z_int"]] = -a_z / base.inner.altitude_wn_rad_s ** 3
+    w_hover = np.sqrt(m_true * nom.g / (4.0 * nom.b))
+    for k in range(1, 5):
+        x_eq[:, si[f"w{k}"]] = w_hover
+    jac = _jacobian_function("full", law)
+    d = np.zeros(len(snames))
+    d[si["held_x"]] = LINEARISATION_OFFSET_M
+    X = np.vstack([x_eq + d, x_eq - d]).T
+    Pm = np.vstack([pv, pv]).T
+    _, Jm, Ym = evaluate_map(jac, 2 * N, X, Pm)  # (2N, nx, nx), (2N, 2, nx)
+    # residual at the equilibrium itself (the ±ε points differ from it only in the held measurement)
+    f_eq = evaluate_map(jac, N, x_eq.T, pv.T)[0][:, :, 0]
+    residual = np.max(np.abs(f_eq), axis=1)
+    if not np.all(residual <= EQUILIBRIUM_TOL * max(1.0, float(np.max(w_hover)) / 100.0)):
+        i = int(np.argmax(residual))
+        raise CascadeError(f"hover is not an equilibrium at point {pts[i].tolist()} (|f| = {residual[i]:.3g})")
+    J = 0.5 * (Jm[:N] + Jm[N:])
+    Y = 0.5 * (Ym[:N] + Ym[N:])
+    if not (np.all(np.isfinite(J)) and np.all(np.isfinite(Y))):
+        raise CascadeError("a Jacobian of the cascade is not finite")
+    ctrl, held, motors = CONTROLLER_STATES[law], ("held_x", "held_y"), ("w1", "w2", "w3", "w4")
+    rigid = tuple(n for n in snames if n not in ctrl + held + motors)
+    ik, ih = [si[n] for n in ctrl], [si[n] for n in held]
+    iw, ir = [si[n] for n in motors], [si[n] for n in rigid]
+    ip = ir + iw
+    A_k, B_k = J[0][np.ix_(ik, ik)], J[0][np.ix_(ik, ih)]
+    C_k, D_k = Y[0][:, ik], Y[0][:, ih]
+    # the controller is the flight code's: the same at every point, and it reads no plant state
+    for M, name in ((J[:, ik][:, :, ik] - A_k, "A_k"), (J[:, ik][:, :, ih] - B_k, "B_k"),
+                    (Y[:, :, ik] - C_k, "C_k"), (Y[:, :, ih] - D_k, "D_k"),
+                    (J[:, ik][:, :, ip], "z' from plant"), (Y[:, :, ip], "a_h from plant")):
+        if np.max(np.abs(M)) > SPLIT_TOL * max(1.0, float(np.max(np.abs(J[0])))):
+            raise CascadeError(f"the horizontal law is not the same velocity-free law at every point ({name})")
+    G = np.hstack([C_k, D_k])
+    Jpc = J[:, ip][:, :, ik + ih]
+    B_full = Jpc @ np.linalg.pinv(G)
+    res = np.max(np.abs(Jpc - B_full @ G)) / max(1.0, float(np.max(np.abs(Jpc))))
+    if res > SPLIT_TOL:
+        raise CascadeError(f"the plant does not see the controller through a_h alone (relative {res:.3g})")
+    A_p = J[:, ip][:, :, ip]
+    nr = len(ir)
+    B_p = B_full
+    if np.max(np.abs(B_p[:, :nr])) > SPLIT_TOL * max(1.0, float(np.max(np.abs(B_p)))):
+        raise CascadeError("a_h reaches the rigid body other than through the rotors")
+    n_p, n_k = len(ip), len(ctrl)
+    C_p = np.zeros((2, n_p))
+    C_p[0, rigid.index("x")] = C_p[1, rigid.index("y")] = 1.0
+    # exact ZOH of the plant (stacked) and of the controller
+    Mz = np.zeros((N, n_p + 2, n_p + 2))
+    Mz[:, :n_p, :n_p], Mz[:, :n_p, n_p:] = A_p * T, B_p * T
+    E = _batched_expm(Mz)
+    Phi, Gam = E[:, :n_p, :n_p], E[:, :n_p, n_p:]
+    Ek = sla.expm(np.block([[A_k, B_k], [np.zeros((2, n_k + 2))]]) * T)
+    A_kd, B_kd = Ek[:n_k, :n_k], Ek[:n_k, n_k:]
+    n = n_p + n_k
+    K = np.hstack([D_k @ C_p, C_k])
+    A0 = np.zeros((N, n, n))
+    A0[:, :n_p, :n_p] = Phi
+    A0[:, n_p:, :n_p] = B_kd @ C_p
+    A0[:, n_p:, n_p:] = A_kd
+    Bs = np.zeros((N, n, 2))
+    Bs[:, :n_p] = Gam
+    A_d = A0 + Bs @ K
+    A_wr = J[:, iw][:, :, ir]
+    W_r = tau[:, None, None] * A_wr
+    W_a = tau[:, None, None] * B_p[:, nr:]
+    A_rw = J[:, ir][:, :, iw]
+    L = (m_true / base.nominal.m) * g * math.tan(math.radians(tilt_limit_deg))
+    lin0 = Linearisation("full", snames, x_eq[0], float(residual[0]), J[0], Y[0], base)
+    ctx = {"vehicle": vehicle, "gains": gains, "inner": inner, "lin": lin0, "rigid": rigid,
+           "M_alloc": allocation_jacobian(base)}
+    return CascadeFamily(points=pts, state_names=tuple(rigid + motors + ctrl), T=T, A_p=A_p, B_p=B_p, C_p=C_p,
+                         A_k=A_k, B_k=B_k, C_k=C_k, D_k=D_k, A_kd=A_kd, B_kd=B_kd, Phi=Phi, Gam=Gam, A_d=A_d, A0=A0,
+                         B=Bs, K=K, accel_limit=L, residual=residual, W_r=W_r, W_a=W_a, A_rw=A_rw, tau_motor=tau,
+                         context=ctx)
+
+
+def _take(fam: CascadeFamily, idx: np.ndarray) -> CascadeFamily:
+    """The points ``idx`` of a family."""
+    kw = {}
+    for f in fields(fam):
+        v = getattr(fam, f.name)
+        kw[f.name] = v[idx] if isinstance(v, np.ndarray) and v.ndim >= 1 and v.shape[0] == len(fam) \
+            and f.name not in ("C_p", "K", "A_k", "B_k", "C_k", "D_k", "A_kd", "B_kd") else v
+    out = CascadeFamily(**kw)
+    if "spectral_radius" in fam.__dict__:  # already computed: a cached_property, so set it the same way
+        out.__dict__["spectral_radius"] = fam.__dict__["spectral_radius"][idx]
+    return out
+
+
+# =============================================================================== decoupled subsystems
+
+#: The fixed change of the rotor coordinates: collective, roll pair, pitch pair, yaw (orthonormal; '+' layout
+#: of :func:`nniquad.control.inner_loops.allocate`: roll from w4 - w2, pitch from w1 - w3).
+_ROTOR_MODES = np.array([[0.5, 0.5, 0.5, 0.5],
+                         [0.0, -1 / math.sqrt(2), 0.0, 1 / math.sqrt(2)],
+                         [1 / math.sqrt(2), 0.0, -1 / math.sqrt(2), 0.0],
+                         [-0.5, 0.5, -0.5, 0.5]])
+_ROTOR_MODE_NAMES = ("m_collective", "m_roll", "m_pitch", "m_yaw")
+#: The subsystems of the cascade at hover after :func:`mode_transform` (position first, controller state
+#: last in each horizontal axis, the same order on both axes), with a one-state controller law (NNI).
+SUBSYSTEMS: dict[str, tuple[str, ...]] = {
+    "x": ("x", "x_dot", "theta", "theta_dot", "m_pitch", "zc_x"),
+    "y": ("y", "y_dot", "phi", "phi_dot", "m_roll", "zc_y"),
+    "altitude": ("z", "z_dot", "z_int", "m_collective"),
+    "yaw": ("psi", "psi_dot", "m_yaw"),
+}
+
+
+def subsystems(state_names: Sequence[str]) -> dict[str, tuple[str, ...]]:
+    """:data:`SUBSYSTEMS` of a cascade with these states: each horizontal axis ends with every controller state of
+    that axis, in state order (NNI: ``zc_x``; ``sni2``: ``zc_x, zcd_x``)."""
+    ctrl = [n for n in state_names if n.startswith("zc")]
+    out = dict(SUBSYSTEMS)
+    for axis in ("x", "y"):
+        out[axis] = SUBSYSTEMS[axis][:-1] + tuple(n for n in ctrl if n.endswith(f"_{axis}"))
+    return out
+
+
+def mode_transform(state_names: Sequence[str]) -> tuple[np.ndarray, tuple[str, ...]]:
+    """The fixed orthogonal map ``ζ = T_m x`` to the coordinates of :func:`subsystems` (rotor modes, permuted).
+
+    Returns ``T_m`` (rows in the order x, y, altitude, yaw subsystems) and the new state names.
+    """
+    names = list(state_names)
+    subs = subsystems(names)
+    n = len(names)
+    R = np.eye(n)
+    iw = [names.index(f"w{k}") for k in range(1, 5)]
+    R[np.ix_(iw, iw)] = _ROTOR_MODES
+    mode_names = list(names)
+    for i, m in zip(iw, _ROTOR_MODE_NAMES):
+        mode_names[i] = m
+    order = [mode_names.index(s) for sub in subs.values() for s in sub]
+    if sorted(order) != list(range(n)):
+        raise CascadeError("the subsystems do not partition the cascade's states")
+    return R[order], tuple(mode_names[i] for i in order)
+
+
+def _blocks(state_names: Sequence[str] | None = None) -> dict[str, slice]:
+    """Each subsystem's slice of the mode coordinates (:func:`subsystems` of ``state_names``; NNI's without)."""
+    out, k = {}, 0
+    for name, sub in (SUBSYSTEMS if state_names is None else subsystems(state_names)).items():
+        out[name] = slice(k, k + len(sub))
+        k += len(sub)
+    return out
+
+
+def coupling(family: CascadeFamily) -> float:
+    """Largest coupling between the subsystems of ``T_m A_d T_mᵀ``, relative (diagonal balancing of the nominal loop).
+
+    Zero in exact arithmetic at hover (the altitude, yaw and the two horizontal
+    axes decouple at first order); what remains is the ``O(ε²)`` error of the
+    symmetric-mean Jacobian (:mod:`nniquad.analysis.cascade.linearised`), about ``1e-12``.
+    """
+    Tm, _ = mode_transform(family.state_names)
+    Z = Tm @ family.A_d @ Tm.T
+    _, (s, _) = sla.matrix_balance(Z[0], permute=False, separate=True)
+    Zb = Z / s[None, :, None] * s[None, None, :]
+    mask = np.ones(Z.shape[1:], bool)
+    for sl in _blocks(family.state_names).values():
+        mask[sl, sl] = False
+    return float(np.max(np.abs(Zb[:, mask])) / max(np.max(np.abs(Zb)), 1.0))
+
+
+def _subsystem(family: CascadeFamily, name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(A_d, A0, B, K)`` of one subsystem at every point (B and K: the axis's own input/command; else None)."""
+    Tm, _ = mode_transform(family.state_names)
+    sl = _blocks(family.state_names)[name]
+    R = Tm[sl]
+    A_d = R @ family.A_d @ R.T
+    A0 = R @ family.A0 @ R.T
+    ax = {"x": 0, "y": 1}.get(name)
+    if ax is None:
+        return A_d, A0, None, None
+    return A_d, A0, (R @ family.B)[:, :, ax:ax + 1], (family.K @ R.T)[ax:ax + 1]
+
+
+#: Coupling above which the subsystems are not treated as decoupled.  What remains at hover is the O(ε²)
+#: error of the symmetric-mean Jacobian amplified by the rotor and inertia scales (1e-11 to 4e-9 on the
+#: designs tested); whatever it is, the grid check runs on the full, coupled 19-state loop.
+COUPLING_TOL = 1e-7
+
+
+def _relevance_points(box: ParameterBox) -> np.ndarray:
+    """Nominal, then each coordinate moved alone to its low and high end: ``(13, 6)``."""
+    lo, hi = box.bounds()
+    pts = [np.ones(6)]
+    for j in range(6):
+        for v in (lo[j], hi[j]):
+            p = np.ones(6)
+            p[j] = v
+            pts.append(p)
+    return np.array(pts)
+
+
+#: A coordinate that changes a subsystem's loop by more than this (relative) is in its LMI (:func:`relevant_coordinates`).
+RELEVANCE_TOL = 1e-9
+#: ``verify`` accepts either choice for a change within this factor of :data:`RELEVANCE_TOL` (a threshold
+#: decision must not depend on rounding; the changes seen are >= 1e-2 or <= 1e-10, rounding moves them by 1e-16).
+RELEVANCE_BAND = 10.0
+
+
+def _relevance_changes(fam: CascadeFamily, box: ParameterBox) -> dict[str, np.ndarray]:
+    """How much each coordinate, moved alone to either end of the box, changes each subsystem (relative; 0 where
+    the box is degenerate)."""
+    lo, hi = box.bounds()
+    out = {}
+    for name in SUBSYSTEMS:
+        A = _subsystem(fam, name)[0]
+        scale = max(float(np.max(np.abs(A[0]))), 1.0)
+        out[name] = np.array([max(np.max(np.abs(A[1 + 2 * j] - A[0])), np.max(np.abs(A[2 + 2 * j] - A[0]))) / scale
+                              if hi[j] > lo[j] else 0.0 for j in range(6)])
+    return out
+
+
+def _relevance_from(fam: CascadeFamily, box: ParameterBox, tol: float = RELEVANCE_TOL) -> dict[str, tuple[int, ...]]:
+    return {name: tuple(int(j) for j in np.flatnonzero(ch > tol)) for name, ch in _relevance_changes(fam, box).items()}
+
+
+def relevance_consistent(fam: CascadeFamily, box: ParameterBox, dims: Mapping[str, Sequence[int]]) -> bool:
+    """Whether stated ``dims`` hold every clearly relevant coordinate and no clearly irrelevant one.
+
+    A change above ``RELEVANCE_TOL * RELEVANCE_BAND`` must be in, one below ``RELEVANCE_TOL / RELEVANCE_BAND``
+    must be out, and one in between may be either (its side of the threshold could depend on rounding).
+    """
+    for name, ch in _relevance_changes(fam, box).items():
+        stated = set(dims.get(name, ()))
+        if any((ch[j] > RELEVANCE_TOL * RELEVANCE_BAND and j not in stated)
+               or (ch[j] < RELEVANCE_TOL / RELEVANCE_BAND and j in stated) for j in range(6)):
+            return False
+    return True
+
+
+def relevant_coordinates(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, box: ParameterBox, *,
+                         tilt_limit_deg: float, rate_hz: float, tol: float = RELEVANCE_TOL) -> dict[str, tuple[int, ...]]:
+    """Which point coordinates change each subsystem's ``A_d`` (moving one coordinate to each end of the box).
+
+    A coordinate that changes a subsystem by less than ``tol`` (relative) is
+    left out of that subsystem's LMI; the grid check on the full 19-state loop
+    (:func:`grid_check`) is done with all six.
+    """
+    fam = sampled_family(vehicle, gains, inner, _relevance_points(box), tilt_limit_deg=tilt_limit_deg,
+                         rate_hz=rate_hz)
+    return _relevance_from(fam, box, tol)
+
+
+#: Families rebuilt by :func:`check_cascade_section` in this process, by their exact inputs: the rebuild is
+#: a pure function of the design, the rate and the points, and a tampering loop re-checks one design hundreds
+#: of times (every stated number is still compared afresh against it).
+_FAMILIES: dict[tuple, "CascadeFamily"] = {}
+
+
+def family_cached(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, points: np.ndarray, tilt_limit_deg: float,
+                   rate_hz: float) -> "CascadeFamily":
+    pts = np.ascontiguousarray(points, dtype=float)
+    key = (vehicle, gains, inner, float(tilt_limit_deg), float(rate_hz), pts.shape, pts.tobytes())
+    if key not in _FAMILIES:
+        if len(_FAMILIES) >= 16:
+            _FAMILIES.clear()
+        _FAMILIES[key] = sampled_family(vehicle, gains, inner, pts, tilt_limit_deg=tilt_limit_deg, rate_hz=rate_hz)
+    return _FAMILIES[key]

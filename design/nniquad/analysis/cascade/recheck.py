@@ -1,0 +1,334 @@
+"""``verify``'s re-check of a certificate's ``cascade`` section from the design alone.
+
+Every system matrix is rebuilt from the design, the stated rate and the stated box; every stated number is
+recomputed with numpy and compared (values within their rounding bounds, never where an argmax tie breaks).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Callable, Mapping, Sequence
+
+import numpy as np
+
+from nniquad.analysis.cascade.box import POINT_NAMES, ParameterBox, _subgrid, tilt_accel_limit
+from nniquad.analysis.cascade.family import (COUPLING_TOL, SUBSYSTEMS, _relevance_points, _take, coupling, subsystems,
+                                            family_cached, relevance_consistent)
+from nniquad.analysis.cascade.lyapunov import (GridCheck, RobustLyapunov, _assemble_P, _block_loops, checked_grid_size,
+                                              grid_check, point_index, witness_margins)
+from nniquad.analysis.cascade.region import HORIZONTAL, check_lure_block, linear_zone_reach, roa_note
+from nniquad.analysis.cascade.section import (LMI_POINTS_PER_AXIS, _COVERAGE, _FORM, _MARGIN_MODEL, _MARGIN_POINTS,
+                                             _margin_fields, model_text)
+from nniquad.analysis.sampled import _period
+from nniquad.config import CASCADE_GRID_POINTS_PER_AXIS, XI0_M
+from nniquad.control.gains import Gains, InnerLoopGains, SNI2Gains
+from nniquad.sim import CONTROLLER_STATES, state_names
+from nniquad.errors import CascadeError
+from nniquad.model.vehicle import Vehicle
+
+__all__ = ["check_cascade_section"]
+
+
+def _close(a: Any, b: Any, rtol: float = 1e-9) -> bool:
+    try:
+        A, B = np.asarray(a, float), np.asarray(b, float)
+    except (TypeError, ValueError):
+        return False
+    if A.shape != B.shape:
+        return False
+    if not (np.all(np.isfinite(A)) and np.all(np.isfinite(B))):
+        return bool(np.array_equal(A, B))
+    return bool(np.all(np.abs(A - B) <= rtol * np.maximum(np.abs(B), 1.0) + 1e-300))  # True when empty
+
+
+def _same_worst(stated: Mapping[str, Any], gc: GridCheck, points: np.ndarray) -> bool:
+    """The stated worst values equal the recomputed ones, and each stated worst point is a grid point whose own
+    value equals the recomputed worst, all within the rounding bound (never *which* of tied points is stated:
+    many grid points tie to rounding, and another machine's argmax may pick another of them)."""
+    tol = max(1e-9, gc.rounding_bound)
+    for value_key, point_key, values in (("worst_rho", "worst_point", gc.rho_all),
+                                         ("worst_spectral_radius", "worst_spectral_point", gc.spectral_all)):
+        worst = float(np.max(values))
+        i = point_index(points, [stated[point_key][n] for n in POINT_NAMES])
+        if not (_is_number(stated.get(value_key)) and abs(float(stated[value_key]) - worst) <= tol
+                and i is not None and abs(float(values[i]) - worst) <= tol):
+            return False
+    return _is_number(stated.get("worst_margin")) and abs(float(stated["worst_margin"]) - (1.0 - gc.worst_rho)) <= tol
+
+
+#: A stated rounding bound equals the recomputed one within this relative tolerance.  The verdicts use the
+#: recomputed bound; a jitter of the stored ``P`` far below every tolerance (relative 1e-12) moves the bound of an
+#: ill-conditioned ``P`` (λ_min/λ_max ≈ 1e-8) by about 1e-4 of itself.
+BOUND_RTOL = 1e-3
+#: A stated smallest eigenvalue of a diagonally scaled ``P`` (unit diagonal: eigenvalues at most n) equals the
+#: recomputed one within this absolute tolerance: far above a relative 1e-12 jitter of ``P``, far below a margin.
+SCALED_EIG_ATOL = 1e-9
+
+
+def _stated_margin_ok(key: str, stated: Any, computed: float) -> bool:
+    """A stated rounding margin (:func:`nniquad.analysis.cascade.section._margin_fields`) equals the recomputed one.
+
+    Each against its own scale, with no absolute floor of 1 (``_close`` has one, for matrix entries rebuilt by
+    finite differences; it would accept any stated bound below it).
+    """
+    if not _is_number(stated):
+        return False
+    if key == "min_eig_scaled":
+        return abs(float(stated) - computed) <= SCALED_EIG_ATOL
+    return abs(float(stated) - computed) <= BOUND_RTOL * abs(computed)
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+#: States of the linearised cascade besides the controller's: rigid body (12), altitude integrator, four rotors.
+_N_RIGID_AND_INNER = 17
+
+
+class _FirstFailure(Exception):
+    """Raised by a ``fail_fast`` re-check at its first failed row (the rows so far are the answer)."""
+
+
+#: ``cache(kind, inputs, compute)``: ``compute()``, or an earlier result for the same kind and exact JSON inputs.
+Cache = Callable[[str, Any, Callable[[], Any]], Any]
+
+
+def _no_cache(kind: str, inputs: Any, compute: Callable[[], Any]) -> Any:
+    return compute()
+
+
+def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: Gains | SNI2Gains,
+                          inner: InnerLoopGains, *, tilt_limit_deg: float, xi0_m: Sequence[float] = XI0_M,
+                          fail_fast: bool = False, cache: Cache | None = None) -> list[tuple[str, bool, str]]:
+    """Re-check a ``cascade`` section from the design alone (cheap checks first).
+
+    Every system matrix is rebuilt from ``vehicle``, ``gains``, ``inner``, the
+    stated rate and the stated box (no stored ``A`` is trusted); the stored
+    nominal matrices are compared with the rebuilt ones; every Lyapunov
+    condition is re-checked with numpy at the LMI points (contraction of
+    ``P(θ)`` equal to the stated ``ρ < 1``, ``P(θ) ≻ 0`` on the cube's corners);
+    the grid check is re-run and every stated number compared (relative 1e-9);
+    the region of attraction is recomputed from its stated matrices (method
+    ``lure``: :func:`nniquad.analysis.cascade.region.check_lure_block`) and
+    ``start_certified`` from the reach and ``xi0_m`` (the certificate's start,
+    by default :data:`nniquad.config.XI0_M` as for :func:`cascade_section`);
+    the margins are recomputed at the stated worst vertices.  The box search (``box_search``) is a record, not re-run: the
+    certified box is what is checked.
+
+    With ``fail_fast`` the re-check stops at its first failed row (``verify --fail-fast`` and the tamper loop: a
+    refusal needs one failed check, and the grid, the region and the margins come last because they cost most).
+
+    ``cache`` (:func:`nniquad.certificates.check_record.memo` in ``verify``) may hand back an earlier result of one of
+    the three costly recomputations (the grid check, the region of attraction, the margins) for the same exact
+    inputs: the design, the stated box and grid size, and the stated fields that recomputation reads.  Each is a
+    pure function of those inputs, so verifying many edits of one section redoes only what an edit touches.
+
+    Returns
+    -------
+    list of (name, ok, detail)
+        Every row, in order; with ``fail_fast`` the rows up to and including the first failed one.
+    """
+    out: list[tuple[str, bool, str]] = []
+
+    def add(name: str, ok: bool, detail: str) -> bool:
+        out.append((name, bool(ok), detail))
+        if fail_fast and not ok:
+            raise _FirstFailure
+        return bool(ok)
+
+    try:
+        _recheck(section, vehicle, gains, inner, tilt_limit_deg, xi0_m, add, cache or _no_cache)
+    except _FirstFailure:
+        pass
+    return out
+
+
+def _design_inputs(vehicle: Vehicle, gains: Gains | SNI2Gains, inner: InnerLoopGains, tilt_limit_deg: float,
+                   rate: float, box: Any, grid_n: int) -> list[Any]:
+    """What every rebuilt matrix of a section depends on, as JSON (the first inputs of each cached row)."""
+    from dataclasses import asdict
+
+    return [vehicle.as_dict(), type(gains).__name__, asdict(gains), asdict(inner), float(tilt_limit_deg),
+            float(rate), box, int(grid_n)]
+
+
+def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: Gains | SNI2Gains, inner: InnerLoopGains,
+             tilt_limit_deg: float, xi0_m: Sequence[float], add: Callable[..., bool], cache: Cache) -> None:
+    """The rows of :func:`check_cascade_section`, each handed to ``add(name, ok, detail)``."""
+    expected = subsystems(state_names("full", gains.controller))
+
+    need = ("rate_hz", "controller", "attitude_loop", "model", "box", "monte_carlo_default_box",
+            "covers_monte_carlo_default", "lyapunov", "grid", "region_of_attraction", "margins", "matrices",
+            "decay_rate_1_s", "start_certified")
+    missing = [k for k in need if not isinstance(section, Mapping) or k not in section]
+    if not add("section keys", not missing, f"missing {missing}" if missing else "all present"):
+        return
+    try:
+        rate = float(section["rate_hz"])
+        T = _period(rate)
+        box = ParameterBox.from_json(section["box"])
+        mc = ParameterBox.from_json(section["monte_carlo_default_box"])
+        grid_n = checked_grid_size(section["grid"].get("points_per_axis", CASCADE_GRID_POINTS_PER_AXIS))
+    except (CascadeError, TypeError, ValueError, AttributeError) as exc:
+        add("rate and box", False, str(exc))
+        return
+    add("controller variant", section["controller"] == "discrete" and section["attitude_loop"] == "continuous"
+        and section["model"] == model_text(_N_RIGID_AND_INNER + len(CONTROLLER_STATES[gains.controller])),
+        f"{section['controller']}, attitude {section['attitude_loop']}")
+    add("Monte Carlo default box", mc == ParameterBox.monte_carlo_default(), str(mc.to_json()))
+    try:
+        texts = (section["lyapunov"]["form"] == _FORM and section["lyapunov"]["coverage"] == _COVERAGE
+                 and section["region_of_attraction"]["note"] == roa_note(gains.controller)
+                 and section["margins"]["points"] == _MARGIN_POINTS and section["margins"]["model"] == _MARGIN_MODEL
+                 and all(list(section["lyapunov"]["subsystems"][n]["states"]) == list(expected[n])
+                         for n in SUBSYSTEMS))
+    except (KeyError, TypeError):
+        texts = False
+    add("stated method texts and subsystem states", texts, "form, coverage, notes, states")
+    add("covers_monte_carlo_default", section["covers_monte_carlo_default"] is box.contains(mc),
+        f"stated {section['covers_monte_carlo_default']}, box contains it: {box.contains(mc)}")
+    roa = section["region_of_attraction"]
+    L = tilt_accel_limit(vehicle, box, tilt_limit_deg)
+    add("tilt limit and u0", _close(roa.get("tilt_limit_deg"), tilt_limit_deg) and _close(roa.get("u0_m_s2"), L),
+        f"u0 = {L:.6g} m/s^2 at {tilt_limit_deg:g} deg")
+    lyap_s = section["lyapunov"]
+    try:
+        subs = lyap_s["subsystems"]
+        dims = {name: tuple(POINT_NAMES.index(d) for d in subs[name]["dims"]) for name in SUBSYSTEMS}
+        Pk = {name: np.asarray(subs[name]["P"], float) for name in SUBSYSTEMS}
+        rhos = {name: float(subs[name]["rho"]) for name in SUBSYSTEMS}
+    except (KeyError, TypeError, ValueError) as exc:
+        add("lyapunov block", False, f"unreadable ({exc})")
+        return
+    # ---- rebuild every matrix in one batched call: nominal, relevance probes, LMI points, grid
+    probes = _relevance_points(box)
+    pts = {name: _subgrid(box, dims[name], LMI_POINTS_PER_AXIS) for name in SUBSYSTEMS}
+    allp = np.vstack([np.ones((1, 6))] + list(pts.values()) + [box.grid(grid_n), probes])
+    try:
+        big = family_cached(vehicle, gains, inner, allp, tilt_limit_deg, rate)
+    except CascadeError as exc:
+        add("rebuild", False, str(exc))
+        return
+    n_cert = 1 + sum(p.shape[0] for p in pts.values()) + box.grid(grid_n).shape[0]
+    big.spectral_radius  # noqa: B018  once per rebuilt family (it is cached): every check below shares it
+    fam = _take(big, np.arange(n_cert))
+    add("relevant coordinates", relevance_consistent(_take(big, np.arange(n_cert, len(big))), box, dims),
+        str({k: subs[k]["dims"] for k in SUBSYSTEMS}))
+    mats = section["matrices"]
+    nom = _take(fam, np.arange(1))
+    ok = (list(mats.get("state_names", [])) == list(fam.state_names) and _close(mats.get("A_d"), nom.A_d[0])
+          and _close(mats.get("Phi"), nom.Phi[0]) and _close(mats.get("Gamma_d"), nom.Gam[0])
+          and _close(mats.get("A_kd"), fam.A_kd) and _close(mats.get("B_kd"), fam.B_kd)
+          and _close(mats.get("C_k"), fam.C_k) and _close(mats.get("D_k"), fam.D_k))
+    add("nominal matrices rebuilt", ok, "A_d, Phi, Gamma_d, A_kd, B_kd, C_k, D_k vs the design")
+    cpl = coupling(nom)
+    add("subsystems decoupled", cpl <= COUPLING_TOL and _close(lyap_s.get("coupling"), cpl, 1e-6),
+        f"coupling {cpl:.3g} (stated {lyap_s.get('coupling')})")
+    lyap: dict[str, RobustLyapunov] = {}
+    loops = _block_loops(fam, box, pts, dims)
+    k = 1 + sum(p.shape[0] for p in pts.values())
+    for name in SUBSYSTEMS:
+        A, th = loops[name]
+        m, q = A.shape[0], th.shape[1]
+        good = Pk[name].shape == (q + 1, len(expected[name]), len(expected[name]))
+        detail = "bad P shape"
+        if good:
+            wm = witness_margins(Pk[name], A, th)
+            sr = float(np.max(np.abs(np.linalg.eigvals(A))))
+            rho = rhos[name]
+            # the stated rho is the numpy contraction of the stated P at the LMI points (best_decay,
+            # reach_lyapunov), equal within its rounding bound: another witness P, even a valid one, is not the
+            # one signed; rho < 1 and P > 0 each hold with a margin above rounding (WitnessMargins.ok)
+            tol = max(1e-9, wm.rho_bound) if math.isfinite(wm.rho_bound) else 1e-9
+            stated_margins = {key: subs[name].get(key) for key in _margin_fields(wm)}
+            good = (wm.ok and abs(wm.rho - rho) <= tol and m == subs[name]["lmi_points"]
+                    and _close(subs[name]["spectral_radius"], sr)
+                    and _close(subs[name]["decay_rate_1_s"], -math.log(rho) / T)
+                    and all(_stated_margin_ok(key, stated_margins[key], v) for key, v in _margin_fields(wm).items()))
+            detail = (f"{m} points, contraction {wm.rho:.10f} = rho {rho:.10f} < 1 by {1 - wm.rho:.3g} "
+                      f"(rounding bound {wm.rho_bound:.2g}); min eig scaled P {wm.definite:.3g} "
+                      f"(bound {wm.definite_bound:.2g})")
+            lyap[name] = RobustLyapunov(P=Pk[name], rho=rho, rho_vertices=wm.rho_all, spectral_radius=sr, T=T,
+                                        decay_rate_1_s=-math.log(rho) / T, min_eig_P=wm.min_eig_ratio,
+                                        status="stored", ok=good)
+        add(f"Lyapunov LMI [{name}]", good, detail)
+    if len(lyap) != len(SUBSYSTEMS):
+        return
+    add("rho and decay rate", _close(lyap_s.get("rho"), max(rhos.values())) and _close(lyap_s.get("period_s"), T)
+        and _close(section["decay_rate_1_s"], min(l.decay_rate_1_s for l in lyap.values())),
+        f"decay {min(l.decay_rate_1_s for l in lyap.values()):.6g} 1/s")
+    grid_fam = _take(fam, np.arange(k, n_cert))
+    # the Lyapunov blocks above are functions of the design and the stated lyapunov section alone
+    design = _design_inputs(vehicle, gains, inner, tilt_limit_deg, rate, section["box"], grid_n) + [lyap_s]
+    try:
+        gc = cache("cascade.grid_check", design, lambda: grid_check(
+            grid_fam, _assemble_P(lyap, dims, box, grid_fam.points, fam.state_names), grid_n))
+        g = section["grid"]
+        ok = (gc.ok and g.get("size") == gc.size and g.get("ok") is True
+              and _same_worst(g, gc, grid_fam.points)
+              and _stated_margin_ok("rounding_bound", g.get("rounding_bound"), gc.rounding_bound)
+              # (1 - rho) / bound is known to within the bound's own share of it: 1 (rho is, to the bound)
+              and _is_number(g.get("margin_over_bound"))
+              and abs(float(g["margin_over_bound"]) - gc.margin_over_bound) <= 1.0 + BOUND_RTOL * gc.margin_over_bound)
+        add("grid check", ok, f"{gc.size} points, worst rho {gc.worst_rho:.8f} (1 - rho >= {gc.margin_over_bound:.3g} "
+                              f"x its rounding bound, <= {gc.rounding_bound:.2g}), worst spectral radius "
+                              f"{gc.worst_spectral_radius:.8f}")
+    except (KeyError, TypeError, ValueError, np.linalg.LinAlgError) as exc:
+        add("grid check", False, f"unreadable or not positive definite ({exc})")
+    try:
+        lz_lmi, lz_grid = cache("cascade.linear_zone", design, lambda: (linear_zone_reach(lyap, dims, box, fam, L),
+                                                                         linear_zone_reach(lyap, dims, box, grid_fam, L)))
+        method = roa.get("method")
+        ok = _close(roa.get("linear_zone_reach_lmi_points_m"), lz_lmi) and _close(roa.get("linear_zone_reach_grid_m"),
+                                                                                  lz_grid)
+        reach, detail = min(lz_lmi, lz_grid), f"linear zone {min(lz_lmi, lz_grid):.6g} m"
+        if method == "linear_zone":
+            ok = ok and _close(roa.get("max_displacement_m"), reach) and "lure" not in roa
+        elif method == "lure" and gains.controller != "sni2":  # solved for a start with the controller at 0
+            start, lmi = 1, {}
+            for name in SUBSYSTEMS:  # each horizontal axis's LMI points, as the family is stacked above
+                if name in HORIZONTAL:
+                    lmi[name] = _take(fam, np.arange(start, start + pts[name].shape[0]))
+                start += pts[name].shape[0]
+            lure_ok, lure_detail, lure_reach = cache("cascade.lure", design + [roa["lure"]],
+                                                     lambda: check_lure_block(roa["lure"], dims, box, lmi, grid_fam,
+                                                                              lyap))
+            # the stated reach is the recomputed one (never larger), and reaches beyond the linear zone
+            stated = roa.get("max_displacement_m")
+            ok = (ok and lure_ok and _is_number(stated) and lure_reach * (1 - 2e-9) <= stated <= lure_reach
+                  and lure_reach > reach)
+            reach, detail = lure_reach, lure_detail
+        else:
+            ok = False
+        add("region of attraction", ok, f"{method}: stated reach {roa.get('max_displacement_m')} m; {detail}")
+        r0 = math.hypot(*(float(v) for v in xi0_m))
+        add("start certified", section["start_certified"] is bool(r0 <= float(roa["max_displacement_m"])),
+            f"start {r0:.6g} m, reach {roa.get('max_displacement_m')} m: stated {section['start_certified']}")
+    except (KeyError, TypeError, ValueError, np.linalg.LinAlgError) as exc:
+        add("region of attraction", False, f"unreadable ({exc})")
+    # ---- margins at the stated worst points (the most expensive check: last)
+    try:
+        from nniquad.analysis.fast_margins import fast_cascade_margins
+
+        worst = section["margins"]["worst"]
+        wpts = []
+        for bp, w in worst.items():
+            for key in ("gm_db", "gm_lower_db", "pm_deg"):
+                wpts.append((bp, key, w[key], [float(w[key + "_point"][n]) for n in POINT_NAMES]))
+        uniq = sorted({tuple(p[3]) for p in wpts})
+
+        def margins_at_points() -> dict:
+            mf = family_cached(vehicle, gains, inner, np.array(uniq, float), tilt_limit_deg, rate)
+            return {u: fast_cascade_margins(mf.cascade_at(i), rate) for i, u in enumerate(uniq)}
+
+        got = cache("cascade.margins", _design_inputs(vehicle, gains, inner, tilt_limit_deg, rate, None, 0)
+                    + [[list(u) for u in uniq]], margins_at_points)
+        mdims = set(dims["x"]) | set(dims["y"])
+        lo, hi = box.bounds()
+        ok = all(_close(float(v), getattr(got[tuple(p)][bp], key), 1e-6) for bp, key, v, p in wpts) and all(
+            w["stable"] is True for w in worst.values()) and all(got[tuple(p)][bp].stable for bp, _, _, p in wpts) and all(
+            all((p[j] == lo[j] or p[j] == hi[j]) if j in mdims else p[j] == 1.0 for j in range(6)) for *_, p in wpts)
+        add("margins at the stated worst vertices", ok, f"{len(uniq)} vertices recomputed")
+    except (KeyError, TypeError, ValueError, CascadeError) as exc:
+        add("margins at the stated worst vertices", False, f"unreadable ({exc})")

@@ -1,0 +1,146 @@
+"""Re-checks that re-run something: the classical margins of the cascade and the two reference flights.
+
+A margin verdict ("meets the required margin") is recomputed and compared
+within the stated tolerances, never bit for bit; the reference runs are
+re-simulated with the certificate's own settings
+(:func:`nniquad.certificates.certificate.reference_run_options`).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Mapping
+
+from nniquad.certificates.certificate import Certificate
+from nniquad.certificates.check_record import Check, close, fmt_value, gains_key, is_number, memo, thaw_json
+from nniquad.errors import CertificateError, NniquadError
+
+__all__ = ["same_margin", "meets_within", "margins_check", "performance_check"]
+
+
+def same_margin(stated: Any, computed: Any, tol: float, relative: bool = False) -> bool:
+    """A stated margin number (or ``"inf"``/``"-inf"``/``"nan"`` string, or bool) against the recomputed one."""
+    if isinstance(computed, bool) or isinstance(stated, bool):
+        return stated is computed
+    if isinstance(computed, str) or isinstance(stated, str):
+        return isinstance(stated, str) and isinstance(computed, str) and stated == computed
+    if not isinstance(stated, (int, float)):
+        return False
+    err = abs(float(stated) - float(computed))
+    return err <= (tol * max(abs(float(computed)), 1e-12) if relative else tol)
+
+
+def meets_within(stated: Any, comp: Mapping[str, Any], required: Mapping[str, float],
+                  tol: Mapping[str, float]) -> bool:
+    """A stated ``meets_requirement`` against the recomputed margins, judged within the margins' tolerances.
+
+    A verdict is a threshold on numbers that ``verify`` compares only within ``margin_db_abs`` and
+    ``margin_deg_abs``: a margin within that of its requirement may be computed on either side of it on another
+    machine, so either verdict is accepted there, and only there.  ``True`` needs every margin to reach its
+    requirement less the tolerance (on a stable loop); ``False`` needs one margin short of it by more than the
+    tolerance, or an unstable loop.
+    """
+    if not isinstance(stated, bool):
+        return False
+    if comp.get("stable") is not True:
+        return stated is False
+    gm_req, pm_req = float(required["gm_db"]), float(required["pm_deg"])
+    shortfalls = (  # how far each requirement is missed (negative: met with room)
+        (gm_req - float(comp["gm_db"]), tol["margin_db_abs"]),
+        (float(comp["gm_lower_db"]) + gm_req, tol["margin_db_abs"]),
+        (pm_req - float(comp["pm_deg"]), tol["margin_deg_abs"]),
+    )
+    shortfalls = tuple((math.inf if math.isnan(short) else short, t) for short, t in shortfalls)  # nan: not met
+    if stated:
+        return all(short <= t for short, t in shortfalls)
+    return any(short > -t for short, t in shortfalls)
+
+
+def margins_check(cert: Certificate, tol: Mapping[str, float]) -> Check:
+    """Recompute the classical margins from the vehicle, the gains and the inner loops (never stored matrices)."""
+    from nniquad.certificates.build import MARGIN_FIELDS, margins_section, sector_pm_ceiling_deg
+
+    stated = cert.margins
+    try:
+        rate = float(stated["rate_hz"])
+        gamma_max = float(cert.sector["gamma_max"])
+    except (KeyError, TypeError, ValueError):
+        raise CertificateError("certificate 'margins' needs a number 'rate_hz'") from None
+    if (stated.get("controller") != "discrete" or stated.get("pade_order") != 2
+            or isinstance(stated.get("pade_order"), bool)):
+        return Check("margins", False, "margins stated for another sampling model than the one recomputed")
+    fresh = memo("margins", [cert.vehicle.as_dict(), gains_key(cert), cert.inner_loop.as_dict(),
+                              cert.tilt_limit_deg, gamma_max, rate],
+                  lambda: margins_section(cert.vehicle, cert.gains, cert.inner_loop,
+                                          tilt_limit_deg=cert.tilt_limit_deg, gamma_max=gamma_max, rate_hz=rate))
+    ok = True
+    bad: list[str] = []
+    points = stated.get("break_points")
+    if not isinstance(points, Mapping) or set(points) != set(fresh["break_points"]):
+        return Check("margins", False, "margins: the break points stated differ from the recomputed ones")
+    for name, comp in fresh["break_points"].items():
+        st = points[name]
+        for key in MARGIN_FIELDS:
+            if key == "meets_requirement":
+                same = meets_within(st.get(key), comp, fresh["required"], tol)
+            elif key.endswith("_db"):
+                same = same_margin(st.get(key), comp[key], tol["margin_db_abs"])
+            elif key.endswith("_deg"):
+                same = same_margin(st.get(key), comp[key], tol["margin_deg_abs"])
+            elif key.endswith("_rad_s"):
+                same = same_margin(st.get(key), comp[key], tol["margin_freq_relative"], relative=True)
+            else:
+                same = same_margin(st.get(key), comp[key], 0.0)
+            if not same:
+                ok = False
+                bad.append(f"{name}.{key} {st.get(key)!r} (recomputed {comp[key]!r})")
+    # the overall verdict is the conjunction of the stated per-break-point verdicts (each checked above)
+    ok = ok and stated.get("meets_requirement") is all(points[n].get("meets_requirement") is True for n in points)
+    ok = ok and isinstance(stated.get("required"), Mapping) and dict(stated["required"]) == fresh["required"]
+    ok = ok and close(stated.get("horizontal_pm_ceiling_deg"), sector_pm_ceiling_deg(gamma_max, cert.controller),
+                       1e-12)
+    h, a = fresh["break_points"]["horizontal"], fresh["break_points"]["attitude"]
+    detail = (f"horizontal GM +{h['gm_db']}/{h['gm_lower_db']} dB PM {h['pm_deg']} deg; attitude GM +{a['gm_db']}/"
+              f"{a['gm_lower_db']} dB PM {a['pm_deg']} deg at {rate:g} Hz; meets GM >= {fresh['required']['gm_db']:g} dB, "
+              f"PM >= {fresh['required']['pm_deg']:g} deg: {fresh['meets_requirement']}")
+    if bad:
+        detail += "; differs: " + ", ".join(bad[:3])
+    return Check("margins", ok, detail)
+
+
+def performance_check(cert: Certificate, tol: Mapping[str, float], model: str) -> Check:
+    """Re-simulate one reference run with its stated settings (checked by ``settings``) and compare every number."""
+    from nniquad.sim import SimOptions, simulate
+
+    stated = cert.performance.get(model)
+    if not isinstance(stated, Mapping) or not isinstance(stated.get("settings"), Mapping):
+        raise CertificateError(f"certificate performance.{model} is missing or has no settings")
+    settings = thaw_json(stated["settings"])
+    settings.pop("inner", None)
+    try:
+        opts = SimOptions(**{**settings, "xi0": tuple(settings.get("xi0", cert.xi0_m)),
+                             "zc0": tuple(settings.get("zc0", (0.0, 0.0))),
+                             "wind_N": tuple(settings.get("wind_N", (0.0, 0.0))), "inner": cert.inner_loop})
+    except (TypeError, NniquadError) as exc:
+        raise CertificateError(f"certificate performance.{model}.settings: {exc}") from None
+
+    def run() -> dict[str, Any]:
+        met = simulate(cert.vehicle, cert.gains, opts)[0].metrics()
+        return {k: getattr(met, k) for k in ("settling_s", "overshoot_pct", "peak_tilt_deg", "diverged")}
+
+    got_all = memo("simulate", [cert.vehicle.as_dict(), gains_key(cert), opts.to_json()], run)
+    diffs = []
+    ok = True
+    for key, tkey in (("settling_s", "settling_abs_s"), ("overshoot_pct", "overshoot_abs_pct"),
+                      ("peak_tilt_deg", "tilt_abs_deg")):
+        want, got = stated.get(key), got_all[key]
+        if want is None or got is None:
+            same = want is None and got is None
+        else:
+            same = is_number(want) and abs(float(want) - float(got)) <= tol[tkey]
+        ok &= same
+        diffs.append(f"{key} {fmt_value(got)} (stated {fmt_value(want)})")
+    same = stated.get("diverged") is bool(got_all["diverged"])
+    ok &= same
+    diffs.append(f"diverged {bool(got_all['diverged'])} (stated {stated.get('diverged')!r})")
+    return Check(f"performance.{model}", ok, ", ".join(diffs))

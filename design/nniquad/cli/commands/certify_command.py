@@ -1,0 +1,187 @@
+"""``nniquad certify``: tune (or take given gains), solve every LMI, write a signed certificate."""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+
+from nniquad.config import CONTROL_RATE_HZ
+from nniquad.control.law_classes import within_sector_bound
+from nniquad.errors import NniquadError
+from nniquad.format import fmt
+
+from nniquad.cli.commands.tune_command import add_tuning_options, print_tune_result, tune_options_from_args
+
+__all__ = ["HELP", "DESCRIPTION", "add_arguments", "run"]
+
+HELP = "tune, then write a certified gain set (JSON)"
+DESCRIPTION = """Tune (as 'nniquad tune'), then certify the result and write it to --out.
+
+With --kp, --Gamma and --delta the given gains are certified instead of tuned
+(the inner loops are then the defaults unless --attitude-wn etc. are given);
+with --controller sni2, --kp, --k, --omega and --zeta (the NNI structure with
+the second-order SNI controller k/(s^2 + 2 zeta omega s + omega^2)).
+
+The certificate holds the vehicle, the gains, the sector bound (smallest gamma
+and gamma_max), the stability margin and poles, the LMI matrices (plant and
+controller NI certificates, closed-loop Lyapunov P with its decay rate, the
+parameter-dependent P0 + P1/m over the mass interval, the region-of-attraction
+ellipsoid under tilt saturation with its multipliers), whether the start state
+lies in the certified region, the performance on the reduced and full models
+with their simulation settings, the classical margins at --rate, the time-optimal bound, software versions and
+a SHA-256 digest.  It states its law class (--law-class) and the theorem that
+certifies it: 'paper' (default) refuses gains outside the sector bound (exit
+2, one line: the cascade class drops it); 'cascade' is certified by the
+sampled-data cascade section alone.  Gains with an infeasible LMI are refused
+as well: no file is written.  Check a certificate with 'nniquad verify'."""
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    add_tuning_options(parser)
+    parser.add_argument("--controller", choices=("nni", "sni2"), default="nni",
+                        help="law to certify (default nni, the paper's; sni2: the NNI structure with a second-order "
+                             "strictly negative-imaginary controller, its DC loop gain k/(m kp omega^2) the sector "
+                             "constant)")
+    g = parser.add_argument_group("certify given gains instead of tuning")
+    g.add_argument("--kp", type=float, default=None, metavar="K", help="inner-loop gain kp [1/s^2]")
+    g.add_argument("--Gamma", type=float, default=None, metavar="G", help="controller gain Gamma")
+    g.add_argument("--delta", type=float, default=None, metavar="D", help="controller parameter delta")
+    g.add_argument("--k", type=float, default=None, metavar="K",
+                   help="sni2: gain k of C(s) = k/(s^2 + 2 zeta omega s + omega^2) [N/(m s^2)]")
+    g.add_argument("--omega", type=float, default=None, metavar="RAD_S", help="sni2: natural frequency omega of C(s)")
+    g.add_argument("--zeta", type=float, default=None, metavar="Z", help="sni2: damping ratio zeta of C(s) (> 0)")
+    g.add_argument("--attitude-wn", type=float, default=None, metavar="RAD_S", help="attitude natural frequency")
+    g.add_argument("--attitude-zeta", type=float, default=None, metavar="Z", help="attitude damping ratio")
+    g.add_argument("--attitude-accel", type=float, default=None, metavar="RAD_S2",
+                   help="deceleration of the attitude error shaping in rad/s^2")
+    g.add_argument("--gains-from", metavar="FILE", default=None,
+                   help="certify the gains and inner loops of a 'tune --json' file or a certificate (a filtered PD "
+                        "is certified as its NNI image: kp' = k_p + k_d/tau_f, Gamma = m k_d/tau_f^2, "
+                        "delta = tau_f/(m k_d)); the record of the tune that found them is kept as the "
+                        "certificate's tuning record when it was tuned on the same --model (re-certifying a "
+                        "certificate with a newer version keeps its design and its record)")
+    b = parser.add_argument_group("parameter box of the sampled-data cascade section")
+    b.add_argument("--box-scale", type=float, default=None, metavar="S",
+                   help="certify the Monte Carlo default ranges scaled by S about nominal in log space "
+                        "([lo^S, hi^S]; default: the ranges themselves if they certify, else S halved until it certifies)")
+    b.add_argument("--widest-box", action="store_true",
+                   help="search the widest scale of the Monte Carlo ranges that certifies (about a minute more) "
+                        "and certify it")
+    from nniquad.cli.commands.common import add_output_option
+
+    add_output_option(parser, "--out", required=True, metavar="FILE", help="certificate file to write (JSON)")
+
+
+def run(args: argparse.Namespace) -> int:
+    from dataclasses import replace
+
+    from nniquad.jobs.certify import certify
+    from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, SNI2Gains
+    from nniquad.progress import Progress
+    from nniquad.tuning.tune import tune
+    from nniquad.cli.commands.common import finite_positive, vehicle_from_args
+
+    out = Path(args.out)  # checked by main before this runs (nniquad.io.check_output_path)
+    from nniquad.config import DT_S
+    from nniquad.errors import CertificateError
+    from nniquad.sim.options import check_rate_hz
+
+    # before any tuning: a bad rate fails at once
+    rate = check_rate_hz(CONTROL_RATE_HZ if args.rate is None else args.rate, DT_S, error=CertificateError)
+    if args.warm_start and (args.kp is not None or args.gains_from is not None):
+        raise NniquadError("--warm-start seeds the tuning: it cannot be given with --kp/--Gamma/--delta or --gains-from")
+    box = None
+    if args.box_scale is not None:
+        from nniquad.analysis.cascade.certificate import ParameterBox
+
+        if args.widest_box:
+            raise NniquadError("give --box-scale or --widest-box, not both")
+        box = ParameterBox.monte_carlo_default().scaled(finite_positive("--box-scale", args.box_scale))
+    vehicle = vehicle_from_args(args)
+    options = tune_options_from_args(args)
+    law = options.controller
+    names = ("kp", "k", "omega", "zeta") if law == "sni2" else ("kp", "Gamma", "delta")
+    others = ("Gamma", "delta") if law == "sni2" else ("k", "omega", "zeta")
+    given = [getattr(args, n) for n in names]
+    progress = Progress("certify")
+    if any(getattr(args, n) is not None for n in others):
+        raise NniquadError(f"--{' --'.join(others)} are not gains of the {law} law (--controller)")
+    if args.gains_from is not None and any(getattr(args, n) is not None for n in (*names, "attitude_wn",
+                                                                                 "attitude_zeta", "attitude_accel")):
+        raise NniquadError("give --gains-from or the gains (and the attitude options), not both")
+    if args.gains_from is not None:
+        from nniquad.cli.commands.tune_command import designs_from_files
+
+        records: list = []
+        (gains, inner), = designs_from_files([args.gains_from], "--gains-from", records)
+        cert = certify(vehicle, gains, inner=inner, options=options, progress=progress.message, rate_hz=rate,
+                       box=box, widest_box=args.widest_box, tuning_record=records[0])
+    elif any(v is not None for v in given):
+        if any(v is None for v in given):
+            raise NniquadError(f"give all of --{', --'.join(names)} to certify given gains")
+        block = SNI2Gains if law == "sni2" else Gains
+        gains = block(*(finite_positive(f"--{n}", v) for n, v in zip(names, given)))
+        changes = {k: v for k, v in (("attitude_wn_rad_s", args.attitude_wn), ("attitude_zeta", args.attitude_zeta),
+                                     ("attitude_accel_limit_rad_s2", args.attitude_accel)) if v is not None}
+        inner = replace(DEFAULT_INNER_LOOP_GAINS, **changes)
+        from nniquad.certificates.certificate import reference_run_options
+        from nniquad.config import XI0_M
+        from nniquad.sim import SimParams
+        from nniquad.sim.step_check import check_step
+
+        # the runner's step check on the certificate's full-model reference run, before any LMI is solved
+        run = reference_run_options("full", inner, tilt_limit_deg=options.tilt_limit_deg, xi0=XI0_M)
+        check_step(SimParams.from_options(vehicle, gains, run), "full",
+                   hint={"NNI controller (Gamma*delta)": "--Gamma or --delta", "SNI controller (omega, zeta)":
+                         "--omega or --zeta", "attitude": "--attitude-wn", "motor lag": "the vehicle's tau_motor"})
+        cert = certify(vehicle, gains, inner=inner, options=options, progress=progress.message, rate_hz=rate,
+                       box=box, widest_box=args.widest_box)
+    else:
+        from nniquad.cli.commands.tune_command import warm_starts_from_args
+
+        tuned = tune(vehicle, options, progress=progress.message, warm_starts=warm_starts_from_args(args))
+        print_tune_result(tuned)
+        cert = certify(vehicle, tuned, options=options, progress=progress.message, rate_hz=rate,
+                       box=box, widest_box=args.widest_box)
+    progress.close()
+    path = cert.write(out)
+    gains, perf = cert.gains, cert.performance
+    print(f"certificate: {path}")
+    gamma, gamma_max = cert.sector["gamma"], cert.sector["gamma_max"]
+    from dataclasses import fields
+
+    from nniquad.control.gains import field_unit
+
+    listed = ", ".join(f"{f.name} = {fmt(getattr(gains, f.name), digits=6)} {field_unit(f)[0]}".rstrip(" -")
+                       for f in fields(gains) if getattr(gains, f.name) is not None)
+    print(f"  {cert.controller} gains {listed}; gamma = {fmt(gamma)} {'<=' if within_sector_bound(gamma, gamma_max) else '>'} "
+          f"{gamma_max:g}")
+    print(f"  law class {cert.law_class['name']}: certified by {cert.law_class['theorem']}")
+    for model in ("reduced", "full"):
+        print(f"  {model:<7} settling {fmt(perf[model]['settling_s'], 's')} "
+              f"({fmt(cert.ratio_to_bound[model], digits=3)} x bound {fmt(cert.bound['enter_band_s'], 's')}), "
+              f"peak tilt {fmt(perf[model]['peak_tilt_deg'], 'deg')}")
+    print(f"  certified reach {fmt(cert.certified_reach_m, 'm')}; start state certified: {fmt(cert.start_certified)}")
+    if cert.cascade is not None:
+        cas = cert.cascade
+        bx = cas["box"]
+        print(f"  sampled-data cascade at {cas['rate_hz']:g} Hz certified over mass x{bx['mass_factor'][0]:.3g}-"
+              f"{bx['mass_factor'][1]:.3g}, inertia x{bx['inertia_factor'][0]:.3g}-{bx['inertia_factor'][1]:.3g}, "
+              f"attitude gain x{bx['attitude_gain_factor'][0]:.3g}-{bx['attitude_gain_factor'][1]:.3g}, "
+              f"motor tau x{bx['tau_motor_factor'][0]:.3g}-{bx['tau_motor_factor'][1]:.3g} "
+              f"(covers the Monte Carlo ranges: {cas['covers_monte_carlo_default']}); decay "
+              f"{fmt(cas['decay_rate_1_s'], '1/s')}, grid {cas['grid']['size']} points worst rho "
+              f"{cas['grid']['worst_rho']:.6f}")
+        roa = cas["region_of_attraction"]
+        start = math.hypot(*cert.xi0_m)
+        print(f"  cascade region of attraction ({roa['method']}): reach {fmt(roa['max_displacement_m'], 'm')} beside "
+              f"the start {fmt(start, 'm')}: start certified {fmt(cas['start_certified'])}")
+        search = cas.get("box_search")
+        if search:
+            failed = search["first_failed_scale"]
+            print(f"  box search ({search['method']}): widest scale certified {search['widest_certified_scale']:.4g} x "
+                  f"the Monte Carlo ranges (log space), first failed "
+                  f"{failed if isinstance(failed, str) else format(failed, '.4g')}")
+    print(f"  digest sha256 {cert.signature}")
+    return 0

@@ -1,0 +1,274 @@
+"""``nniquad tune``: the fastest gain set the NI theory certifies."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from nniquad.config import GAMMA_MAX, TUNING_SCENARIO_SEED
+from nniquad.control.law_classes import within_sector_bound
+from nniquad.format import fmt
+
+from nniquad.cli.commands.common import add_json_option, add_tilt_limit_option, add_vehicle_option, vehicle_from_args, write_json_if_asked
+
+__all__ = ["HELP", "DESCRIPTION", "add_arguments", "run", "add_tuning_options", "tune_options_from_args",
+           "print_tune_result"]
+
+HELP = "find the fastest gain set the NI theory certifies"
+DESCRIPTION = """Find the gain set (kp, Gamma, delta) with the shortest settling time.
+
+Constraints: the law class (--law-class): 'paper' (default) keeps the sector
+bound delta >= 1/(gamma_max m kp) (paper: gamma_max = 0.8) and Theorem
+main_result certifies the design; 'cascade' drops it, the sampled-data
+cascade certificate alone certifies the design (every filtered-derivative PD
+law is an NNI law of this class).  Then the tilt limit (commanded, and on the full model the actual tilt within
+the limit + 1 deg), the rotor-speed limits, and by default a certified reach:
+the region-of-attraction LMI under tilt saturation must certify every
+displacement from rest up to --roa-radius (default |xi0| = 2.5 m of the
+paper's run; 0 switches this off).  On the full model the attitude loop
+(natural frequency, damping, and the deceleration of its square-root error
+shaping) is tuned with the gains.
+
+On the full model every candidate runs as it flies: the position sampled at
+--rate and the law in discrete time (what the certificate certifies and
+'nniquad export' writes).  --warm-start FILE seeds the search with the design
+of a 'tune --json' file or a certificate (a filtered PD seeds the NNI law
+through its image: kp' = k_p + k_d/tau_f, Gamma = m k_d/tau_f^2, delta =
+tau_f/(m k_d)), so the result is never slower than that design in the class.
+
+Method: a scrambled Sobol sweep in the coordinates (ln kp, u = ln(gamma_max m
+kp delta) >= 0 [cascade: v = ln(m kp delta - 1)], ln Gamma delta [, attitude]), every point simulated in one
+CasADi batch, then a global optimiser from the best distinct points, fed
+with batches of candidates: BIPOP-CMA-ES (default) or NOMAD 4's mesh
+adaptive direct search (--optimizer nomad, needs PyNomadBBO); all of it
+rerun from other seeds to show the optimum is not a grid artefact.  Settling times are reported as a ratio to
+the time-optimal bound (nniquad bound)."""
+
+
+def add_tuning_options(parser: argparse.ArgumentParser) -> None:
+    """Options shared by ``tune`` and ``certify``."""
+    from nniquad.tuning.tune import BUDGETS, DEFAULT_OPTIMIZER, DEFAULT_ROA_RADIUS_M, OPTIMIZERS
+
+    parser.add_argument("--model", choices=("reduced", "full"), default="reduced",
+                        help="model the settling time is measured on (default reduced)")
+    parser.add_argument("--gamma-max", type=float, default=GAMMA_MAX, metavar="G",
+                        help=f"gamma_max of the sector bound, in (0, 1) (default {GAMMA_MAX:g}, the paper's)")
+    from nniquad.config import CONTROL_RATE_HZ
+    from nniquad.control.law_classes import DEFAULT_LAW_CLASS, LAW_CLASSES
+
+    parser.add_argument("--law-class", choices=tuple(LAW_CLASSES), default=None,
+                        help=f"class of certified NNI designs: paper (the sector bound holds; Theorem main_result) or "
+                             f"cascade (no sector bound; the sampled-data cascade certificate alone) (default "
+                             f"{DEFAULT_LAW_CLASS} for the NNI law; for --controller pd_filtered: only the filtered PDs "
+                             "whose NNI image lies in the class)")
+    parser.add_argument("--roa-radius", type=float, default=None, metavar="R",
+                        help=f"certified reach of the reduced loop's region-of-attraction LMI required in m (default "
+                             f"{DEFAULT_ROA_RADIUS_M:g} in the paper class, 0 (off) in the cascade class)")
+    parser.add_argument("--rate", type=float, default=None, metavar="HZ",
+                        help=f"control rate in Hz (default {CONTROL_RATE_HZ:g}), a period of whole 1 ms steps: full-model "
+                             "candidates run the law in discrete time at it; certify computes its margins, cascade "
+                             "section and full reference run at it")
+    parser.add_argument("--warm-start", action="append", default=[], metavar="FILE",
+                        help="seed the search with the gains and inner loops of a 'tune --json' file or a certificate "
+                             "(repeatable; a filtered PD seeds the NNI law through its image)")
+    parser.add_argument("--mass-range", type=float, nargs=2, default=None, metavar=("LO", "HI"),
+                        help="true masses in kg the settling time must hold for (worst case is tuned)")
+    parser.add_argument("--noise", type=float, default=0.0, metavar="SIGMA",
+                        help="position-noise standard deviation in m during tuning (default 0)")
+    add_tilt_limit_option(parser)
+    parser.add_argument("--budget", choices=tuple(BUDGETS), default="normal",
+                        help="search effort (default normal; quick for a fast look; with the robust objective "
+                             "the sni2 law's normal is the thorough search without its extra seeds: at the NNI "
+                             "law's normal its optimum depended on the seed, FINDINGS.md section 28)")
+    parser.add_argument("--optimizer", choices=OPTIMIZERS, default=DEFAULT_OPTIMIZER,
+                        help=f"optimiser after the sweep: cma (BIPOP-CMA-ES) or nomad (MADS, NOMAD 4; needs PyNomadBBO) "
+                             f"(default {DEFAULT_OPTIMIZER})")
+    parser.add_argument("--seed", type=int, default=0, metavar="N", help="seed of the sweep and the search (default 0)")
+    parser.add_argument("--reruns", type=int, default=None, metavar="K",
+                        help="extra seeds for the grid-artefact check (default: the budget's)")
+    parser.add_argument("--margin", action="store_true",
+                        help="full model: also demand the settling time with 1.5x the motor time constant and "
+                             "2 mm position noise (a more robust, slower design)")
+    add_vehicle_option(parser)
+    parser.add_argument("--nominal", action="store_true",
+                        help="full model: tune on the nominal scenario alone (default for full: the robust "
+                             "objective, p95 settling over a fixed set of perturbed scenarios incl. box corners)")
+    parser.add_argument("--no-margins", action="store_true",
+                        help="full model: do not require GM >= 6 dB both ways at the attitude and horizontal "
+                             "break points of the linearised cascade (the margins are still reported)")
+    parser.add_argument("--require-pm", action="store_true",
+                        help="full model: also rank the shortfall from PM >= 45 deg (out of reach of this law at "
+                             "the horizontal break point: the search then trades settling time for a few degrees)")
+    parser.add_argument("--scenario-seed", type=int, default=TUNING_SCENARIO_SEED, metavar="N",
+                        help=f"seed of the robust tuning scenarios (default {TUNING_SCENARIO_SEED}; a Monte Carlo "
+                             "study of the result should use another seed)")
+    parser.add_argument("--scenario-noise-range", type=float, nargs=2, default=None, metavar=("LO", "HI"),
+                        help="position-noise standard deviations in m of the robust tuning scenarios: the box corners "
+                             "take HI, the random draws U[LO, HI], one draw per position sample at --rate (default "
+                             "0 0.02, the Monte Carlo study's; set it to your sensor's: a velocity-free law "
+                             "differentiates the position, so the noise it must tolerate limits its speed)")
+
+
+def tune_options_from_args(args: argparse.Namespace):
+    from nniquad.config import CONTROL_RATE_HZ, DT_S
+    from nniquad.errors import NniquadError
+    from nniquad.sim.options import check_rate_hz
+    from nniquad.tuning.tune import TuneOptions
+
+    # before any work: a bad rate fails at once
+    rate = check_rate_hz(CONTROL_RATE_HZ if args.rate is None else args.rate, DT_S, error=NniquadError)
+    from nniquad.control.gains import NI_LAWS
+
+    controller = getattr(args, "controller", "nni")  # certify: its own --controller (an NI law)
+    in_class = controller in NI_LAWS or (controller == "pd_filtered" and args.law_class is not None)
+    robust = not (args.nominal or args.model != "full")
+    if args.scenario_noise_range is not None and not robust:
+        raise NniquadError("--scenario-noise-range sets the noise of the robust objective's scenarios: it needs "
+                           "--model full without --nominal")
+    return TuneOptions(model=args.model, gamma_max=args.gamma_max, roa_radius_m=args.roa_radius,
+                       law_class=args.law_class, rate_hz=rate,
+                       mass_range=None if args.mass_range is None else tuple(args.mass_range),
+                       noise_sigma_m=args.noise, tilt_limit_deg=args.tilt_limit, budget=args.budget,
+                       seed=args.seed, reruns=args.reruns, margin=args.margin,
+                       objective="robust" if robust else "nominal",
+                       require_margins=args.model == "full" and not args.no_margins and in_class,
+                       require_pm=args.require_pm and not args.no_margins,
+                       scenario_seed=args.scenario_seed, controller=controller,
+                       scenario_noise_range_m=(None if args.scenario_noise_range is None
+                                               else tuple(args.scenario_noise_range)),
+                       optimizer=args.optimizer)
+
+
+def warm_starts_from_args(args: argparse.Namespace) -> list:
+    """The ``(gains, inner loops)`` of every ``--warm-start`` file (:func:`designs_from_files`)."""
+    return designs_from_files(getattr(args, "warm_start", None) or [], "--warm-start")
+
+
+def designs_from_files(paths, option: str, records: list | None = None) -> list:
+    """The ``(gains, inner loops)`` of ``tune --json`` files or certificates (the law is the file's).
+
+    Parameters
+    ----------
+    paths
+        The files.
+    option
+        The option that named them, for the messages.
+    records
+        When given, the record of the tune behind each file is appended to it: a
+        certificate's ``tuning`` section, or the ``tune --json`` document itself.
+
+    Raises
+    ------
+    NniquadError
+        A file that is neither (one line naming it).
+    """
+    from nniquad.certificates.certificate import (certificate_gains, certificate_inner_loop, check_form)
+    from nniquad.control.gains import CONTROLLER_GAINS, InnerLoopGains
+    from nniquad.errors import CertificateError, NniquadError
+    from nniquad.io import parse_data, read_text_file
+
+    out = []
+    for path in paths:
+        data = parse_data(read_text_file(Path(path), what=option), "json", where=f"{option} {path}")
+        try:
+            if isinstance(data, dict) and data.get("schema") is not None:  # a certificate (digest checked)
+                check_form(data, str(path))
+                out.append((certificate_gains(data), certificate_inner_loop(data)))
+                if records is not None:
+                    records.append(data.get("tuning"))
+                continue
+            law = data["controller"]
+            gains = CONTROLLER_GAINS[law].from_values({**data["gains"], "kpy": data["gains"].get("kpy")}) \
+                if law == "nni" else CONTROLLER_GAINS[law](**data["gains"])
+            out.append((gains, InnerLoopGains(**data["inner_loop"])))
+            if records is not None:
+                records.append(data)
+        except (KeyError, TypeError, CertificateError, NniquadError) as exc:
+            raise NniquadError(f"{option} {path}: not a 'tune --json' file or a certificate ({exc})") from None
+    return out
+
+
+def print_tune_result(res) -> None:
+    """The tuned gains and their numbers, with units."""
+    m = res.metrics
+    from dataclasses import fields
+
+    from nniquad.control.gains import field_unit
+
+    rows = [("model", res.options.model, ""), ("controller", res.options.controller, "")]
+    rows += [(f.name, fmt(getattr(res.gains, f.name), digits=5), field_unit(f)[0])
+             for f in fields(res.gains) if getattr(res.gains, f.name) is not None]
+    if res.options.law_class is not None:
+        rows.append(("law class", res.options.law_class, "(sector bound " + ("required)" if res.options.law_class
+                                                                              == "paper" else "dropped)")))
+    if res.options.controller in ("nni", "sni2"):
+        rows.append(("smallest gamma (sector)" if res.options.controller == "nni" else "DC loop gain gamma (sector)",
+                     fmt(res.gamma, digits=5),
+                     f"{'<=' if within_sector_bound(res.gamma, res.options.gamma_max) else '>'} gamma_max {res.options.gamma_max:g}"))
+    image = res.nni_image()
+    if image is not None:
+        rows.append(("NNI image (kp, Gamma, delta)", ", ".join(fmt(v, digits=5) for v in
+                                                                (image["kp"], image["Gamma"], image["delta"])),
+                     f"gamma {fmt(image['gamma'], digits=4)}"))
+    if res.options.model == "full" and res.options.tune_attitude:
+        rows += [("attitude natural frequency", fmt(res.inner.attitude_wn_rad_s, digits=5), "rad/s"),
+                 ("attitude damping", fmt(res.inner.attitude_zeta, digits=5), "-"),
+                 ("attitude deceleration (shaping)", fmt(res.inner.attitude_accel_limit_rad_s2), "rad/s^2")]
+    rows += [
+        ("settling time" + (f" (p95 of {res.scenario_count} robust scenarios)" if res.objective == "robust"
+                            else " (worst scenario)"), fmt(res.settling_s, digits=5), "s"),
+        ("nominal settling time", fmt(res.nominal_settling_s, digits=5), "s"),
+        ("time-optimal bound enter_band_s", fmt(res.bound.enter_band_s, digits=5), "s"),
+        ("ratio to bound", fmt(res.ratio_to_bound, digits=4), "-"),
+        ("overshoot", fmt(m.overshoot_pct, digits=3), "%"),
+        ("peak actual tilt", fmt(m.peak_tilt_deg, digits=4), "deg"),
+        ("peak rotor speed", fmt(m.peak_rotor_speed_rad_s, digits=4), "rad/s"),
+        ("certified reach (ROA LMI)", fmt(res.certified_reach_m, digits=4) if res.options.controller in ("nni", "sni2")
+         else "none (not an NNI design: no sector bound)", f"m (required {res.roa_radius_m:g})"),
+        ("best settling per seed", ", ".join(f"{r['seed']}: {r['settling_s']:.4g}" for r in res.reruns), "s"),
+        ("simulations / LMI solves", f"{res.n_simulations} / {res.n_lmi}", ""),
+        ("time taken", fmt(res.elapsed_s, digits=3), "s"),
+    ]
+    if res.objective == "robust":
+        lo, hi = res.options.robust_noise_range_m
+        rows.append(("robust scenarios' position noise", f"sigma {fmt(lo)} to {fmt(hi)} (corners {fmt(hi)})", "m"))
+    if res.worst_scenario is not None:
+        rows.append(("worst robust scenario", f"{res.worst_scenario['label']}: {res.worst_scenario['cost_s']:.4g}", "s"))
+    for bp, mg in (res.margins or {}).items():
+        rows.append((f"{bp} margins (linearised, 100 Hz)",
+                     f"GM +{float(mg['gm_db']):.3g}/{float(mg['gm_lower_db']):.3g} dB, PM {float(mg['pm_deg']):.3g} deg",
+                     "meets GM 6 dB / PM 45 deg" if mg["meets_requirement"] else "FAILS GM 6 dB / PM 45 deg"))
+    if res.margins_met is False:
+        rows.append(("margin requirement", "not met (PM 45 deg is out of reach at the horizontal break point: "
+                     + ("smallest shortfall kept)" if res.options.require_pm else "GM enforced, PM reported)"), ""))
+    w = max(len(r[0]) for r in rows)
+    for name, value, unit in rows:
+        print(f"{name:<{w}}  {value}  {unit}".rstrip())
+
+
+def run(args: argparse.Namespace) -> int:
+    from nniquad.progress import Progress
+    from nniquad.tuning.tune import tune
+
+    vehicle = vehicle_from_args(args)
+    options = tune_options_from_args(args)
+    warm = warm_starts_from_args(args)
+    progress = Progress("tune")
+    res = tune(vehicle, options, progress=progress.message, warm_starts=warm)
+    progress.close()
+    print_tune_result(res)
+    write_json_if_asked(args, res.to_json())
+    return 0
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    add_tuning_options(parser)
+    from nniquad.tuning.tune_options import TUNABLE_CONTROLLERS
+
+    parser.add_argument("--controller", choices=TUNABLE_CONTROLLERS, default="nni",
+                        help="horizontal law to tune (default nni, the paper's; sni2: the NNI structure with a "
+                             "second-order strictly negative-imaginary controller k/(s^2 + 2 zeta omega s + omega^2), "
+                             "the same law classes with its DC loop gain k/(m kp omega^2) as the sector constant; "
+                             "the PD comparison laws are tuned on the same inner loops and scenarios, have no sector "
+                             "bound and no certificate)")
+    add_json_option(parser, "tuned gains, metrics, per-seed optima and search statistics")

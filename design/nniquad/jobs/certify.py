@@ -1,0 +1,193 @@
+"""The jobs ``certify`` and ``verify``: issue a certified gain set, and check one independently."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Callable, Mapping
+
+from nniquad.certificates.build import build_certificate
+from nniquad.certificates.certificate import Certificate
+from nniquad.certificates.verify import Verification, verify_certificate
+from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, InnerLoopGains, SNI2Gains
+from nniquad.errors import CertificateCheckError, CertificateError, NniquadError
+from nniquad.model.vehicle import PAPER_VEHICLE, Vehicle
+
+__all__ = ["certify", "verify", "unsettled_reference_run"]
+
+
+def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLoopGains | None = None,
+            options: Any = None, progress: Callable[[str], None] | None = None,
+            rate_hz: float | None = None, box: Any = None, widest_box: bool = False,
+            tuning_record: Mapping[str, Any] | None = None) -> Certificate:
+    """Tune (unless gains are given), solve every LMI, simulate the reference runs and sign.
+
+    The certificate is verified independently (:func:`verify`) before it is
+    returned, so a certificate this function returns always verifies.
+
+    Parameters
+    ----------
+    vehicle
+        The vehicle; default the paper's.
+    gains
+        Gains to certify (:class:`nniquad.control.gains.Gains`, the ``sni2`` law's
+        :class:`~nniquad.control.gains.SNI2Gains`, or a
+        :class:`~nniquad.control.gains.PDFilteredGains`, certified as its NNI image,
+        :func:`nniquad.control.pd_equivalence.nni_from_filtered_pd`); a
+        :class:`nniquad.tuning.tune.TuneResult` (its gains and inner loops, and
+        the record of how they were found); or ``None``, which tunes them first
+        with ``options``.
+    inner
+        Inner-loop gains of the ``full`` reference run (with given ``gains``;
+        default :data:`nniquad.control.gains.DEFAULT_INNER_LOOP_GAINS`).  When the
+        gains are tuned, the inner loops are tuned with them.
+    options
+        A :class:`nniquad.tuning.tune.TuneOptions`: the model, ``gamma_max``, the
+        law class (``law_class``: ``paper`` or ``cascade``), the
+        tilt limit and the mass interval of the certificate, and how to tune
+        (default: those of a given :class:`~nniquad.tuning.tune.TuneResult`, else
+        ``TuneOptions()``).
+    progress
+        Called with one-line status messages.
+    box
+        Parameter box of the sampled-data cascade section
+        (:class:`nniquad.analysis.cascade.certificate.ParameterBox`); ``None``: the Monte
+        Carlo default box if it certifies, else its scale halved until it does.
+    widest_box
+        Also search the widest scale of the Monte Carlo default box that certifies
+        (about a minute more) and certify that box.
+    rate_hz
+        Control rate of the certificate [Hz] (default ``options.rate_hz``, the rate the
+        tuner ranked the candidates at; :func:`build_certificate`).
+    tuning_record
+        With given ``gains``: the record of the tune that found them (the ``tuning``
+        section of the certificate or ``tune --json`` file they come from), kept as
+        this certificate's ``tuning`` record when it was tuned on ``options.model``
+        (a record, never checked but for its model; ``certify --gains-from``).
+
+    Returns
+    -------
+    Certificate
+        Signed (SHA-256 digest of the canonical content); write it with
+        :meth:`Certificate.write` or :func:`nniquad.certificates.write_certificate`.
+
+    Raises
+    ------
+    CertificateError
+        The gains violate the sector bound (class ``paper``), an LMI is infeasible, or the
+        certificate fails its own verification, or a reference run does not
+    settle, diverges or is not seen to stay in the band for the hold time
+    (:func:`unsettled_reference_run`): nothing is certified.
+    """
+    from nniquad.tuning.tune import TuneOptions, TuneResult, tune
+
+    vehicle = PAPER_VEHICLE if vehicle is None else vehicle
+    if options is None:
+        options = gains.options if isinstance(gains, TuneResult) else TuneOptions()
+    if not isinstance(options, TuneOptions):
+        raise NniquadError("options must be a TuneOptions")
+    say = progress or (lambda msg: None)
+    tuning: dict[str, Any]
+    from nniquad.control.gains import PDFilteredGains
+    from nniquad.control.pd_equivalence import nni_from_filtered_pd
+
+    if options.controller == "pd_velocity":
+        raise NniquadError("the PD law with true velocity is no NNI law: there is nothing to certify")
+    law_class = options.law_class if options.law_class is not None else "paper"
+    if gains is None or isinstance(gains, TuneResult):
+        if inner is not None:
+            raise NniquadError("the inner loops are tuned with the gains: give gains to certify given inner loops")
+        res = tune(vehicle, options, progress=progress) if gains is None else gains
+        gains, inner = res.gains, res.inner
+        tuning = {"source": "nniquad tune", **res.to_json()}
+    else:
+        inner = DEFAULT_INNER_LOOP_GAINS if inner is None else inner
+        tuning = {"source": "given gains"}
+        if isinstance(tuning_record, Mapping) and tuning_record.get("model") == options.model:
+            tuning = {**tuning_record, "source": "given gains, with the record of the tune that found them"}
+    if isinstance(gains, PDFilteredGains):  # the filtered PD is the NNI law with these gains
+        tuning["certified_as_nni_image_of"] = {"pd_filtered": gains.as_dict()}
+        gains = nni_from_filtered_pd(gains, vehicle.m)
+    if not isinstance(gains, (Gains, SNI2Gains)):
+        raise NniquadError("gains must be a Gains (kp, Gamma, delta), an SNI2Gains (kp, k, omega, zeta) or a filtered "
+                           "PD (certified as its NNI image)")
+    cert = build_certificate(vehicle, gains, inner=inner, gamma_max=options.gamma_max,
+                             tilt_limit_deg=options.tilt_limit_deg, mass_range=options.mass_range,
+                             model=options.model, tuning=tuning, progress=progress,
+                             box=box, widest_box=widest_box, refuse_unsettled=True, law_class=law_class,
+                             rate_hz=options.rate_hz if rate_hz is None else rate_hz)
+    unsettled = unsettled_reference_run(cert)
+    if unsettled is not None:
+        raise CertificateError(f"refused: {unsettled}; nothing certified")
+    say("verifying before writing")
+    check = verify_certificate(cert)
+    if not check.ok:
+        bad = check.first_failure
+        raise CertificateCheckError(f"certificate failed its own verification ({bad.name}: {bad.detail}); "
+                               "nothing certified")
+    return cert
+
+
+def unsettled_reference_run(cert: Certificate | Mapping[str, Any]) -> str | None:
+    """Why a certificate's reference runs do not show settling, or ``None`` when both do.
+
+    The rule is the tuner's (:func:`nniquad.tuning.tune.settling_shown`): a last exit
+    at ``s`` counts only if the run is then seen inside the band for
+    ``max(5 s, 2 s)`` before its horizon ends.  A run that never settles, that
+    diverges, or whose last exit comes too late to be shown is refused: the
+    certificate would state a performance it has not observed (issue 14, item 1).
+
+    Parameters
+    ----------
+    cert
+        A :class:`Certificate` or its JSON content.
+
+    Returns
+    -------
+    str or None
+        A one-line reason naming the reference run, or ``None``.
+    """
+    from nniquad.tuning.tune import required_hold_s, settling_shown
+
+    perf = cert["performance"] if isinstance(cert, Mapping) else cert.performance  # JSON content or Certificate
+    for model, run in perf.items():
+        horizon = float(run["settings"]["horizon_s"])
+        s = run["settling_s"]
+        if run.get("diverged"):
+            return f"the {model} reference run diverged (the vehicle was lost: it blew up or lost its altitude)"
+        if s is None:
+            return f"the {model} reference run did not settle within its {horizon:g} s horizon"
+        if not settling_shown(s, horizon):
+            return (f"the {model} reference run was last in the band from {s:.3g} s, but is not shown to stay "
+                    f"there for {required_hold_s(s):.3g} s within its {horizon:g} s horizon")
+    return None
+
+
+def verify(certificate: Certificate | Mapping[str, Any] | str | Path, *, simulate: bool = True,
+           progress: Callable[[str], None] | None = None, fail_fast: bool = False) -> Verification:
+    """Recompute everything a certificate states, independently, with numpy and the simulator.
+
+    Parameters
+    ----------
+    certificate
+        A :class:`Certificate`, its JSON content, or the path of a certificate file.
+    simulate
+        Also re-simulate the reference runs (default); ``False`` checks the
+        digest and every matrix condition only.
+    progress
+        Called with one-line status messages.
+    fail_fast
+        Stop at the first failed check.
+
+    Returns
+    -------
+    Verification
+        One check per statement; ``ok`` only if every check passed; ``notes``
+        say what the certificate does not cover and which fields are records.
+
+    Raises
+    ------
+    CertificateError
+        The document is not a certificate (unreadable, wrong schema or version,
+        digest mismatch, malformed field).
+    """
+    return verify_certificate(certificate, simulate=simulate, progress=progress, fail_fast=fail_fast)

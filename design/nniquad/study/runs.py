@@ -1,0 +1,123 @@
+"""Running Monte Carlo scenarios: one :func:`nniquad.sim.simulate` call each, and its verdict.
+
+The verdict is the project's one definition (:mod:`nniquad.sim.verdicts`:
+:func:`~nniquad.sim.verdicts.blew_up_batch`,
+:func:`~nniquad.sim.verdicts.altitude_lost_batch`,
+:func:`~nniquad.sim.verdicts.failure_reason`), with the study's scale:
+distances are measured from the scenario's wind equilibrium, the divergence
+scale is ``max(‖ξ(0)‖, band)`` and the altitude limit is the ranges'
+``altitude_limit_m``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field, fields
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+from nniquad.sim.metrics import DEFAULT_BAND_FRACTION, settling_time_batch, tilt_deg
+
+from nniquad.sim.verdicts import altitude_lost_batch, blew_up_batch, failure_reason
+from nniquad.errors import NniquadError
+from nniquad.sim import SimOptions, simulate
+from nniquad.scenarios.draws import Scenario
+
+__all__ = ["ScenarioResult", "run_scenarios"]
+
+
+@dataclass(frozen=True)
+class ScenarioResult:
+    """Outcome of one scenario.
+
+    Attributes
+    ----------
+    index, study_seed
+        Which scenario (rerun with ``--seed study_seed --rerun index``).
+    success
+        Settled and never diverged.
+    failure
+        ``None``, ``"diverged"``, ``"altitude lost"``, ``"not settled"`` or ``"error: ..."``.
+    settling_s
+        Settling time around the equilibrium [s]; ``None`` if not settled.
+    peak_tilt_deg
+        Largest total tilt [deg] (``None`` if non-finite).
+    offset_m
+        Distance of the wind equilibrium from the origin [m].
+    final_error_m
+        Distance from the equilibrium at the end of the run [m].
+    max_altitude_dev_m
+        Largest altitude deviation [m].
+    scenario
+        The drawn quantities (:meth:`Scenario.describe`).
+    """
+
+    index: int
+    study_seed: int
+    success: bool
+    failure: str | None
+    settling_s: float | None
+    peak_tilt_deg: float | None
+    offset_m: float
+    final_error_m: float | None
+    max_altitude_dev_m: float | None
+    scenario: dict[str, Any] = field(default_factory=dict)
+
+    def to_json(self) -> dict[str, Any]:
+        d = asdict(self)
+        for k, v in d.items():
+            if isinstance(v, float) and not math.isfinite(v):
+                d[k] = None
+        return d
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any]) -> "ScenarioResult":
+        return cls(**{f.name: data.get(f.name) for f in fields(cls)})
+
+
+def _finite_or_none(x: float) -> float | None:
+    return float(x) if math.isfinite(x) else None
+
+
+def _run_one(s: Scenario) -> ScenarioResult:
+    eq = s.equilibrium_m()
+    desc = s.describe()
+    try:
+        opts = SimOptions(model="full", horizon_s=s.horizon_s, dt_s=s.dt_s, output_dt_s=s.output_dt_s,
+                          noise_sigma_m=s.noise_sigma_m, noise_rate_hz=s.noise_rate_hz,
+                          controller_sampling=s.controller_sampling,
+                          seed=s.noise_seed, xi0=s.xi0_m)
+        with np.errstate(all="ignore"):
+            res = simulate(None, None, opts, params=[s.sim_params])
+    except NniquadError as exc:
+        return ScenarioResult(s.index, s.study_seed, False, f"error: {exc}", None, None,
+                              math.hypot(*eq), None, None, desc)
+    xy, z = res.xy, res.z_ned
+    with np.errstate(all="ignore"):
+        rel = xy - np.asarray(eq)
+        scale = max(math.hypot(*s.xi0_m), s.band_m)
+        blew_up = bool(blew_up_batch(xy, scale_m=scale, z_batch=z)[0])
+        lost = bool(altitude_lost_batch(z, s.altitude_limit_m)[0])
+        alt = float(np.max(np.abs(z[0])))
+        peak_tilt = float(np.max(tilt_deg(res.phi[0], res.theta[0])))
+        final = float(np.hypot(*rel[0, -1]))
+    settling = float(settling_time_batch(res.t, rel, DEFAULT_BAND_FRACTION, s.band_m / DEFAULT_BAND_FRACTION)[0])
+    failure = failure_reason(blew_up, lost, math.isfinite(settling))
+    return ScenarioResult(
+        index=s.index, study_seed=s.study_seed, success=failure is None, failure=failure,
+        settling_s=None if failure is not None else settling,
+        peak_tilt_deg=_finite_or_none(peak_tilt), offset_m=math.hypot(*eq),
+        final_error_m=_finite_or_none(final), max_altitude_dev_m=_finite_or_none(alt), scenario=desc,
+    )
+
+
+def run_scenarios(batch: Sequence[Scenario]) -> list[ScenarioResult]:
+    """Simulate a batch of scenarios (the unit of work of the executors).
+
+    A pure function of the scenarios: the same scenario gives the same result
+    in any process, batch or order.  Each scenario is one single-threaded
+    :func:`nniquad.sim.simulate` call with its own noise sequence.
+    Simulation errors become failures (``"error: ..."``), never exceptions.
+    """
+    return [_run_one(s) for s in batch]

@@ -1,0 +1,345 @@
+"""What to tune and how hard: :class:`TuneOptions`, the budgets and the tuner's constants."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from typing import Any, Callable
+
+
+from nniquad.config import CONTROL_RATE_HZ, GAMMA_MAX, TILT_LIMIT_DEG, TUNING_SCENARIO_SEED, XI0_NORM_M
+from nniquad.control.gains import NI_LAWS
+from nniquad.errors import GainError, NniquadError, VehicleError
+from nniquad.validate import finite_number
+
+
+#: ‖ξ_h(0)‖ of the paper's run [m]: the default certified reach.
+DEFAULT_ROA_RADIUS_M = XI0_NORM_M
+
+#: Search effort: (Sobol points, distinct starts, optimiser evaluations, extra seeds).  The points and
+#: the evaluations are for the 3 coordinates of ``reduced``; the 6 of ``full`` get twice as many of both.
+BUDGETS: dict[str, tuple[int, int, int, int]] = {
+    "quick": (128, 2, 200, 0),
+    "normal": (256, 4, 400, 1),
+    "thorough": (1024, 6, 2000, 4),
+}
+
+#: Search effort of the robust objective (same fields; the sweep is screened on the nominal run, the
+#: optimiser's evaluations are not doubled for the attitude coordinates): a robust candidate runs the
+#: 20 tuning scenarios, ~0.5 s on 2 cores, and ``certify --model full`` must stay under 3 minutes.
+#: Paper's vehicle, `certify --model full`: 300 evaluations 72 s, p95 3.289 s; 600: 255 s, 3.209 s.
+ROBUST_BUDGETS: dict[str, tuple[int, int, int, int]] = {
+    "quick": (128, 2, 60, 0),
+    "normal": (256, 4, 400, 0),
+    "thorough": (1024, 6, 800, 2),
+}
+
+#: When no candidate passes every robust scenario on the default horizon, the search is repeated once on a
+#: horizon that shows settling times up to this multiple of ``enter_band_s`` (6.9 s, a 20.8 s horizon, for
+#: the paper's vehicle): the robust corners of a weaker or slower vehicle settle later (Iris, Crazyflie 2.x).
+ROBUST_RETRY_BANDS = 6.0
+
+#: Screened sweep points re-evaluated on the full objective, per optimiser start.
+SCREEN_KEEP_PER_START = 8
+
+
+#: The robust objective's effort for the ``sni2`` law (4 gain coordinates and the attitude loop's 3).  Its
+#: ``normal`` is the ``thorough`` search without the extra seeds: on the paper's vehicle (FINDINGS.md §28)
+#: five seeds of the robust ``normal`` budget spread 27.7 % (1.846-2.358 s p95), five of this one 1.1 %
+#: (1.815-1.835 s), at about 100 s a seed (``certify`` stays under its 3 minutes).
+SNI2_ROBUST_BUDGETS: dict[str, tuple[int, int, int, int]] = {
+    "quick": ROBUST_BUDGETS["quick"],
+    "normal": ROBUST_BUDGETS["thorough"][:3] + (0,),
+    "thorough": ROBUST_BUDGETS["thorough"],
+}
+
+
+def budget_of(options: "TuneOptions") -> tuple[int, int, int, int]:
+    """The (Sobol points, starts, optimiser evaluations, extra seeds) of ``options``' budget, objective and law."""
+    if options.robust:
+        return (SNI2_ROBUST_BUDGETS if options.controller == "sni2" else ROBUST_BUDGETS)[options.budget]
+    return BUDGETS[options.budget]
+
+
+#: The optimisers behind :func:`nniquad.tuning.optimizers.minimise`: BIPOP-CMA-ES (pycma), MADS (NOMAD 4).
+OPTIMIZERS = ("cma", "nomad")
+
+#: The default optimiser: the better one of ``benchmarks/bench_optimizers.py`` (same budget, five seeds).
+DEFAULT_OPTIMIZER = "cma"
+
+#: Actual tilt may exceed the tilt limit by this much (issue 7) [deg].
+TILT_SLACK_DEG = 1.0
+
+#: In the robust objective's perturbed scenarios the actual tilt may exceed the limit by this much [deg]:
+#: a slower motor or a weaker attitude loop overshoots the tilt command (by 3-15 deg in the slow-motor
+#: corners of the Monte Carlo box); the guard is against a flip-like excursion, not against the overshoot.
+ROBUST_TILT_SLACK_DEG = 15.0
+
+#: ``full`` margin scenario: motor time constant factor and position noise [m] (100 Hz).
+MARGIN_TAU_FACTOR = 1.5
+MARGIN_NOISE_M = 0.002
+
+#: The default tuner horizon lets settling times up to this multiple of ``enter_band_s`` count
+#: (:func:`honest_horizon_s`): 4 × 1.15 s + 9.2 s hold = 13.8 s for the paper's vehicle.
+LONGEST_SETTLING_BANDS = 4.0
+
+#: Share of the global sweep placed on the sector-bound face u = 0 (:func:`initial_design`).
+SECTOR_FACE_SHARE = 0.5
+
+#: Largest altitude deviation a ``full`` candidate may show [m].
+ALTITUDE_CAP_M = 0.5
+
+#: The robust objective minimises this quantile of the settling times over the tuning scenarios.
+ROBUST_QUANTILE = 0.95
+
+#: The laws :func:`nniquad.tuning.tune` tunes (:attr:`TuneOptions.controller`).
+TUNABLE_CONTROLLERS: tuple[str, ...] = ("nni", "pd_velocity", "pd_filtered", "sni2")
+
+#: The objectives (:attr:`TuneOptions.objective`).
+OBJECTIVES = ("robust", "nominal")
+
+
+@dataclass(frozen=True)
+class TuneOptions:
+    """What to tune and how hard (validated on construction).
+
+    Attributes
+    ----------
+    model
+        ``"reduced"`` or ``"full"``.
+    gamma_max
+        γ_max of the sector bound, in (0, 1) (paper: 0.8).
+    roa_radius_m
+        Certified reach of the reduced loop's region-of-attraction LMI required [m]; 0
+        switches the check off.  ``None`` (default): ‖ξ_h(0)‖ for the ``paper`` class,
+        0 for the ``cascade`` class (its proof is the cascade certificate, not the
+        reduced loop) and for the PD laws.
+    mass_range
+        ``(m_lo, m_hi)`` true masses [kg] the settling time must hold for, or ``None``.
+    noise_sigma_m
+        Position-noise standard deviation during tuning [m] (100 Hz sample and hold).
+    tilt_limit_deg
+        Tilt limit [deg].
+    budget
+        ``"quick"``, ``"normal"`` or ``"thorough"`` (:data:`BUDGETS`).
+    seed
+        Seed of the Sobol scrambling and of the optimiser.
+    horizon_s
+        Simulated time per candidate [s]; default :func:`honest_horizon_s` of
+        ``LONGEST_SETTLING_BANDS × enter_band_s`` (a settling time counts only when
+        the run is seen in the band for ``max(5 s, 2 × settling)`` after it).
+    motor_lag
+        First-order rotor-speed lag in the ``full`` model (default on).
+    tune_attitude
+        Tune the attitude natural frequency with the gains (``full``; default on).
+    reruns
+        Extra seeds for the artefact check; ``None`` takes the budget's.
+    controller
+        Horizontal law to tune: ``"nni"`` (the paper's, default), ``"sni2"`` (the NNI
+        structure with a second-order SNI controller, :mod:`nniquad.control.sni`; the same
+        law classes, its DC condition in place of the sector bound), or one of the
+        PD comparison laws ``"pd_velocity"`` (true velocity) and ``"pd_filtered"``
+        (filtered derivative of the measurement), tuned on the same inner loops,
+        scenarios and rules; the PD laws have no sector bound and no certified
+        reach (``roa_radius_m`` is set to 0 for them).
+    law_class
+        The class of certified NNI designs searched (:mod:`nniquad.control.law_classes`):
+        ``"paper"`` (the sector bound holds; the default of the NNI law) or ``"cascade"``
+        (the sector bound dropped; the proof is the sampled-data cascade certificate).
+        For ``"pd_filtered"``, a class restricts the search to the filtered PDs whose
+        NNI image lies in that class's box (:mod:`nniquad.tuning.laws`; ``None``, the
+        default, searches them all); ``"pd_velocity"`` takes no class.
+    rate_hz
+        Control rate [Hz] of the ``full`` model's candidates: the position is sampled at
+        it and the law runs in discrete time (``SimOptions(controller_sampling="discrete")``),
+        what the certificate certifies and ``nniquad export`` writes (default
+        :data:`nniquad.config.CONTROL_RATE_HZ`); ``reduced`` runs the paper's continuous loop.
+    margin
+        ``full`` only: also demand the settling time with the motor time constant
+        × :data:`MARGIN_TAU_FACTOR` and position noise :data:`MARGIN_NOISE_M`
+        sampled at 100 Hz (default off: the issue's targets are nominal); the cost
+        is the worse of the two runs.  The default design sits at the edge of the
+        nominal motor lag (``nniquad montecarlo`` shows it); this buys margin for
+        settling time.
+    objective
+        ``"robust"``: minimise the :data:`ROBUST_QUANTILE` quantile of the honest
+        settling time over the fixed tuning scenario set
+        (:mod:`nniquad.tuning.robust_scenarios`), every scenario required to settle without
+        altitude loss, divergence or actual tilt above the limit + 1°; ``"nominal"``:
+        the single nominal scenario (and ``mass_range`` / ``margin``).  ``None``
+        (default) is ``"robust"`` for ``full`` and ``"nominal"`` for ``reduced``
+        (the reduced model has no plant to perturb).
+    scenario_seed
+        Seed of the robust scenario set (default :data:`nniquad.config.TUNING_SCENARIO_SEED`);
+        a benchmark Monte Carlo study must use a different seed.
+    scenario_noise_range_m
+        ``(σ_lo, σ_hi)`` [m]: the position-noise standard deviations of the robust
+        scenario set (the box corners take ``σ_hi``, the random draws are uniform in
+        the range; one noise value per position sample at :attr:`rate_hz`).
+        ``None`` (default): the Monte Carlo default range
+        (:data:`nniquad.scenarios.ranges.DEFAULT_RANGES`), resolved by
+        :attr:`robust_noise_range_m`; unused by the nominal objective.  Set it to
+        the sensor's noise: a velocity-free law differentiates the measured
+        position, so the noise it must tolerate limits how fast it can be
+        (FINDINGS.md §25).
+    require_margins
+        ``full`` only: demand gain margin >= ``config.REQUIRED_GM_DB`` both ways at both
+        break points of the linearised cascade (:mod:`nniquad.analysis.fast_margins`),
+        and report the phase margins against ``config.REQUIRED_PM_DEG``; a candidate
+        that misses a required margin is ranked above every admissible one.  ``None``
+        (default) is on for ``full`` with the NNI law and with a filtered PD tuned in a
+        law class (computed on its NNI image).
+    require_pm
+        Also rank the phase-margin shortfall (``--require-pm``).  Off by default: PM >= 45°
+        at the horizontal break point is out of reach of this law under the sector
+        bound (at most asin(γ_max/(2-γ_max)) = 41.8° on the ideal double integrator,
+        :func:`nniquad.certificates.build.sector_pm_ceiling_deg`), so every candidate
+        misses it and the search, ranking the shortfall first, trades settling time
+        for a few degrees (paper's vehicle, quick budget: robust p95 3.21 s -> 4.53 s
+        for +2° horizontal and +6° attitude PM; FINDINGS.md §10).
+    optimizer
+        The optimiser after the sweep, one of :data:`OPTIMIZERS` (default
+        :data:`DEFAULT_OPTIMIZER`; :mod:`nniquad.tuning.optimizers`).
+    """
+
+    model: str = "reduced"
+    gamma_max: float = GAMMA_MAX
+    roa_radius_m: float | None = None
+    mass_range: tuple[float, float] | None = None
+    noise_sigma_m: float = 0.0
+    tilt_limit_deg: float = TILT_LIMIT_DEG
+    budget: str = "normal"
+    seed: int = 0
+    horizon_s: float | None = None
+    motor_lag: bool = True
+    tune_attitude: bool = True
+    reruns: int | None = None
+    margin: bool = False
+    objective: str | None = None
+    scenario_seed: int = TUNING_SCENARIO_SEED
+    require_margins: bool | None = None
+    require_pm: bool = False
+    controller: str = "nni"
+    optimizer: str = DEFAULT_OPTIMIZER
+    law_class: str | None = None
+    rate_hz: float = CONTROL_RATE_HZ
+    scenario_noise_range_m: tuple[float, float] | None = None
+
+    def __post_init__(self) -> None:
+        from nniquad.control.law_classes import LAW_CLASSES
+
+        if self.controller not in TUNABLE_CONTROLLERS:
+            raise NniquadError(f"controller must be one of {', '.join(TUNABLE_CONTROLLERS)}, got {self.controller!r}")
+        if self.law_class is None and self.controller in NI_LAWS:
+            object.__setattr__(self, "law_class", "paper")
+        if self.law_class is not None and self.law_class not in LAW_CLASSES:
+            raise NniquadError(f"law class must be one of {', '.join(LAW_CLASSES)}, got {self.law_class!r}")
+        if self.law_class is not None and self.controller == "pd_velocity":
+            raise NniquadError("the PD law with true velocity is no NNI law: it has no law class")
+        # a positive number here; tune() checks it is a period of whole RK4 steps (nniquad.sim.options.check_rate_hz)
+        object.__setattr__(self, "rate_hz", finite_number("rate", self.rate_hz, error=NniquadError, positive=True))
+        if self.model not in ("reduced", "full"):
+            raise NniquadError(f"tuning model must be 'reduced' or 'full', got {self.model!r}")
+        g = _finite("gamma_max", self.gamma_max)
+        if not 0.0 < g < 1.0:
+            raise GainError(f"gamma_max must lie in (0, 1), got {self.gamma_max!r}")
+        if self.roa_radius_m is None:  # the reduced loop's reach is the paper class's statement
+            object.__setattr__(self, "roa_radius_m", DEFAULT_ROA_RADIUS_M if self.law_class == "paper"
+                               and self.controller in NI_LAWS else 0.0)
+        r = _finite("roa radius", self.roa_radius_m)
+        if r < 0:
+            raise NniquadError(f"roa radius must not be negative, got {self.roa_radius_m!r}")
+        if self.mass_range is not None:
+            object.__setattr__(self, "mass_range", _range("mass range", self.mass_range, "0 < LO <= HI",
+                                                          lambda lo, hi: 0 < lo <= hi, VehicleError))
+        if _finite("noise sigma", self.noise_sigma_m) < 0:
+            raise NniquadError(f"noise sigma must not be negative, got {self.noise_sigma_m!r}")
+        t = _finite("tilt limit", self.tilt_limit_deg)
+        if not 0 < t < 90:
+            raise NniquadError(f"tilt limit must lie in (0, 90) deg, got {self.tilt_limit_deg!r}")
+        if self.budget not in BUDGETS:
+            raise NniquadError(f"budget must be one of {', '.join(BUDGETS)}, got {self.budget!r}")
+        if self.horizon_s is not None and _finite("horizon", self.horizon_s) <= 0:
+            raise NniquadError(f"horizon must be positive, got {self.horizon_s!r}")
+        if not isinstance(self.seed, int) or self.seed < 0:
+            raise NniquadError(f"seed must be a non-negative integer, got {self.seed!r}")
+        if self.optimizer not in OPTIMIZERS:
+            raise NniquadError(f"optimizer must be one of {', '.join(OPTIMIZERS)}, got {self.optimizer!r}")
+        if self.reruns is not None and (not isinstance(self.reruns, int) or self.reruns < 0):
+            raise NniquadError(f"reruns must be a non-negative integer, got {self.reruns!r}")
+        if self.objective is None:
+            object.__setattr__(self, "objective", "robust" if self.model == "full" else "nominal")
+        if self.objective not in OBJECTIVES:
+            raise NniquadError(f"objective must be one of {', '.join(OBJECTIVES)}, got {self.objective!r}")
+        if self.objective == "robust" and self.model != "full":
+            raise NniquadError("the robust objective perturbs the full vehicle: use model 'full' or objective 'nominal'")
+        if isinstance(self.scenario_seed, bool) or not isinstance(self.scenario_seed, int) or self.scenario_seed < 0:
+            raise NniquadError(f"scenario seed must be a non-negative integer, got {self.scenario_seed!r}")
+        if self.scenario_noise_range_m is not None:
+            object.__setattr__(self, "scenario_noise_range_m",
+                               _range("scenario noise range", self.scenario_noise_range_m, "0 <= LO <= HI (m)",
+                                      lambda lo, hi: 0.0 <= lo <= hi, NniquadError))
+        if self.require_margins is None:  # the cascade margins are those of the NNI law's split
+            object.__setattr__(self, "require_margins", self.model == "full" and self.nni_image)
+        if self.require_margins and not self.nni_image:
+            raise NniquadError("the margin requirement is computed on the NNI cascade: switch it off for a PD law "
+                               "(or tune the filtered PD in a law class: its NNI image is then checked)")
+        if self.require_margins and self.model != "full":
+            raise NniquadError("the margin requirement applies to the full cascade: use model 'full'")
+        object.__setattr__(self, "require_margins", bool(self.require_margins))
+        object.__setattr__(self, "gamma_max", g)
+        # the PD laws have no sector bound, hence no certified region: the reach check does not apply
+        object.__setattr__(self, "roa_radius_m", r if self.controller in NI_LAWS else 0.0)
+
+    @property
+    def dims(self) -> int:
+        """Number of search coordinates: the law's gains, plus 3 with the attitude loop (``full``)."""
+        from nniquad.tuning.coordinates import law_dims
+
+        return law_dims(self.controller) + (3 if (self.model == "full" and self.tune_attitude) else 0)
+
+    @property
+    def nni_image(self) -> bool:
+        """Whether the candidates are designs of the NI structure in a class: the NNI or ``sni2`` law, or a filtered
+        PD in a class (its NNI image)."""
+        return self.controller in NI_LAWS or (self.controller == "pd_filtered" and self.law_class is not None)
+
+    @property
+    def robust(self) -> bool:
+        """Whether the robust objective is used."""
+        return self.objective == "robust"
+
+    @property
+    def robust_noise_range_m(self) -> tuple[float, float]:
+        """The position-noise σ range of the robust scenario set [m]: :attr:`scenario_noise_range_m`, or the Monte
+        Carlo default."""
+        if self.scenario_noise_range_m is not None:
+            return self.scenario_noise_range_m
+        from nniquad.scenarios.ranges import DEFAULT_RANGES
+
+        return DEFAULT_RANGES.noise_sigma_m
+
+    def to_json(self) -> dict[str, Any]:
+        d = asdict(self)
+        for key in ("mass_range", "scenario_noise_range_m"):
+            d[key] = None if d[key] is None else list(d[key])
+        return d
+
+
+def _finite(name: str, value: Any) -> float:
+    return finite_number(name, value)
+
+
+def _range(name: str, value: Any, rule: str, holds: Callable[[float, float], bool],
+           error: type[NniquadError]) -> tuple[float, float]:
+    """``value`` as a pair ``(LO, HI)`` of finite numbers for which ``holds(LO, HI)``, else ``error`` naming
+    ``name`` and the ``rule``."""
+    try:
+        pair = tuple(value)
+    except TypeError:
+        pair = ()
+    if len(pair) != 2:
+        raise error(f"{name} must be a pair (LO, HI) with {rule}, got {value!r}")
+    lo, hi = (_finite(name, v) for v in pair)
+    if not holds(lo, hi):
+        raise error(f"{name} must satisfy {rule}, got {lo:g} {hi:g}")
+    return lo, hi
