@@ -3,14 +3,15 @@
 #   make test   installs if needed, runs the whole test suite (notebooks included)
 # make mutation [MODULE=metrics] [SURVIVORS=1]: mutation score of the verdict modules (tests/mutation/, mutmut);
 #   SURVIVORS=1 runs again only the last full run's survivors, against the current tests
-# make planted: the planted bugs of issue 16, each in a staged copy, must fail the tests meant to catch them
+# make planted: the planted bugs, each in a staged copy, must fail the tests meant to catch them
+# make docs: the docs site (docs/*.md and the API reference from the docstrings) into docs/_build/html
 PYTHON ?= python3
 VENV   ?= .venv
 PY      = $(VENV)/bin/python
 STAMP   = $(VENV)/.installed-stamp
 JOBS   ?= 2
 
-.PHONY: install demo test bench bench-quick notebooks mutation planted clean
+.PHONY: install demo test bench bench-quick notebooks mutation planted docs clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -38,8 +39,12 @@ planted: $(STAMP)
 bench-quick: $(STAMP)
 	MPLBACKEND=Agg $(PY) benchmarks/run.py --quick --json benchmarks/results/quick.json
 
+docs: $(STAMP)
+	MPLBACKEND=Agg $(PY) -m sphinx -W --keep-going -b html -q docs docs/_build/html
+	@echo "docs: docs/_build/html/index.html"
+
 notebooks: $(STAMP)
 	$(VENV)/bin/jupytext --to ipynb notebooks/*.py
 
 clean:
-	rm -rf $(VENV) out build *.egg-info benchmarks/results
+	rm -rf $(VENV) out build *.egg-info benchmarks/results docs/_build docs/api

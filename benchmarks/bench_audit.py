@@ -17,7 +17,7 @@ from pathlib import Path
 
 __all__ = ["run"]
 
-#: Issue 5: the full audit runs in under 30 s on the 2-core machine.
+#: Target: the full audit runs in under 30 s on the 2-core machine.
 TIME_TARGET_S = 30.0
 ROOT = Path(__file__).resolve().parent.parent
 

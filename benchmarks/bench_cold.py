@@ -1,4 +1,4 @@
-"""Cold commands: ``nniquad --help``, ``lmi``, ``prove`` and ``verify CERT`` as fresh processes (issue 25).
+"""Cold commands: ``nniquad --help``, ``lmi``, ``prove`` and ``verify CERT`` as fresh processes.
 
 Each command runs as a user runs it, a new interpreter (``python -m nniquad
 ...``), on the committed certificate ``notebooks/data/full_model_certificate.json``
@@ -7,7 +7,7 @@ cache (:mod:`nniquad.codecache`) lives in a temporary folder of this run: one
 untimed run of each command fills it (as a user's first run after an install or
 an edit does), then the command is timed ``NNIQUAD_BENCH_COLD_REPEAT`` times
 (default 5; 1 with ``--quick``) and the row is the median wall time against the
-issue's target (every run's time is in the JSON, ``runs_s``).  One more row
+command's target (every run's time is in the JSON, ``runs_s``).  One more row
 (not with ``--quick``) times ``verify`` with an empty cache (every CasADi
 function built from sympy again, the simulator compiled), for information.
 
@@ -31,7 +31,7 @@ ROOT = Path(__file__).resolve().parents[1]
 CERT = ROOT / "notebooks" / "data" / "full_model_certificate.json"
 REPEAT = 5
 
-#: Issue 25's targets [s], wall time of one cold process.
+#: The cold-start targets [s], wall time of one cold process.
 TARGETS_S = {"--help": 0.5, "lmi": 2.0, "prove": 5.0, "verify": 3.0}
 
 

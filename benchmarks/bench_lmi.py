@@ -19,14 +19,14 @@ if str(ROOT) not in sys.path:
 
 from timing import best_of  # noqa: E402  (benchmarks/timing.py)
 
-#: Issue 25: a cold ``nniquad lmi`` in under 2 s.
+#: Target: a cold ``nniquad lmi`` in under 2 s.
 CLI_TARGET_S = 2.0
 
 
 def run(quick: bool = False) -> list[dict]:
     """Rows for ``benchmarks/run.py``; ``quick``: only ``run_all`` and the cold command."""
     from nniquad.analysis import lmi
-    from nniquad.analysis.linear import PAPER_LOOP as loop
+    from nniquad.analysis.reduced_loop import PAPER_LOOP as loop
     from nniquad.config import TILT_LIMIT_DEG
 
     m, g = loop.m, loop.g

@@ -21,10 +21,10 @@ import time
 from pathlib import Path
 
 import nniquad.study as mc
-from nniquad.analysis.cascade.certificate import ParameterBox
+from nniquad.analysis.cascade.box_certificate import ParameterBox
 from nniquad.certificates import build_certificate, load_certificate, write_certificate
-from nniquad.control.gains import InnerLoopGains
-from nniquad.control.gains import Gains
+from nniquad.control.inner_gains import InnerLoopGains
+from nniquad.laws.nni import Gains
 from nniquad.model.vehicle import PAPER_VEHICLE
 
 __all__ = ["run"]

@@ -1,9 +1,9 @@
-"""The tuner's two optimisers on the same budget (issue 14 item 2): BIPOP-CMA-ES (pycma) against MADS (NOMAD 4).
+"""The tuner's two optimisers on the same budget: BIPOP-CMA-ES (pycma) against MADS (NOMAD 4).
 
 Each backend tunes the paper's vehicle on the ``full`` model under the robust
 default of ``nniquad tune --model full`` (``TuneOptions(model="full", budget=B,
-reruns=0)``: the paper class, its certified reach of 2.5 m required, as issue
-24's five-seed target names it; until stop 38 the row ran with the reach check
+reruns=0)``: the paper class, its certified reach of 2.5 m required, as the speed
+study's five-seed target names it; until stop 38 the row ran with the reach check
 off, 2.83 % at stop 37, and the quick mode still does) from ``SEEDS`` seeds; a
 seed changes the Sobol sweep and the optimiser's random choices, and both
 backends get the same sweep and the same number of optimiser evaluations
@@ -13,7 +13,7 @@ within 2 % of the best of them), the wall time and the simulations.  The table
 printed to stderr is the one for the report.
 
 Environment: ``NNIQUAD_BENCH_OPT_BUDGET`` (default ``normal`` in the full mode: the
-robust default of ``nniquad tune --model full``, the budget issue 24's five-seed
+robust default of ``nniquad tune --model full``, the budget the speed study's five-seed
 target names, 512 sweep points and 400 optimiser evaluations per seed, about a
 minute each on the 2-core reference machine; ``quick`` in the quick mode),
 ``NNIQUAD_BENCH_OPT_SEEDS`` (default 5),
@@ -42,7 +42,7 @@ def run(quick: bool = False) -> list[dict]:
     """Rows for ``benchmarks/run.py``.  Full: the default optimiser (CMA-ES) on the ``full`` model with the robust
     default (objective and budget), five seeds; ``quick``: the same five seeds on the ``reduced`` model at the
     ``quick`` budget (seconds each).  NOMAD is
-    compared when ``NNIQUAD_BENCH_OPT_METHODS`` names it (it lost the comparison of issue 14)."""
+    compared when ``NNIQUAD_BENCH_OPT_METHODS`` names it (it lost the comparison, docs/tuning.md)."""
     from nniquad.model.vehicle import PAPER_VEHICLE
     from nniquad.tuning.tune import TuneOptions, tune
 

@@ -1,4 +1,4 @@
-"""Robust-design targets of issue 14 on the paper's vehicle, measured as a user would get them.
+"""Robust-design targets on the paper's vehicle, measured as a user would get them.
 
 1. ``nniquad certify --model full`` with its defaults (robust objective), end to end:
    wall time (target under 3 minutes on the 2-core machine);
@@ -10,7 +10,7 @@
    actual tilt <= the tilt limit + 1 deg.
 
 All three for two laws of the paper class: the paper's NNI law (the default) and the
-second-order SNI law (``--controller sni2``, issue 24 item 4).
+second-order SNI law (``--controller sni2``).
 
 The certificate is written to ``benchmarks/results/robust_certificate.json`` so
 that the numbers can be rechecked with ``nniquad verify`` and ``nniquad
@@ -50,7 +50,7 @@ def run(quick: bool = False) -> list[dict]:
 
     Two designs of the paper class, each certified with the robust default: the paper's NNI law (the
     default controller; its rows keep their names) and the second-order SNI law (rows prefixed
-    ``sni2 paper class:``), which reaches the nominal target the NNI law cannot (FINDINGS.md §28).
+    ``sni2 paper class:``), which reaches the nominal target the NNI law cannot (docs/notes/laws.md).
     """
     from nniquad import TuneOptions, certify
     from nniquad.certificates.certificate import read_certificate

@@ -2,7 +2,7 @@
 
 Rows: the full vehicle as one 20 s trajectory and as a batch of 100 gain sets
 (target: the batch in under 10 s on a 2-core machine), the same 100 runs one
-by one and the ratio of the two throughputs (issue 14: the batch, a serial CasADi
+by one and the ratio of the two throughputs (target: the batch, a serial CasADi
 ``map`` per thread on one thread per core, at least 1.8 x one by one on 2 cores), the linear and reduced
 models, and the accuracy of the full model's RK4 (1 ms) against scipy's DOP853
 (rtol 1e-11) over 4 s from the paper's initial state.  The one-off C
@@ -17,7 +17,7 @@ import numpy as np
 
 from nniquad import sim
 from timing import best_of  # benchmarks/timing.py
-from nniquad.control.gains import PAPER_GAINS, Gains
+from nniquad.laws.nni import PAPER_GAINS, Gains
 from nniquad.sim import SimOptions, SimParams, simulate
 from nniquad.sim.runner import batch_threads
 from nniquad.model.vehicle import PAPER_VEHICLE
@@ -27,7 +27,7 @@ __all__ = ["run"]
 HORIZON_S = 20.0
 BATCH = 100
 BATCH_TARGET_S = 10.0
-#: Issue 14: a batch must run at least this many times the throughput of the same runs one by one.
+#: A batch must run at least this many times the throughput of the same runs one by one.
 BATCH_RATIO_TARGET = 1.8
 ACCURACY_TARGET_M = 1e-4
 
@@ -85,7 +85,7 @@ def run(quick: bool = False) -> list[dict]:
     simulate(PAPER_VEHICLE, gains, o.with_(horizon_s=0.1))  # builds the mapped function
     simulate(PAPER_VEHICLE, gains[0], o.with_(horizon_s=0.1))  # builds the single-run function
     # the batch and the same 100 runs one by one, alternated (best of 2 each), so that a load that comes
-    # and goes on a shared machine hits both alike (issue 14: batch throughput >= 1.8 x one by one)
+    # and goes on a shared machine hits both alike (target: batch throughput >= 1.8 x one by one)
     batch_walls, single_walls = [], []
     for _ in range(2):
         t0 = time.perf_counter()

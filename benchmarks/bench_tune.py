@@ -1,4 +1,4 @@
-"""Tuner targets (issue 7), each measured by running the tuner as ``nniquad tune`` does.
+"""Tuner targets, each measured by running the tuner as ``nniquad tune`` does.
 
 * ``reduced``, ``--roa-radius 0``: settling within 5 % of ``enter_band_s``;
 * ``reduced`` with the default certified reach (2.5 m): the settling time the

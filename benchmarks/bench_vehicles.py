@@ -2,10 +2,10 @@
 
 For each file of ``notebooks/data/vehicles/`` (the Crazyflie 2.x and the 3DR
 Iris, sources in the files): the certificate (default reach 2.5 m) or the
-one-line refusal naming the limit (issue 14, item 8), its wall time and the
+one-line refusal naming the limit, its wall time and the
 full-model settling of its reference run, then ``montecarlo --samples 100
 --seed 3`` on 2 workers under the default ranges: success with its Wilson 95 %
-interval (target: 99 %, the issue's) and the failure kinds.  About 2 minutes per
+interval (target: 99 %) and the failure kinds.  About 2 minutes per
 vehicle on 2 cores.  ``NNIQUAD_BENCH_VEHICLES`` (comma-separated stems) selects files.
 """
 

@@ -1,6 +1,6 @@
 """Certified => converges: ``nniquad montecarlo --within-certificate --samples 1000`` on the committed certificate.
 
-Issue 15's target: every scenario drawn inside the certificate's cascade box
+The target: every scenario drawn inside the certificate's cascade box
 and region of attraction, at its rate, without noise or wind, converges (0
 failures).  The command runs as a user runs it (a subprocess of the CLI, all
 cores); the rows are its wall time, the converged count and the failures.

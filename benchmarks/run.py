@@ -33,7 +33,7 @@ sys.path.insert(0, str(HERE))  # benchmarks/timing.py
 
 from nniquad.io import atomic_write_json  # noqa: E402
 
-#: Issue 25: ``make bench`` finishes within 15 minutes and ``make bench-quick`` within 3 on 2 cores.
+#: Target: ``make bench`` finishes within 15 minutes and ``make bench-quick`` within 3 on 2 cores.
 FULL_BUDGET_S = 15 * 60.0
 QUICK_BUDGET_S = 3 * 60.0
 

@@ -82,12 +82,12 @@ print(f"paper gains: kp = {G.kp:g} 1/s², Γ = {G.Gamma:g}, δ = {G.delta:g}")
 #
 # The paper picks γ = 0.8 and checks δ ≥ δ_min = 1/(γ m k_p).  For this loop
 # the sector condition reduces to a DC-loop-gain condition: the smallest γ
-# that works for a gain set is G(0)C(0) = 1/(m k_p δ) (`nniquad.analysis.linear`).
+# that works for a gain set is G(0)C(0) = 1/(m k_p δ) (`nniquad.analysis.reduced_loop`).
 
 # %%
 GAMMA_PAPER = 0.8
 LOOP = ReducedLoop.from_vehicle(V, G)
-delta_min = LOOP.sector_delta_min(GAMMA_PAPER)
+delta_min = LOOP.sector_limit(GAMMA_PAPER)[1]
 gamma_needed = LOOP.smallest_gamma
 print(f"δ_min(γ = {GAMMA_PAPER}) = {delta_min:.4f}; the paper's δ = {G.delta:g} satisfies it: {G.delta >= delta_min}")
 print(f"smallest γ these gains satisfy: {gamma_needed:.4f} (m kp δ = {V.m * G.kp * G.delta:.3f})")
@@ -129,7 +129,7 @@ print(f"envelope estimate of the 2 % settling time ln(50)/σ = {t_envelope:.0f} 
 #
 # `nniquad.sim.paper_figure_runs` runs the three models from
 # the paper's initial position at rest over `PAPER_FIGURE_HORIZON_S` (long
-# enough to see the linear loop settle); `nniquad.reporting.plots.paper_figure` draws
+# enough to see the linear loop settle); `nniquad.sim.plots.paper_figure` draws
 # x(t), y(t), the distance on a log scale with the 2 % band, and a zoom on the
 # first seconds with the tilt.
 

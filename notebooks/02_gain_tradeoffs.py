@@ -230,7 +230,7 @@ print(f"the first command a = kp ‖ξ_h(0)‖ reaches the tilt limit for kp ≥
 # σ³ + r σ² + σ + r ε.  The sector bound is ε ≥ 1 − γ_max.  So the best
 # damping, and the best decay rate in units of √k_p, that any gain set
 # admitted by γ_max can have is a two-parameter search, done here on a grid
-# with `nniquad.analysis.linear.ReducedLoop.characteristic_coefficients` (at k_p = 1).
+# with `nniquad.analysis.reduced_loop.ReducedLoop.characteristic_coefficients` (at k_p = 1).
 
 # %%
 GAMMA_CURVE = np.linspace(0.3, 0.995, 140)

@@ -393,7 +393,7 @@ print(f"rotor speeds at τ = {1000 * tau_bad:g} ms, last 0.5 s: dominant frequen
 # above), the `cascade` class (the sector bound dropped, the sampled-data
 # cascade certificate alone), the NNI designs seeded with the image of a filtered PD of
 # their class (section 6); the `sni2` paper-class design is tuned unseeded
-# (FINDINGS.md §28: at the sector bound its loop can decay √5 times faster than
+# (docs/notes/laws.md: at the sector bound its loop can decay √5 times faster than
 # the NNI law's at the same stiffness).
 #
 # A single design per law is one point; a trade-off needs a family.  Each
@@ -560,7 +560,7 @@ for law, r in overall.items():
 
 # %%
 from nniquad import design_margins, gain_limits, LAW_CLASSES, margin_shortfall, nni_from_filtered_pd
-from nniquad.control.gains import CONTROLLER_GAINS
+from nniquad.laws import law_named
 
 LIM = gain_limits(V, TILT)
 GD_MAX = LIM["gamma_delta_max"]
@@ -571,7 +571,7 @@ IMAGE_CERT = read_certificate(DATA / "designs" / "pd_filtered_image_certificate.
 def design_record(name):
     """(gains, inner loops, 'tune --json' record) of designs/<name>.json (the law is the file's)."""
     rec = json.loads((DATA / "designs" / f"{name}.json").read_text())
-    return CONTROLLER_GAINS[rec["controller"]](**rec["gains"]), InnerLoopGains(**rec["inner_loop"]), rec
+    return law_named(rec["controller"]).gains(rec["gains"]), InnerLoopGains(**rec["inner_loop"]), rec
 
 
 def cascade_summary(cert):
@@ -617,7 +617,7 @@ md_table(["design", "robust p95 [s]", "NNI image kp', Γ, δ", "γ (sector: ≤ 
 free, in_paper, in_cascade, nni_paper, nni_cascade, nni_no_margins, nni_seeded = rows6
 # the committed certificate above (tuned without a seed) for comparison
 committed_p95 = (CERT.tuning or {}).get("settling_s")
-from nniquad.tuning.laws import CASCADE_GAMMA_CAP
+from nniquad.laws.search_ranges import CASCADE_GAMMA_CAP
 
 # the best filtered PD whose NNI image lies in each class (the unrestricted PD is a candidate of every class its
 # image lies in: the cascade class's coordinates cap gamma at CASCADE_GAMMA_CAP, both classes keep the search box)
@@ -636,13 +636,14 @@ print(f"the tune restricted to the cascade class with the margins reached {in_ca
          "shortfall, not a constraint's" if free_meets_all else "its image leaves the box or misses the margins"))
 print(f"certified NNI against the best filtered PD of its class: paper {nni_paper['p95']:.3f} s vs "
       f"{best_pd_in['paper']['p95']:.3f} s; cascade, seeded with that PD's image, {nni_seeded['p95']:.3f} s vs "
-      f"{best_pd_in['cascade']['p95']:.3f} s (seeded with issue 14's held-ranked PD, which fails a corner as it flies: {nni_cascade['p95']:.3f} s) (the committed paper-class certificate, tuned "
+      f"{best_pd_in['cascade']['p95']:.3f} s (seeded with the held-ranked PD the speed study started from, which fails a corner as it flies: {nni_cascade['p95']:.3f} s) (the committed paper-class certificate, tuned "
       f"without a seed: {fmt(committed_p95, '.3f')} s); without the GM requirement (as the "
       f"unrestricted filtered PD is tuned) the cascade-class NNI reaches {nni_no_margins['p95']:.3f} s against the "
       f"filtered PD's {free['p95']:.3f} s")
-# issue 14's filtered PD (1.93 s) was ranked on the continuous controller on the held measurement; as it flies
+# the speed study's filtered PD (1.93 s) was ranked on the continuous controller on the held measurement; as it flies
 # (the discrete controller at 100 Hz, what every design above is ranked on) it is run here on the same 20 scenarios
-from nniquad.tuning.coordinates import attitude_accel_headroom, encode
+from nniquad.tuning.coordinates import encode
+from nniquad.tuning.vehicle_limits import attitude_accel_headroom
 from nniquad.tuning.objective import evaluate_details
 
 held_g, held_inner, held_rec = design_record("pd_filtered_held")
@@ -650,7 +651,7 @@ held_opts = TuneOptions(model="full", controller="pd_filtered", require_margins=
 held_q = encode(held_g, V.m, held_opts.gamma_max, held_inner, attitude_accel_headroom(V, TILT))[None]
 held_eval = evaluate_details(V, held_q, held_opts, held_rec["metrics"]["horizon_s"], full_report=True)[0]
 held_fail = [c for c in held_eval["scenario_costs"] if c is not None and c >= held_rec["metrics"]["horizon_s"]]
-print(f"issue 14's filtered PD (robust p95 {held_rec['settling_s']:.3f} s ranked 'held'): as it flies, "
+print(f"the speed study's filtered PD (robust p95 {held_rec['settling_s']:.3f} s ranked 'held'): as it flies, "
       + (f"robust p95 {held_eval['robust_settling_s']:.3f} s" if held_eval["robust_settling_s"] is not None
          else f"{len(held_fail)} of the {sum(c is not None for c in held_eval['scenario_costs'])} scenarios run fail "
             f"(the others are not run after a failed corner; cost {held_eval['cost']:.2f} s, the penalty)"))

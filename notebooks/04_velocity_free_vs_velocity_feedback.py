@@ -75,9 +75,9 @@ from nniquad import (
     TuneOptions,
 )
 
-from nniquad.control.gains import SNI2Gains
-from nniquad.analysis.sni_loop import reduced_loop
-from nniquad.control.law_classes import within_sector_bound
+from nniquad.laws.sni2 import SNI2Gains
+from nniquad.analysis.reduced_loop import reduced_loop
+from nniquad.laws.classes import within_sector_bound
 
 T_START = time.perf_counter()
 V = PAPER_VEHICLE
@@ -184,7 +184,7 @@ CANDIDATES = {
     "pd_filtered": [PDFilteredGains(kp, 2 * z * math.sqrt(kp), tf) for kp in PF_KP for z in PF_ZETA for tf in PF_TAU],
     "nni": [decode([math.log(kp), math.log(mg), math.log(r * math.sqrt(kp))], V.m, GAMMA_MAX)[0]
             for kp in NNI_KP for mg in NNI_MARGIN for r in NNI_R] + [NNI_REF],
-    # cascade class: v = ln(m kp delta - 1) (nniquad.tuning.laws); the paper-class grid is a subset of the class
+    # cascade class: v = ln(m kp delta - 1) (nniquad.laws.search_ranges); the paper-class grid is a subset of the class
     "nni_cascade": [decode([math.log(kp), math.log(mkd - 1.0), math.log(r * math.sqrt(kp))], V.m, GAMMA_MAX,
                            law_class="cascade")[0]
                     for kp in NNI_KP for mkd in NNI_CASCADE_MKD for r in NNI_R] + [NNI_CASCADE_REF],

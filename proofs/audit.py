@@ -6,8 +6,15 @@ from dataclasses import dataclass
 from typing import Any, Iterable, Sequence
 
 from nniquad.errors import NniquadError
-from nniquad.proofs.claims import (VERDICTS, ClaimResult, audit_table, audit_to_json, audit_to_markdown, claim_ids,
-                                   run_audit)
+from nniquad.proofs.claims import (
+    VERDICTS,
+    ClaimResult,
+    audit_table,
+    audit_to_json,
+    audit_to_markdown,
+    claim_ids,
+    run_audit,
+)
 
 __all__ = ["Audit", "audit"]
 

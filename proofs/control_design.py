@@ -9,7 +9,7 @@ Frames: the horizontal rows come from the paper's ``f(x, u)``, which is NED
 
 The reduced linear loop (one axis: ``m xi'' + m kp xi = F``, ``z' = -Gamma delta z
 + Gamma xi``, ``F = z``, positive feedback) and its characteristic polynomial,
-Routh array and sector bound come from :mod:`nniquad.analysis.linear`; the LMIs from
+Routh array and sector bound come from :mod:`nniquad.analysis.reduced_loop`; the LMIs from
 :mod:`nniquad.analysis.lmi`; the definition-level frequency checks are symbolic
 (:mod:`proofs.ni_preliminaries`) with :mod:`nniquad.analysis.frequency` as a numeric
 cross-check.
@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import sympy as sp
 
-from nniquad.analysis import linear as L
+from nniquad.analysis import reduced_loop_symbolic as L
 from nniquad.model import symbolic as S
 
 from .claims import FAILS, HOLDS, HOLDS_WITH_CORRECTION, Finding, claim
@@ -273,7 +273,7 @@ def controller_realization(realization: tuple | None = None) -> Finding:
     dc = (real.subs(s_var, 0) - D2.inv()).applyfunc(sp.simplify)
     a1, b1, c1, _ = L.controller_matrices_sym()
     ev = {"C_real(s) - C(s)": str(res), "C_real(0) - Delta^{-1}": str(dc),
-          "nniquad.analysis.linear per-axis realisation": f"A = {a1}, B = {b1}, C = {c1}",
+          "nniquad.analysis.reduced_loop per-axis realisation": f"A = {a1}, B = {b1}, C = {c1}",
           "notation": "the text calls the same transfer matrix C_v(s) ('C_v(0) = Delta^{-1}', Fig. control_diagram); "
                       "C_v and C are one object"}
     if _zero(res) and _zero(dc):

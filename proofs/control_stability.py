@@ -14,9 +14,9 @@ from typing import Sequence
 import numpy as np
 import sympy as sp
 
-from nniquad.analysis import linear as L
-from nniquad.analysis.linear import PAPER_LOOP, ReducedLoop
-from nniquad.control.gains import Gains
+from nniquad.analysis import reduced_loop_symbolic as L
+from nniquad.analysis.reduced_loop import PAPER_LOOP, ReducedLoop
+from nniquad.laws.nni import Gains
 from nniquad.model import symbolic as S
 
 from .claims import FAILS, HOLDS, HOLDS_WITH_CORRECTION, Finding, claim
@@ -58,7 +58,7 @@ def sector_bound(threshold=paper_delta_sq_threshold) -> Finding:
     exact_sq = sp.simplify(exact[0] ** 2)
     given = threshold(m, kmin, gam)
     res = sp.simplify(given - exact_sq)
-    # stability of the reduced loop: Routh region m kp delta > 1 (nniquad.analysis.linear)
+    # stability of the reduced loop: Routh region m kp delta > 1 (nniquad.analysis.reduced_loop)
     routh = L.routh_stability_region()
     # sector with fixed gamma < 1 implies Routh: delta >= 1/(gamma m kmin) => m kp delta >= 1/gamma > 1
     r = sp.Symbol("r", positive=True)  # gamma = 1/(1 + r)
@@ -75,7 +75,7 @@ def sector_bound(threshold=paper_delta_sq_threshold) -> Finding:
         "printed threshold - exact": str(res),
         "necessary too": "yes: F along the smallest-kp axis attains the supremum, so eq. sufficient_condition is "
                          "necessary and sufficient for eq. sector_bound_specific ('it is sufficient that' understates it)",
-        "Routh region of the reduced loop (nniquad.analysis.linear)": str(routh["reduced"]),
+        "Routh region of the reduced loop (nniquad.analysis.reduced_loop)": str(routh["reduced"]),
         "sector with gamma in (0, 1) => stability": f"m kmin delta - 1 = {margin} > 0 for r > 0, e >= 0: {sufficient}",
         "not necessary for a fixed gamma (numeric)": {
             "m": mv, "kp": kv, "Gamma": 160.0, "delta": dv, "m kp delta": 1.1,
@@ -133,7 +133,7 @@ def closed_loop_stability(sign: int = +1, closed_loop: sp.Matrix | None = None) 
     sign
         Feedback sign of the interconnection (+1 is the paper's positive feedback).
     closed_loop
-        A variant closed-loop matrix in the symbols of :data:`nniquad.analysis.linear.SYMBOLS`
+        A variant closed-loop matrix in the symbols of :data:`nniquad.analysis.reduced_loop.SYMBOLS`
         (state ``[xi, xi_dot, z]``) instead of the interconnection; the verdict needs
         both the symbolic Routh check *and* stable poles at the paper's gains.
     """
@@ -211,7 +211,7 @@ def remark_robustness(true_masses: Sequence[float] = (0.25, 0.3, 0.4, 0.5, 0.75,
         rows.append({"true mass kg": mt, "plant NNI (V = 1/2 m |xi'|^2 + 1/2 m xi^T Kp xi)": True,
                      "m kp delta": mt * kp_min * gains.delta, "stable": pd.stable,
                      "max Re(pole)": pd.max_real_part})
-    ev = {"model": "paper's compact form with the true mass: m xi'' + m Kp xi = F_h (nniquad.analysis.linear; the controller does "
+    ev = {"model": "paper's compact form with the true mass: m xi'' + m Kp xi = F_h (nniquad.analysis.reduced_loop; the controller does "
                    "not contain m)",
           "constraint with the nominal mass": {"nominal m": nominal_mass, "gamma": gamma, "holds": designed},
           "true masses": rows,

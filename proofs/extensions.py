@@ -4,11 +4,11 @@ Every record of this section has ``kind = "extension"`` and a statement that
 starts with :data:`proofs.claims.EXTENSION_PREFIX`; its ``paper_ref`` lists the
 labels of the paper it builds on, not a claim the paper makes.
 
-The notation is the project's (:mod:`nniquad.analysis.linear`): per axis
+The notation is the project's (:mod:`nniquad.analysis.reduced_loop`): per axis
 ``a_h = -k_p ξ + z/m``, ``z' = -Γδ z + Γ ξ`` (``m`` the controller's mass), the
-controller transfer function from :func:`nniquad.analysis.linear.controller_matrices_sym`
+controller transfer function from :func:`nniquad.analysis.reduced_loop.controller_matrices_sym`
 and the smallest sector constant from its DC loop gain
-(:func:`nniquad.analysis.linear.dc_loop_gain_sym`).
+(:func:`nniquad.analysis.reduced_loop.dc_loop_gain_sym`).
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from typing import Mapping
 
 import sympy as sp
 
-from nniquad.analysis import linear as L
+from nniquad.analysis import reduced_loop_symbolic as L
 
 from .claims import FAILS, HOLDS, Finding, claim
 
@@ -25,7 +25,7 @@ __all__ = ["filtered_pd_image", "filtered_pd_is_nni"]
 
 SEC = "extensions"
 kp, Gam, dlt, m = L.SYMBOLS["kp"], L.SYMBOLS["Gamma"], L.SYMBOLS["delta"], L.SYMBOLS["m"]
-#: The filtered PD's gains (named apart from the NNI k_p of nniquad.analysis.linear).
+#: The filtered PD's gains (named apart from the NNI k_p of nniquad.analysis.reduced_loop).
 kpd, kd, tauf = sp.symbols("k_p^PD k_d tau_f", positive=True)
 sv = sp.Symbol("s")
 gam = sp.Symbol("gamma", positive=True)
@@ -34,12 +34,12 @@ PAPER_GAMMA = sp.Rational(4, 5)
 
 
 def filtered_pd_image() -> dict[sp.Symbol, sp.Expr]:
-    """The map of issue 24: ``k_p' = k_p + k_d/τ_f``, ``Γ = m k_d/τ_f²``, ``δ = τ_f/(m k_d)``."""
+    """The map of the filtered PD onto the NNI law: ``k_p' = k_p + k_d/τ_f``, ``Γ = m k_d/τ_f²``, ``δ = τ_f/(m k_d)``."""
     return {kp: kpd + kd / tauf, Gam: m * kd / tauf**2, dlt: tauf / (m * kd)}
 
 
 def _nni_law() -> sp.Expr:
-    """``a_h/ξ`` of the NNI law: ``-k_p + C(s)/m`` with C the paper's realisation (nniquad.analysis.linear)."""
+    """``a_h/ξ`` of the NNI law: ``-k_p + C(s)/m`` with C the paper's realisation (nniquad.analysis.reduced_loop)."""
     Ac, Bc, Cc, _ = L.controller_matrices_sym()
     C = (Cc * (sv * sp.eye(1) - Ac).inv() * Bc)[0, 0]
     return -kp + C / m
@@ -62,7 +62,7 @@ def _pd_law() -> sp.Expr:
        "symbolic+numeric")
 def filtered_pd_is_nni(image: Mapping[sp.Symbol, sp.Expr] | None = None) -> Finding:
     """Transfer function, state map, uniqueness, inverse and the sector bound under the map (sympy), and the
-    library's map (:mod:`nniquad.control.pd_equivalence`) at the tuned filtered PD of issue 14 (numbers).
+    library's map (:mod:`nniquad.laws.pd_filtered`) at the tuned filtered PD of the speed study (numbers; docs/notes/laws.md).
 
     Parameters
     ----------
@@ -98,10 +98,9 @@ def filtered_pd_is_nni(image: Mapping[sp.Symbol, sp.Expr] | None = None) -> Find
     ok_sym = (tf_res == 0 and unique and zdot_res == 0 and out_res == 0 and all(x == 0 for x in inv_res)
               and kp_static_vs_routh == 0 and gamma_res == 0 and sector_res == 0 and always_below_one
               and paper_region == sp.Interval(sp.Rational(1, 4), sp.oo))
-    # the library's map and gamma at the tuned filtered PD of issue 14 (paper's vehicle, m = 0.5 kg)
-    from nniquad.analysis.linear import ReducedLoop
-    from nniquad.control.gains import PDFilteredGains
-    from nniquad.control.pd_equivalence import filtered_pd_gamma, nni_from_filtered_pd
+    # the library's map and gamma at the tuned filtered PD of the speed study (paper's vehicle, m = 0.5 kg)
+    from nniquad.analysis.reduced_loop import ReducedLoop
+    from nniquad.laws.pd_filtered import PDFilteredGains, filtered_pd_gamma, nni_from_filtered_pd
     from nniquad.model.vehicle import PAPER_VEHICLE
 
     pd = PDFilteredGains(kp=9.111984627754474, kd=4.426807306344244, tau_f=0.05246651970835971)
@@ -124,12 +123,12 @@ def filtered_pd_is_nni(image: Mapping[sp.Symbol, sp.Expr] | None = None) -> Find
         "state map: a_h(NNI) - a_h(PD)": str(out_res),
         "inverse k_p = kp - 1/(m delta), k_d = 1/(m Gamma delta^2), tau_f = 1/(Gamma delta): map(inverse) - id":
             [str(x) for x in inv_res],
-        "k_p m delta - (Routh lhs of the reduced loop, nniquad.analysis.linear)": str(kp_static_vs_routh),
+        "k_p m delta - (Routh lhs of the reduced loop, nniquad.analysis.reduced_loop)": str(kp_static_vs_routh),
         "smallest sector gamma of the image (DC loop gain 1/(m kp delta))": str(gamma_min),
         "gamma m kp delta - (k_p tau_f/k_d + 1) gamma under the map": str(sector_res),
         "1 - gamma_min (positive for all positive k_p, k_d, tau_f)": str(below_one),
         "gamma = 0.8: region of r = k_p tau_f/k_d": str(paper_region),
-        "numeric (issue 14's tuned filtered PD, m = 0.5 kg)": {
+        "numeric (the tuned filtered PD of the speed study, m = 0.5 kg)": {
             "k_p, k_d, tau_f": [pd.kp, pd.kd, pd.tau_f], "library map (kp, Gamma, delta)": [lib.kp, lib.Gamma, lib.delta],
             "largest relative deviation from the symbolic map": lib_dev, "gamma (symbolic / library / reduced loop)":
             [g_sym, filtered_pd_gamma(pd), g_loop], "k_p tau_f/k_d": ratio,

@@ -3,9 +3,9 @@
 The lemma and definitions are checked on the two systems the paper applies them
 to: the reshaped plant of one horizontal axis, ``m xi'' + m kp xi = F``,
 ``y = xi`` (``A = [[0, 1], [-kp, 0]]``, ``B = [0, 1/m]^T``, ``C = [1, 0]``, from
-:func:`nniquad.analysis.linear.plant_matrices_sym`), and the integral resonant controller
+:func:`nniquad.analysis.reduced_loop.plant_matrices_sym`), and the integral resonant controller
 ``z' = -Gamma delta z + Gamma xi``, ``u_c = z``
-(:func:`nniquad.analysis.linear.controller_matrices_sym`).  The two axes are decoupled
+(:func:`nniquad.analysis.reduced_loop.controller_matrices_sym`).  The two axes are decoupled
 and identical up to ``kp``, so one axis suffices.
 
 Symbolic checks hold for every positive ``m, kp, Gamma, delta``; the LMI checks
@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from nniquad.analysis import linear as L
+from nniquad.analysis import reduced_loop_symbolic as L
 
 from .claims import FAILS, HOLDS, HOLDS_WITH_CORRECTION, Finding, claim
 

@@ -1,7 +1,7 @@
 """Audit of Sec. ``sec:simulation`` (the delta_min arithmetic, the described response, the full vehicle).
 
 The paper's simulation claims are tested on the model the theory covers -- the
-reduced linear loop of :mod:`nniquad.analysis.linear`, propagated exactly with the matrix
+reduced linear loop of :mod:`nniquad.analysis.reduced_loop`, propagated exactly with the matrix
 exponential and cross-checked with python-control -- and, for
 ``full-model-stability``, on the 12-state vehicle of :mod:`nniquad.sim`
 (realistic attitude loop, 30 deg tilt limit, rotor saturation).
@@ -17,11 +17,11 @@ from typing import Sequence
 import numpy as np
 import sympy as sp
 
-from nniquad.analysis import linear as L
-from nniquad.sim import metrics as MT
-from nniquad.analysis.linear import PAPER_LOOP, ReducedLoop
+from nniquad.analysis import reduced_loop_symbolic as L
+from nniquad.analysis.reduced_loop import PAPER_LOOP, ReducedLoop
 from nniquad.config import TILT_LIMIT_DEG, XI0_M
-from nniquad.control.gains import Gains, PAPER_GAINS
+from nniquad.laws.nni import PAPER_GAINS, Gains
+from nniquad.sim import metrics as MT
 
 from .claims import FAILS, HOLDS, HOLDS_WITH_CORRECTION, Finding, claim
 
@@ -69,18 +69,18 @@ def linear_response(loop: ReducedLoop, x0: np.ndarray, t: np.ndarray) -> np.ndar
        "the chosen delta = 0.6 satisfies the constraint.", "symbolic+numeric")
 def delta_min(m: float | str = "1/2", kp: float | str = "5", gamma: float | str = "4/5",
               stated_sq: float | str = "1/4", stated: float | str = "1/2", chosen: float | str = "3/5") -> Finding:
-    """Exact rational arithmetic, cross-checked with nniquad.analysis.linear.ReducedLoop.sector_delta_min."""
+    """Exact rational arithmetic, cross-checked with nniquad.analysis.reduced_loop.ReducedLoop.sector_limit."""
     mq, kq, gq = (sp.Rational(str(Fraction(str(v)))) for v in (m, kp, gamma))
     sq = 1 / (gq**2 * mq**2 * kq**2)
     dmin = sp.sqrt(sq)
     factors = {"gamma^2": str(gq**2), "m^2": str(mq**2), "kp^2": str(kq**2)}
     # delta_min depends on m, kp and gamma only (Gamma and delta are placeholders here)
-    lib = ReducedLoop(float(mq), Gains(kp=float(kq), Gamma=1.0, delta=1.0)).sector_delta_min(float(gq))
+    lib = ReducedLoop(float(mq), Gains(kp=float(kq), Gamma=1.0, delta=1.0)).sector_limit(float(gq))[1]
     st_sq = sp.Rational(str(Fraction(str(stated_sq))))
     st = sp.Rational(str(Fraction(str(stated))))
     ch = sp.Rational(str(Fraction(str(chosen))))
     ev = {"factors": factors, "delta_min^2": str(sq), "delta_min": str(dmin),
-          "nniquad.analysis.linear.ReducedLoop.sector_delta_min (numeric)": lib,
+          "nniquad.analysis.reduced_loop.ReducedLoop.sector_limit (numeric)": lib,
           "chosen delta satisfies delta >= delta_min": bool(ch >= dmin),
           "smallest gamma for the chosen delta, 1/(m kp delta)": str(1 / (mq * kq * ch)),
           "m kp delta (Routh: stable iff > 1)": str(mq * kq * ch)}

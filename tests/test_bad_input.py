@@ -1,6 +1,6 @@
 """Bad input, table-driven: every case ends in a non-zero exit, one line naming the problem, no traceback, no file.
 
-Classes (issue 16): input files (vehicle, certificate), values that overflow or
+Classes: input files (vehicle, certificate), values that overflow or
 mislead, output paths, resource requests, late validation.  Every case runs
 in-process and fails before any simulation starts, so the whole table takes
 seconds.  The expected word is what a user must see in the message; the
@@ -329,7 +329,7 @@ def test_montecarlo_partial_file_checked_before_the_study(run_cli, work):
 
 def test_failed_plot_leaves_no_trajectory(run_cli, work, monkeypatch):
     """All or nothing: the plot fails after the trajectory was written -> neither file appears."""
-    import nniquad.reporting.plots as plots
+    import nniquad.sim.plots as plots
 
     def broken(traj, path):
         from nniquad.io import atomic_write_with
@@ -480,7 +480,7 @@ def test_report_reruns_refused_at_once_and_leaves_nothing(run_cli, work):
 
 
 def test_the_case_count_is_the_one_reported():
-    """At least 150 distinct bad inputs (issue 16); this counts the tables above."""
+    """At least 150 distinct bad inputs; this counts the tables above."""
     n = (len(VEHICLE_CASES) + 6 * 3 + len(CERT_CASES) + 7 * 2 + 3 + 1 + len(OUTPUT_SLOTS) * len(BAD_FILES) + 7
          + 7 + 5 + 1 + 1 + len(OPTION_CASES) + 1)
     assert n >= 150, n

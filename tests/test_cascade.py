@@ -6,9 +6,11 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 
-from nniquad.analysis.cascade.linearised import linearise, linearise_cascade
-from nniquad.analysis.linear import ReducedLoop
-from nniquad.control.gains import PAPER_GAINS, Gains, InnerLoopGains, PDGains
+from nniquad.analysis.linearised_cascade import linearise, linearise_cascade
+from nniquad.analysis.reduced_loop import ReducedLoop
+from nniquad.laws.nni import PAPER_GAINS, Gains
+from nniquad.control.inner_gains import InnerLoopGains
+from nniquad.laws.pd_velocity import PDGains
 from nniquad.errors import CascadeError, NniquadError
 from nniquad.model.numeric import mixer_function, param_vector
 from nniquad.model.vehicle import PAPER_VEHICLE
@@ -148,13 +150,13 @@ def test_bad_requests_raise_the_cascade_error(cascade):
     with pytest.raises(CascadeError, match="finite positive"):
         cascade.closed_loop(0.0)
     with pytest.raises(CascadeError, match="controller variant"):
-        cascade.closed_loop(100.0, controller="analogue")
+        cascade.closed_loop(100.0, variant="analogue")
     with pytest.raises(CascadeError, match="break point"):
         cascade.closed_loop(None).loop("yaw")
     with pytest.raises(CascadeError, match="'linear' or 'full'"):
         linearise("reduced", _params(True))
     pd = SimParams.from_options(PAPER_VEHICLE, PDGains(kp=4.0, kd=3.0), SimOptions(model="full"))
-    with pytest.raises(CascadeError, match="NNI controller"):
+    with pytest.raises(CascadeError, match="law of the NI structure"):
         linearise("full", pd)
 
 

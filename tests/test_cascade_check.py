@@ -16,7 +16,7 @@ from typing import Any, Callable
 import numpy as np
 import pytest
 
-from nniquad.analysis.cascade import certificate as RC
+from nniquad.analysis.cascade import box_certificate as RC
 from nniquad.config import CASCADE_GRID_MAX_POINTS_PER_AXIS
 from tests.test_robust_cascade import BOX, GAINS, INNER, RATE, TILT, V
 
@@ -522,7 +522,7 @@ def test_the_region_is_rechecked_at_each_horizontal_axis_own_lmi_points(section,
     """The Lur'e block of an axis is re-checked on the family at that axis's LMI points (the subgrid of the box
     in the axis's coordinates), rebuilt here independently."""
     import nniquad.analysis.cascade.recheck as check
-    from nniquad.analysis.cascade.box import POINT_NAMES, ParameterBox, _subgrid
+    from nniquad.analysis.cascade.box import POINT_NAMES, ParameterBox, grid_subset
     from nniquad.analysis.cascade.region import HORIZONTAL
     from nniquad.analysis.cascade.section import LMI_POINTS_PER_AXIS
 
@@ -539,7 +539,7 @@ def test_the_region_is_rechecked_at_each_horizontal_axis_own_lmi_points(section,
     assert set(seen) == set(HORIZONTAL)
     for name in HORIZONTAL:
         dims = tuple(POINT_NAMES.index(d) for d in section["lyapunov"]["subsystems"][name]["dims"])
-        np.testing.assert_array_equal(seen[name].points, _subgrid(box, dims, LMI_POINTS_PER_AXIS))
+        np.testing.assert_array_equal(seen[name].points, grid_subset(box, dims, LMI_POINTS_PER_AXIS))
 
 
 @pytest.mark.parametrize("recomputed, stated, ok", [
@@ -585,15 +585,15 @@ def test_an_unreadable_region_is_a_failed_row_with_a_detail(section):
 
 
 def test_the_margins_are_recomputed_at_the_stated_rate(section, monkeypatch):
-    import nniquad.analysis.fast_margins as fast_margins
+    import nniquad.analysis.cascade.recheck as recheck
 
     rates: list = []
-    real = fast_margins.fast_cascade_margins
+    real = recheck.fast_cascade_margins
 
     def spy(*args, **kwargs):
         rates.append(args[1:] + tuple(kwargs.values()))
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(fast_margins, "fast_cascade_margins", spy)
+    monkeypatch.setattr(recheck, "fast_cascade_margins", spy)  # the name the re-check calls
     assert all(ok for _, ok, _ in _rows(section))
     assert rates and set(rates) == {(section["rate_hz"],)}

@@ -17,10 +17,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nniquad.analysis.cascade import certificate as RC
+from nniquad.analysis.cascade import box_certificate as RC
 from nniquad.analysis.cascade import family as RF
 from nniquad.analysis.cascade import region as RR
-from nniquad.analysis.cascade.box import _subgrid
+from nniquad.analysis.cascade.box import grid_subset
 from tests.test_robust_cascade import BOX, GAINS, INNER, RATE, TILT, V
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -52,7 +52,7 @@ def _V(region, fam, X):
     """``V`` of the stated region at states ``X`` (one per point of ``fam``, original 19-state coordinates)."""
     Tm, _ = RC.mode_transform(fam.state_names)
     out = np.zeros(len(fam))
-    for a, sl in RF._blocks().items():
+    for a, sl in RF.subsystem_blocks().items():
         if a in RR.HORIZONTAL:
             P, _, mu = region.at(BOX, fam.points, a)
             xa = X @ Tm[sl].T
@@ -102,7 +102,7 @@ def test_a_start_just_outside_the_stated_region_is_not_claimed(section):
     region = _region(section)
     reach = section["region_of_attraction"]["max_displacement_m"]
     dims = _dims(section)
-    pts = np.vstack([_subgrid(BOX, dims["x"], 3), _subgrid(BOX, dims["y"], 3), BOX.grid(2)])  # LMI points and grid
+    pts = np.vstack([grid_subset(BOX, dims["x"], 3), grid_subset(BOX, dims["y"], 3), BOX.grid(2)])  # LMI points and grid
     fam = RC.sampled_family(V, GAINS, INNER, pts, tilt_limit_deg=TILT, rate_hz=RATE)
     levels = []
     for r in (reach * (1 - 1e-6), reach * (1 + 1e-6)):
@@ -262,7 +262,7 @@ def test_a_level_refused_at_a_corner_is_infeasible_on_the_whole_box(section):
     from nniquad.config import CASCADE_LURE_MARGIN as eta
 
     dims, region = _dims(section), _region(section)
-    fam = RF.sampled_family(V, GAINS, INNER, _subgrid(BOX, dims["x"], RC.LMI_POINTS_PER_AXIS), tilt_limit_deg=TILT,
+    fam = RF.sampled_family(V, GAINS, INNER, grid_subset(BOX, dims["x"], RC.LMI_POINTS_PER_AXIS), tilt_limit_deg=TILT,
                             rate_hz=RATE)
     d = RL.axis_data(fam, BOX, "x", dims["x"], tuple(sorted(set(dims["x"]) & set(dims["y"]))))
     centre = int(np.argmin(np.sum(d.theta ** 2, axis=1)))

@@ -8,13 +8,13 @@ import json
 import numpy as np
 import pytest
 
-from nniquad.analysis.cascade.certificate import ParameterBox
+from nniquad.analysis.cascade.box_certificate import ParameterBox
 
 from nniquad.certificates import (SCHEMA_VERSION, SCHEMA_VERSIONS, Certificate, build_certificate, canonical_digest, load_certificate,
                                   read_certificate, verify_certificate, write_certificate)
 from nniquad.errors import CertificateError
-from nniquad.control.gains import InnerLoopGains
-from nniquad.control.gains import Gains
+from nniquad.control.inner_gains import InnerLoopGains
+from nniquad.laws.nni import Gains
 from nniquad.model.vehicle import PAPER_VEHICLE as V
 
 # a gain set found by `nniquad tune --model full --roa-radius 0` (it only has to be certifiable here)
@@ -87,7 +87,7 @@ def test_certificate_verifies_and_states_independent_numbers(cert, tmp_path):
             "lmi.robust_mass", "lmi.region_of_attraction", "performance.reduced", "performance.full",
             "margins"} <= names
     # the margins section: both break points, against python-control on the same linearised cascade
-    from nniquad.analysis.cascade.linearised import linearise_cascade
+    from nniquad.analysis.linearised_cascade import linearise_cascade
     from nniquad.analysis.margins import cascade_margins
 
     ref = cascade_margins(linearise_cascade(V, GAINS, INNER), 100.0)
@@ -247,7 +247,7 @@ def test_library_certify_refuses_an_unsettled_reference_run():
                                                (None, "did not settle"), (1.0, "diverged")])
 def test_reference_run_must_be_seen_in_the_band_for_the_hold_time(cert, settling, verdict):
     """On a 20 s run a last exit at s counts only if s + max(5 s, 2 s) <= 20 s, i.e. s <= 6.67 s."""
-    from nniquad.jobs.certify import unsettled_reference_run
+    from nniquad.certificates.build import unsettled_reference_run
 
     c = copy.deepcopy(cert)
     assert unsettled_reference_run(c) is None  # the fixture's runs settle at about 2-3 s
@@ -401,7 +401,7 @@ def test_sector_check_refuses_gamma_max_one(cert):
     assert "sector" in {chk.name for chk in res.checks if not chk.ok}
 
 
-# ------------------------------------------------------------------------------ every signed field (issue 15, item 5)
+# ------------------------------------------------------------------------------ every signed field
 
 
 def _failed(c, **kw):
@@ -438,7 +438,7 @@ def test_tilt_limit_alone_changed_to_60_fails_and_a_consistent_60_certificate_is
     """Every tilt limit of the document 30 -> 60 deg, re-signed: the recomputed u0, bound and runs refuse it.  A
     certificate derived at 60 deg throughout is a true statement about 60 deg: it verifies, and the Monte Carlo
     setup simulates at 60 deg over that certificate's own reach."""
-    from nniquad.scenarios.draws import study_setup
+    from nniquad.study.certificate_setup import study_setup
 
     c = copy.deepcopy(cert)
     c["tilt_limit_deg"] = c["region_of_attraction"]["tilt_limit_deg"] = 60.0
@@ -470,7 +470,7 @@ def test_fail_fast_stops_at_the_first_failure_and_cheap_checks_run_first(cert):
 
 
 def test_re_simulation_is_cached_by_its_exact_inputs(cert, monkeypatch):
-    import nniquad.sim as sim
+    import nniquad.certificates.recheck_runs as sim  # the module whose simulate the re-check calls
     from nniquad.certificates.verify import clear_cache
 
     calls = []
@@ -552,8 +552,9 @@ def test_schema_2_cascade_section_is_checked_by_robust_cascade(certificate, monk
         seen.update(section=section, vehicle=vehicle, gains=gains, inner=inner, tilt=tilt_limit_deg)
         return [("lyapunov", True, "stub"), ("grid", section.get("grid_ok", True), "stub")]
 
-    monkeypatch.setitem(sys.modules, "nniquad.analysis.cascade.certificate",
-                        types.SimpleNamespace(check_cascade_section=stub))
+    import nniquad.certificates.recheck_reduced_loop as recheck
+
+    monkeypatch.setattr(recheck, "check_cascade_section", stub)
     section = {"rate_hz": 100.0, "region_of_attraction": {"tilt_limit_deg": 30.0}}
     two = dataclasses.replace(certificate, cascade=section).signed()
     res = verify_certificate(two, simulate=False)

@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 
 from nniquad.config import CONTROL_RATE_HZ
-from nniquad.control.gains import Gains, InnerLoopGains
+from nniquad.laws.nni import Gains
+from nniquad.control.inner_gains import InnerLoopGains
 from nniquad.model.vehicle import PAPER_VEHICLE as V
 from nniquad.sim import SimOptions, simulate
 
@@ -58,7 +59,7 @@ def test_simulate_bad_rate(run_cli, args, message):
 
 
 def _small_box():
-    from nniquad.analysis.cascade.certificate import ParameterBox
+    from nniquad.analysis.cascade.box_certificate import ParameterBox
 
     return ParameterBox.monte_carlo_default().scaled(0.1)
 

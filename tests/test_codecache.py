@@ -94,7 +94,7 @@ def test_source_digest_follows_every_package_file(tmp_path, monkeypatch):
     monkeypatch.setattr(codecache, "_PACKAGE_ROOT", pkg)
 
     def digest() -> str:
-        codecache.source_digest.cache_clear()
+        codecache._package_digest.cache_clear()
         return codecache.source_digest()
 
     try:
@@ -106,7 +106,7 @@ def test_source_digest_follows_every_package_file(tmp_path, monkeypatch):
         (pkg / "sub" / "b.py").rename(pkg / "sub" / "c.py")  # same bytes, another module
         assert digest() != first
     finally:
-        codecache.source_digest.cache_clear()
+        codecache._package_digest.cache_clear()
     # the real package: the modules that generate the simulator's functions are hashed
     hashed = {p.relative_to(Path(codecache.__file__).parent).as_posix()
               for p in Path(codecache.__file__).parent.rglob("*.py")}
@@ -230,7 +230,7 @@ def test_two_processes_building_one_function_at_once_leave_a_loadable_entry(cach
 _SIMULATE = textwrap.dedent("""
     import json, sys
     import numpy as np
-    from nniquad.control.gains import Gains
+    from nniquad.laws.nni import Gains
     from nniquad.model.vehicle import PAPER_VEHICLE
     from nniquad.sim import SimOptions, simulate
     out = {}
@@ -262,19 +262,22 @@ def test_simulations_are_identical_with_and_without_the_cache(cache):
             np.testing.assert_allclose(np.asarray(other["trajectories"][model]), ref, rtol=1e-13, atol=1e-15)
 
 
-def test_lambdified_functions_round_trip_through_source(cache):
-    from nniquad.analysis import linear, linear_symbolic
+@pytest.mark.parametrize("law_name", ["nni", "sni2"])
+def test_lambdified_functions_round_trip_through_source(cache, law_name):
+    from nniquad.analysis import reduced_loop, reduced_loop_symbolic
+    from nniquad.laws import law_named
 
-    built = linear_symbolic.lambdified()  # sympy, in this process
-    linear.lambdified()  # miss: written
+    law = law_named(law_name)
+    n_args = 2 + len(reduced_loop_symbolic.law_symbols(law))
+    built = reduced_loop_symbolic.lambdified(law)  # sympy, in this process
+    reduced_loop.lambdified(law)  # miss: written
     codecache.clear_memory()
-    loaded = linear.lambdified()
+    loaded = reduced_loop.lambdified(law)
     assert STATS.misses == 1 and STATS.hits == 1 and set(loaded) == set(built)
     rng = np.random.default_rng(4)
     for _ in range(5):
-        args4, args3 = rng.uniform(0.2, 5.0, 4), rng.uniform(0.2, 5.0, 3)
+        args = rng.uniform(0.2, 5.0, n_args)
         for name, fn in built.items():
-            args = args3 if name == "delta_min" else args4
             want, got = fn(*args), loaded[name](*args)
             for w, g in zip(np.atleast_1d(np.asarray(want, dtype=object)), np.atleast_1d(np.asarray(got, dtype=object))):
                 np.testing.assert_allclose(np.asarray(g, float), np.asarray(w, float), rtol=1e-15)

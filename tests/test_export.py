@@ -115,7 +115,8 @@ def test_export_errors_are_project_errors(tmp_path):
     assert not any(tmp_path.iterdir())
 
 
-README = Path(__file__).resolve().parents[1] / "README.md"
+#: The docs page that shows a flight stack's position task calling the exported step (its C block is compiled here).
+EXPORT_DOC = Path(__file__).resolve().parents[1] / "docs" / "export.md"
 
 README_MAIN = r"""
 #include <stdio.h>
@@ -134,15 +135,15 @@ int main(void) {
 def _readme_c_block() -> str:
     import re
 
-    section = README.read_text(encoding="utf-8").split("### Flying the exported controller", 1)[1]
+    section = EXPORT_DOC.read_text(encoding="utf-8").split("### Flying the exported controller", 1)[1]
     m = re.search(r"```c\n(.*?)```", section, flags=re.S)
-    assert m, "README has no C block under 'Flying the exported controller'"
+    assert m, "docs/export.md has no C block under 'Flying the exported controller'"
     return m.group(1)
 
 
 @pytest.mark.skipif(shutil.which("gcc") is None, reason="needs the system C compiler")
 def test_readme_flight_stack_snippet_compiles_and_flies_the_python_controller(tmp_path, run_cli):
-    """The README's C position task, compiled as written, gives the Python controller's tilt set points."""
+    """The docs' C position task (docs/export.md), compiled as written, gives the Python controller's tilt set points."""
     code, out, err = run_cli("export", str(CERT), "--format", "c", "--out", str(tmp_path))
     assert code == 0, err
     (tmp_path / "task.c").write_text(_readme_c_block())

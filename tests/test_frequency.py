@@ -8,8 +8,8 @@ import pytest
 import sympy as sp
 
 from nniquad.analysis.frequency import ni_check, ni_interconnection_check, residues_on_imaginary_axis
-from nniquad.analysis.linear import ReducedLoop
-from nniquad.control.gains import Gains
+from nniquad.analysis.reduced_loop import ReducedLoop
+from nniquad.laws.nni import Gains
 
 
 @pytest.mark.parametrize("m, kp", [(0.5, 5.0), (2.0, 0.3)])

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from nniquad.control import inner_loops as IL
-from nniquad.control.gains import PAPER_GAINS
+from nniquad.laws.nni import PAPER_GAINS
 from nniquad.model.numeric import mixer_function, param_vector, rotation_function
 from nniquad.model.vehicle import PAPER_VEHICLE
 from nniquad import sim

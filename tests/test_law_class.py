@@ -1,4 +1,4 @@
-"""Law classes (issue 24, items 3 and 5): the paper class keeps the sector bound, the cascade class drops it and is
+"""Law classes: the paper class keeps the sector bound, the cascade class drops it and is
 certified by the sampled-data cascade alone; the tuner searches each class in its own coordinates, ranks the
 discrete controller at the control rate, and is seeded with filtered PDs through their NNI image.
 
@@ -16,19 +16,23 @@ import math
 import numpy as np
 import pytest
 
-from nniquad.analysis.linear import ReducedLoop
-from nniquad.analysis.cascade.certificate import ParameterBox
+from nniquad.analysis.reduced_loop import ReducedLoop
+from nniquad.analysis.cascade.box_certificate import ParameterBox
 from nniquad.certificates import build_certificate, canonical_digest, verify_certificate
-from nniquad.control.gains import Gains, InnerLoopGains, PDFilteredGains
-from nniquad.control.law_classes import LAW_CLASSES
-from nniquad.control.pd_equivalence import filtered_pd_in_sector, nni_from_filtered_pd
+from nniquad.laws.nni import Gains
+from nniquad.control.inner_gains import InnerLoopGains
+from nniquad.laws.pd_filtered import PDFilteredGains
+from nniquad.laws.classes import LAW_CLASSES
+from nniquad.laws.pd_filtered import filtered_pd_in_sector, nni_from_filtered_pd
 from nniquad.errors import CertificateError, NniquadError
 from nniquad.model.vehicle import PAPER_VEHICLE as V
-from nniquad.tuning.coordinates import decode, encode, gain_limits, search_box, warm_start_coordinates
-from nniquad.tuning.laws import law_of
+from nniquad.tuning.coordinates import decode, encode, search_box, warm_start_coordinates
+from nniquad.tuning.vehicle_limits import gain_limits
+from nniquad.tuning.coordinates import tunable_law as law_of
 from nniquad.tuning.tune_options import TuneOptions
 
-# issue 14's tuned filtered PD and its inner loops (notebooks/data/designs/pd_filtered_held.json): outside gamma = 0.8
+# the tuned filtered PD of the speed study and its inner loops (notebooks/data/designs/pd_filtered_held.json):
+# outside gamma = 0.8
 PD = PDFilteredGains(kp=9.111984627754474, kd=4.426807306344244, tau_f=0.05246651970835971)
 PD_INNER = InnerLoopGains(attitude_wn_rad_s=20.499630377601115, attitude_zeta=0.8199852151040445,
                           attitude_accel_limit_rad_s2=29.867503481638387)
@@ -134,7 +138,7 @@ def test_the_full_model_ranks_the_discrete_controller_at_the_control_rate():
     here directly (and not the continuous one's)."""
     from nniquad.sim import SimOptions, simulate
     from nniquad.tuning import objective as O
-    from nniquad.tuning.coordinates import attitude_accel_headroom
+    from nniquad.tuning.vehicle_limits import attitude_accel_headroom
 
     horizon = 12.0
     for rate in (100.0, 50.0):
@@ -298,9 +302,9 @@ def test_the_sector_face_the_tuner_decodes_is_inside_the_bound_as_verify_recompu
     """The fastest paper-class designs sit on ``u = 0`` (γ = γ_max); recomputed from the stated gains γ lands an
     ulp or two either side, and must read as inside the bound (the ``sni2`` tune once printed "0.8 > gamma_max
     0.8").  The allowance is rounding-sized: a design 1e-9 outside is still outside, and is refused."""
-    from nniquad.analysis.sni_loop import reduced_loop
-    from nniquad.control.gains import SNI2Gains
-    from nniquad.control.law_classes import SECTOR_RTOL, within_sector_bound
+    from nniquad.analysis.reduced_loop import reduced_loop
+    from nniquad.laws.sni2 import SNI2Gains
+    from nniquad.laws.classes import SECTOR_RTOL, within_sector_bound
 
     g_max = 0.8
     assert within_sector_bound(g_max * (1 + 2.0**-52), g_max) and within_sector_bound(g_max, g_max)

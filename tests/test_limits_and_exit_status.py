@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from nniquad.config import RK4_STEP_LIMIT
-from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, InnerLoopGains
+from nniquad.control.inner_gains import DEFAULT_INNER_LOOP_GAINS, InnerLoopGains
 from nniquad.errors import (EXIT_CHECK_FAILED, EXIT_INTERNAL_ERROR, EXIT_INTERRUPTED, EXIT_TERMINATED,
                             EXIT_USER_ERROR, ResourceError, SimulationError, Terminated)
 from nniquad.resources import (MODEL_SIZES, Estimate, available_memory_bytes, check_estimate, montecarlo_estimate,
@@ -36,7 +36,7 @@ def test_model_sizes_match_the_simulator():
 @pytest.mark.parametrize("model", ["linear", "full"])
 def test_memory_estimate_equals_the_arrays_a_run_allocates(model):
     """The formula against the arrays a real run holds: states + outputs per sample, 5 inputs per step."""
-    from nniquad.control.gains import PAPER_GAINS
+    from nniquad.laws.nni import PAPER_GAINS
     from nniquad.model.vehicle import PAPER_VEHICLE
     from nniquad.sim import SimOptions, exogenous_inputs, simulate
 

@@ -7,9 +7,9 @@ import pytest
 import sympy as sp
 
 from nniquad.errors import GainError
-from nniquad.analysis import linear as L
-from nniquad.analysis.linear import ReducedLoop
-from nniquad.control.gains import Gains, PAPER_GAINS
+from nniquad.analysis import reduced_loop_symbolic as L
+from nniquad.analysis.reduced_loop import ReducedLoop
+from nniquad.laws.nni import Gains, PAPER_GAINS
 
 m_, kp_, G_, d_ = (L.SYMBOLS[k] for k in ("m", "kp", "Gamma", "delta"))
 s = sp.Symbol("s")
@@ -83,7 +83,7 @@ def test_two_axes_with_different_gains():
 
 
 def test_sector_bound_paper_numbers_and_equivalence_with_routh():
-    assert ReducedLoop(0.5, Gains(5.0, 160.0, 0.6)).sector_delta_min(0.8) == pytest.approx(0.5)  # the paper's delta_min
+    assert ReducedLoop(0.5, Gains(5.0, 160.0, 0.6)).sector_limit(0.8)[1] == pytest.approx(0.5)  # the paper's delta_min
     assert ReducedLoop(0.5, Gains(5.0, 160.0, 0.6)).smallest_gamma == pytest.approx(2 / 3)
     assert sp.simplify(L.dc_loop_gain_sym() - 1 / (m_ * kp_ * d_)) == 0
     rng = np.random.default_rng(1)
@@ -150,7 +150,7 @@ def test_sector_bound_and_routh_exactly_on_the_boundary():
 def test_sector_delta_min_gives_gamma_back():
     loop = ReducedLoop(0.5, Gains(4.0, 160.0, 0.5))
     for gamma in (0.3, 0.8, 0.999):
-        d = loop.sector_delta_min(gamma)
+        d = loop.sector_limit(gamma)[1]
         assert d == pytest.approx(1.0 / (gamma * 0.5 * 4.0), rel=1e-14)
         assert loop.with_gains(Gains(4.0, 160.0, d)).smallest_gamma == pytest.approx(gamma, rel=1e-14)
 
@@ -173,7 +173,7 @@ def test_thrust_model_loop_is_the_paper_loop_with_effective_gain():
 def test_reduced_loop_rejects_bad_input():
     with pytest.raises(GainError, match="m must be positive"):
         ReducedLoop(-1.0, PAPER_GAINS)
-    with pytest.raises(GainError, match="Gains block"):
+    with pytest.raises(GainError, match="law of the NI structure"):
         ReducedLoop(0.5, (5.0, 160.0, 0.6))
     with pytest.raises(GainError, match="axis"):
         ReducedLoop(0.5, PAPER_GAINS).plant_matrices("z")
@@ -197,7 +197,7 @@ def test_axes_and_per_axis_gains_with_different_kp():
 
 def test_sector_delta_min_refuses_a_non_positive_gamma_by_name():
     with pytest.raises(GainError, match="^gamma must be positive, got 0"):
-        ReducedLoop(0.5, PAPER_GAINS).sector_delta_min(0.0)
+        ReducedLoop(0.5, PAPER_GAINS).sector_limit(0.0)[1]
 
 
 def test_reduced_routh_condition_is_exactly_m_kp_delta_minus_one_above_zero():

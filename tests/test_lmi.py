@@ -10,8 +10,8 @@ import pytest
 from nniquad.analysis import lmi
 from nniquad.errors import GainError, SolverError, VehicleError
 from nniquad.analysis.frequency import ni_interconnection_check
-from nniquad.analysis.linear import PAPER_LOOP, ReducedLoop
-from nniquad.control.gains import Gains, PAPER_GAINS
+from nniquad.analysis.reduced_loop import PAPER_LOOP, ReducedLoop
+from nniquad.laws.nni import Gains, PAPER_GAINS
 
 
 @pytest.mark.parametrize("m, kp", [(0.5, 5.0), (1.3, 0.7), (0.2, 40.0)])
@@ -340,7 +340,7 @@ def test_decay_lmis_reject_a_positive_matrix_that_certifies_no_decay(monkeypatch
     assert r.status == "optimal" and not r.feasible
 
 
-# ------------------------------------------------------------------------------ scaling of the ROA LMI (issue 14, 9a)
+# ------------------------------------------------------------------------------ scaling of the ROA LMI
 
 def _box_edge_loop():
     """The gains the quick tuner reached at the edge of the old search box: kp = 2000, Gamma = 6152, delta on the

@@ -90,7 +90,7 @@ def test_ellipsoid_level():
     assert checks.ellipsoid_level(P, np.array([[1.0], [0.5]])) == pytest.approx(0.5, rel=1e-15)
 
 
-# ----------------------------------------------------------------------------- rounding bounds (issue 22 item 2)
+# ----------------------------------------------------------------------------- rounding bounds
 # Each value below is worked out by hand from the definitions in the docstrings, on matrices whose diagonal
 # scaling is exact: P = [[4, 2], [2, 9]] has D^-1/2 = diag(1/2, 1/3), so P_s = [[1, 1/3], [1/3, 1]] with
 # eigenvalues 2/3 and 4/3 (condition number 2).

@@ -9,11 +9,12 @@ import control as ct
 import numpy as np
 import pytest
 
-from nniquad.analysis.cascade.linearised import linearise_cascade
+from nniquad.analysis.linearised_cascade import linearise_cascade
 from nniquad.analysis.margins import cascade_margins, frequency_grid, frequency_response, loop_margins
 from nniquad.analysis.sampled import sampled_gain_interval
 from nniquad.config import REQUIRED_GM_DB, REQUIRED_PM_DEG
-from nniquad.control.gains import Gains, InnerLoopGains
+from nniquad.laws.nni import Gains
+from nniquad.control.inner_gains import InnerLoopGains
 from nniquad.model.vehicle import PAPER_VEHICLE
 
 GAINS = Gains(kp=13.148341568334407, Gamma=25.27258951977003, delta=0.19046572101699574)

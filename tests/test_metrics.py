@@ -286,7 +286,7 @@ def test_altitude_loss_and_the_one_failure_verdict():
     assert failure_reason(False, False, False) == "not settled"
     assert failure_reason(False, None, True) is None
     # compute_metrics: a run that settles horizontally but falls 10 m is a failure, not a success: the vehicle
-    # is lost (diverged, issue 22), the verdict names the cause, and a lost run has no settling time
+    # is lost (diverged), the verdict names the cause, and a lost run has no settling time
     t = np.linspace(0.0, 10.0, 1001)
     m = compute_metrics(t, along(2.5 * np.exp(-t)), z=0.5 * t**2 / 5.0)
     level = compute_metrics(t, along(2.5 * np.exp(-t)))

@@ -17,12 +17,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from nniquad.analysis.cascade.certificate import ParameterBox
+from nniquad.analysis.cascade.box_certificate import ParameterBox
 
 import nniquad.study as mc
 from nniquad.study import executors
-from nniquad.control.gains import InnerLoopGains
-from nniquad.control.gains import Gains
+from nniquad.control.inner_gains import InnerLoopGains
+from nniquad.laws.nni import Gains
 from nniquad.model.vehicle import PAPER_VEHICLE
 
 # tuned gains: the full model settles in 1.53 s from (2, -1.5) m; certified reach 3.66 m
@@ -383,7 +383,7 @@ def test_motor_time_constant_range_is_relative_to_the_vehicle(setup4):
 def test_default_wind_is_a_fraction_of_each_vehicles_weight():
     """The default wind range scales with the vehicle: a 30 g Crazyflie gets 6 % of its own weight, not 0.3 N."""
     from nniquad.config import WIND_WEIGHT_FRACTION_RANGE
-    from nniquad.control.gains import Gains
+    from nniquad.laws.nni import Gains
     from nniquad.model.vehicle import PAPER_VEHICLE
     from nniquad.study import DEFAULT_RANGES, draw_scenarios, study_setup_from
 
@@ -419,7 +419,8 @@ def test_pd_laws_run_on_the_same_scenarios(pd_gains):
     the static balance ``F = m̂ k_p ξ`` of a PD law (hand derivation: the derivative
     term vanishes at rest).
     """
-    from nniquad.control.gains import PDFilteredGains, PDGains
+    from nniquad.laws.pd_filtered import PDFilteredGains
+    from nniquad.laws.pd_velocity import PDGains
     from nniquad.sim import SimOptions, simulate
 
     law, values = pd_gains

@@ -1,4 +1,4 @@
-"""Monte Carlo under faults: nothing computed is lost, nothing inconsistent is left (issue 16).
+"""Monte Carlo under faults: nothing computed is lost, nothing inconsistent is left.
 
 Each fault is made real -- a signal to a real ``nniquad montecarlo`` process, a
 worker process killed with SIGKILL or frozen with SIGSTOP, a Dask scheduler

@@ -18,7 +18,7 @@ from nniquad.tuning.search import Candidate
 
 
 class FakeSearch:
-    """A ``_Search`` stand-in: cost ``f(q)``, admissible where ``admissible_q(q)``."""
+    """A ``SearchState`` stand-in: cost ``f(q)``, admissible where ``admissible_q(q)``."""
 
     def __init__(self, f, lo, hi, admissible_q=lambda q: True, horizon_s: float = 50.0):
         self.f, self.admissible_q = f, admissible_q
@@ -45,7 +45,7 @@ class FakeSearch:
         return bool(self.admissible_q(cand.q))
 
 
-def _starts(search: FakeSearch, n: int = 16, k: int = 2, seed: int = 0) -> list[Candidate]:
+def optimiser_starts(search: FakeSearch, n: int = 16, k: int = 2, seed: int = 0) -> list[Candidate]:
     """The best ``k`` of ``n`` uniform points (what the Sobol sweep hands over); they are not counted below."""
     rng = np.random.default_rng(seed)
     cands = search.evaluate(search.lo + rng.random((n, len(search.lo))) * (search.hi - search.lo))
@@ -75,7 +75,7 @@ def rosenbrock(q):
 def test_finds_the_known_minimiser_in_a_box(method, f, d, q_star, tol, budget):
     lo, hi = -2.5 * np.ones(d), 3.0 * np.ones(d)
     search = FakeSearch(f, lo, hi)
-    found = minimise(search, _starts(search), method=method, max_evals=budget, seed=3)
+    found = minimise(search, optimiser_starts(search), method=method, max_evals=budget, seed=3)
     best = found[0]
     # the closed-form minimiser, to the stated tolerance (in q; the box is 5.5 wide)
     np.testing.assert_allclose(best.q, q_star, atol=tol)
@@ -94,7 +94,7 @@ def test_minimum_on_a_face_of_the_box(method):
     lo, hi = np.zeros(3), np.ones(3)
     target = np.array([0.4, -0.5, 0.7])  # outside in coordinate 1: the box minimiser is (0.4, 0, 0.7)
     search = FakeSearch(lambda q: float(np.sum((q - target) ** 2)), lo, hi)
-    best = minimise(search, _starts(search), method=method, max_evals=500, seed=1)[0]
+    best = minimise(search, optimiser_starts(search), method=method, max_evals=500, seed=1)[0]
     np.testing.assert_allclose(best.q, [0.4, 0.0, 0.7], atol=2e-3)
 
 
@@ -102,7 +102,7 @@ def test_minimum_on_a_face_of_the_box(method):
 def test_same_seed_same_result_other_seed_other_path(method):
     def run(seed):
         search = FakeSearch(quadratic, -2.5 * np.ones(3), 3.0 * np.ones(3))
-        found = minimise(search, _starts(search), method=method, max_evals=150, seed=seed)
+        found = minimise(search, optimiser_starts(search), method=method, max_evals=150, seed=seed)
         return found[0].q, np.array(search.points)
 
     (q1, p1), (q2, p2), (_, p3) = run(5), run(5), run(6)
@@ -121,7 +121,7 @@ def test_reach_penalty_keeps_the_incumbent_admissible(method):
     """
     lo, hi = -2.5 * np.ones(3), 3.0 * np.ones(3)
     search = FakeSearch(quadratic, lo, hi, admissible_q=lambda q: q[0] >= 0.5)
-    starts = [c for c in _starts(search, n=64, k=10) if c.q[0] >= 0.5][:2]
+    starts = [c for c in optimiser_starts(search, n=64, k=10) if c.q[0] >= 0.5][:2]
     assert starts
     found = minimise(search, starts, method=method, max_evals=800, seed=2)
     assert all(c.q[0] >= 0.5 for c in found)
@@ -150,7 +150,7 @@ def test_penalty_value_is_cost_plus_horizon():
 def test_bad_method_and_no_start():
     search = FakeSearch(quadratic, -np.ones(3), np.ones(3))
     with pytest.raises(NniquadError, match="optimizer"):
-        minimise(search, _starts(search), method="simplex", max_evals=10, seed=0)
+        minimise(search, optimiser_starts(search), method="simplex", max_evals=10, seed=0)
     with pytest.raises(NniquadError, match="start"):
         minimise(search, [], method="cma", max_evals=10, seed=0)
 
@@ -167,7 +167,7 @@ def test_a_fault_in_a_batch_reaches_the_caller(method):
 
     search = Interrupted(quadratic, -np.ones(3), np.ones(3))
     with pytest.raises(KeyboardInterrupt):
-        minimise(search, _starts(search), method=method, max_evals=5000, seed=0)
+        minimise(search, optimiser_starts(search), method=method, max_evals=5000, seed=0)
     assert len(search.batches) == 2
 
 
@@ -187,7 +187,7 @@ def test_the_optimiser_tells_the_search_its_incumbent_and_clears_it():
             return super().evaluate(pts)
 
     search = Recording(quadratic, [-3.0] * 3, [3.0] * 3)
-    starts = _starts(search)
+    starts = optimiser_starts(search)
     search.seen.clear()
     found = minimise(search, starts, method="cma", max_evals=80, seed=1)
     assert search.prune_above is None and search.seen
@@ -208,7 +208,7 @@ def test_the_first_cma_run_leaves_the_local_runs_their_share():
     budget, d = 400, 6
     lo, hi = -2.5 * np.ones(d), 3.0 * np.ones(d)
     search = FakeSearch(rosenbrock, lo, hi)
-    found = minimise(search, _starts(search), method="cma", max_evals=budget, seed=3)
+    found = minimise(search, optimiser_starts(search), method="cma", max_evals=budget, seed=3)
     runs: dict[int, tuple[str, int, int]] = {}  # run -> (regime, population, evaluations at its last generation)
     for msg in search.messages:
         m = re.match(r"cma restart (\d+) \((\w+), pop (\d+)\) gen \d+: best \S+ s, (\d+) evals", msg)
@@ -233,7 +233,7 @@ def test_a_small_budget_stays_with_the_first_cma_run():
     assert first_run_evaluations(100, 3) == 70  # 4 + floor(3 ln 3) = 7 per generation
     lo, hi = -2.5 * np.ones(6), 3.0 * np.ones(6)
     search = FakeSearch(rosenbrock, lo, hi)
-    minimise(search, _starts(search), method="cma", max_evals=60, seed=3)
+    minimise(search, optimiser_starts(search), method="cma", max_evals=60, seed=3)
     first = [int(msg.rsplit(", ", 1)[1].split()[0]) for msg in search.messages if "restart 0 (large" in msg]
     assert first[-1] > 60 - 9  # every whole generation of 9 that fits went to the first run
 
@@ -259,7 +259,7 @@ def test_the_small_cma_runs_search_in_the_frame_the_large_run_learned(monkeypatc
         best = []
         for seed in range(8):
             search = FakeSearch(ellipsoid, -2.5 * np.ones(d), 3.0 * np.ones(d))
-            best.append(minimise(search, _starts(search, seed=seed), method="cma", max_evals=400, seed=seed)[0].cost)
+            best.append(minimise(search, optimiser_starts(search, seed=seed), method="cma", max_evals=400, seed=seed)[0].cost)
         return float(np.median(best))
 
     assert median_best(True) <= 0.5 * median_best(False)

@@ -1,4 +1,4 @@
-"""The filtered-derivative PD law is the NNI law (issue 24, item 1): the maps, and the same run to round-off.
+"""The filtered-derivative PD law is the NNI law: the maps, and the same run to round-off.
 
 Independent references: the two laws' transfer functions evaluated by hand in numpy (not the map's
 formulas), and the simulator running each law with its own state equation (the PD filter state ``d``
@@ -10,15 +10,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from nniquad.control.gains import Gains, PDFilteredGains
-from nniquad.control.pd_equivalence import (filtered_pd_from_nni, filtered_pd_gamma, filtered_pd_in_sector,
+from nniquad.laws.nni import Gains
+from nniquad.laws.pd_filtered import PDFilteredGains
+from nniquad.laws.pd_filtered import (filtered_pd_from_nni, filtered_pd_gamma, filtered_pd_in_sector,
                                             nni_from_filtered_pd, nni_start_state)
-from nniquad.analysis.linear import ReducedLoop
+from nniquad.analysis.reduced_loop import ReducedLoop
 from nniquad.errors import GainError
 from nniquad.model.vehicle import PAPER_VEHICLE as V
 from nniquad.sim import SimOptions, simulate
 
-# the filtered PD that `nniquad tune --model full --controller pd_filtered` found (issue 14), and its inner loops
+# the tuned filtered PD of the speed study (`nniquad tune --model full --controller pd_filtered`), and its inner loops
 PD = PDFilteredGains(kp=9.111984627754474, kd=4.426807306344244, tau_f=0.05246651970835971)
 
 

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import sympy as sp
 
-from nniquad.analysis import linear as L
+from nniquad.analysis import reduced_loop_symbolic as L
+from nniquad.analysis.reduced_loop import PAPER_LOOP
 from nniquad.proofs import control_design as C
 from nniquad.proofs.claims import FAILS, HOLDS, HOLDS_WITH_CORRECTION, jsonable
 
@@ -103,7 +104,7 @@ def test_remark_robustness_variant_within_bound_holds():
     assert C.remark_robustness().verdict == HOLDS_WITH_CORRECTION
     assert C.remark_robustness(true_masses=(0.5, 0.7, 1.5)).verdict == HOLDS
     # independent: Routh boundary 1/(kp delta) = 1/3 kg
-    assert L.PAPER_LOOP.with_mass(0.34).stable and not L.PAPER_LOOP.with_mass(0.33).stable
+    assert PAPER_LOOP.with_mass(0.34).stable and not PAPER_LOOP.with_mass(0.33).stable
 
 
 def test_closed_loop_claim_needs_its_symbolic_routh_check():

@@ -1,5 +1,5 @@
 """The audit's extensions: marked as such, and the filtered-PD identity decided by the same code that must fail a
-wrong map (issue 24, item 1)."""
+wrong map."""
 
 from __future__ import annotations
 
@@ -22,7 +22,7 @@ def test_the_identity_holds_and_is_an_extension(result):
     # the sector statement of the issue, and the paper's gamma = 0.8 region
     assert ev["gamma m kp delta - (k_p tau_f/k_d + 1) gamma under the map"] == "0"
     assert ev["gamma = 0.8: region of r = k_p tau_f/k_d"] == "Interval(1/4, oo)"
-    assert ev["numeric (issue 14's tuned filtered PD, m = 0.5 kg)"]["inside the paper's gamma = 0.8"] is False
+    assert ev["numeric (the tuned filtered PD of the speed study, m = 0.5 kg)"]["inside the paper's gamma = 0.8"] is False
 
 
 @pytest.mark.parametrize("wrong", [

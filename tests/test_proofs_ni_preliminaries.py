@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import sympy as sp
 
-from nniquad.analysis import linear as L
+from nniquad.analysis import reduced_loop_symbolic as L
+from nniquad.analysis.reduced_loop import PAPER_LOOP
 from nniquad.proofs import ni_preliminaries as N
 from nniquad.proofs.claims import FAILS, HOLDS, HOLDS_WITH_CORRECTION
 
@@ -44,7 +45,7 @@ def test_residue_against_python_control():
 
     from nniquad.analysis import frequency as F
 
-    res, simple = F.residues_on_imaginary_axis(L.PAPER_LOOP.plant_ss())
+    res, simple = F.residues_on_imaginary_axis(PAPER_LOOP.plant_ss())
     assert simple
     K0 = float(np.real(res[0][1]).ravel()[0])
     assert abs(K0 - 1 / (2 * 0.5)) < 1e-9  # closed form 1/(2m)

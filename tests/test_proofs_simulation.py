@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from nniquad.analysis import linear as L
-from nniquad.control.gains import Gains
+from nniquad.analysis import reduced_loop_symbolic as L
+from nniquad.analysis.reduced_loop import ReducedLoop
+from nniquad.laws.nni import Gains
 from nniquad.sim import metrics as MT
 from nniquad.proofs import simulation as SIM
 from nniquad.proofs.claims import FAILS, HOLDS, HOLDS_WITH_CORRECTION
@@ -22,7 +23,7 @@ def test_delta_min_and_wrong_inputs():
 def test_simulation_claim_fails_with_numbers_from_a_second_integrator():
     r = SIM.simulation_claim()
     assert r.verdict == FAILS
-    A = L.ReducedLoop(0.5, Gains(5.0, 160.0, 0.6)).closed_loop_A()
+    A = ReducedLoop(0.5, Gains(5.0, 160.0, 0.6)).closed_loop_A()
     x0 = np.array([2.0, 0, 0, -1.5, 0, 0])
     t = np.linspace(0, 400, 40001)
     sol = solve_ivp(lambda _t, x: A @ x, (0, 400), x0, t_eval=t, method="DOP853", rtol=1e-10, atol=1e-12)
@@ -37,12 +38,12 @@ def test_simulation_claim_fails_with_numbers_from_a_second_integrator():
 def test_simulation_claim_can_hold_from_a_slow_eigenvector():
     # poles -1, -2, -3 (m = 0.5): kp = 11, Gamma = 30, delta = 0.2; start on the eigenvector of -1
     g = Gains(kp=11.0, Gamma=30.0, delta=0.2)
-    A3 = L.ReducedLoop(0.5, g).closed_loop_A_axis()
+    A3 = ReducedLoop(0.5, g).closed_loop_A_axis()
     lam, V = np.linalg.eig(A3)
     v = np.real(V[:, np.argmin(np.abs(lam + 1))])
     v = v / v[0]
     x0 = np.concatenate([2 * v, -1.5 * v])
-    assert SIM.simulation_claim(L.ReducedLoop(0.5, g), state0=x0, horizon_s=30.0).verdict == HOLDS
+    assert SIM.simulation_claim(ReducedLoop(0.5, g), state0=x0, horizon_s=30.0).verdict == HOLDS
 
 
 def test_full_model_variant_gains_hold():

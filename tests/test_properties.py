@@ -19,7 +19,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from nniquad.certificates.certificate import canonical_digest, load_certificate, verify_certificate
+from nniquad.certificates.certificate import canonical_digest, load_certificate
+from nniquad.certificates.verify import verify_certificate
 from nniquad.errors import CertificateError, VehicleError
 from nniquad.model.vehicle import PAPER_VEHICLE, Vehicle, load_vehicle, vehicle_from_mapping
 

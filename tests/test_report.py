@@ -187,30 +187,28 @@ def test_a_given_certificate_that_does_not_verify_leaves_no_report(run_cli, tmp_
 
 @pytest.mark.parametrize("earlier_report", [False, True], ids=["first-run", "over-an-earlier-report"])
 def test_a_failed_own_verification_leaves_no_files(run_cli, tmp_path, monkeypatch, earlier_report):
-    """Issue 14, 9b: ``report`` whose issued certificate fails its own verification (here the check the issue
-    names, ``lmi.region_of_attraction``) exits 1 with one line and writes nothing: no new folder, an earlier
+    """``report`` whose issued certificate fails its own verification (here the check
+    ``lmi.region_of_attraction``) exits 1 with one line and writes nothing: no new folder, an earlier
     report untouched, no build folder or lock file left.  The tuner and the certificate builder are replaced by
     the committed certificate, and the audit by three of its claims (what they would compute is thrown away
     when the verification fails; the whole report runs for real in ``report_dir``); the report's own
     verification of that certificate runs for real, with the forced failure."""
     from types import SimpleNamespace
 
-    import nniquad.tuning.tune as tune_module
+    import nniquad.jobs.report_sections as sections  # the report's module: the names it calls are replaced there
     from nniquad.certificates import certificate_gains, certificate_inner_loop, verify
     from nniquad.reporting.folder import ReportFolder
 
     committed = load_certificate(COMMITTED)
     stub = SimpleNamespace(gains=certificate_gains(committed), inner=certificate_inner_loop(committed), roa_radius_m=0.0,
                            to_json=lambda: {"stub": True})
-    monkeypatch.setattr(tune_module, "tune", lambda *args, **kwargs: stub)
-    import nniquad.certificates as certificates_module
-    import nniquad.proofs.claims as claims_module
+    monkeypatch.setattr(sections, "tune", lambda *args, **kwargs: stub)
 
     built = []
-    monkeypatch.setattr(certificates_module, "build_certificate",
+    monkeypatch.setattr(sections, "build_certificate",
                         lambda *args, **kwargs: built.append(1) or read_certificate(COMMITTED))
-    real_audit = claims_module.run_audit
-    monkeypatch.setattr(claims_module, "run_audit",
+    real_audit = sections.run_audit
+    monkeypatch.setattr(sections, "run_audit",
                         lambda *args, **kwargs: real_audit(["rotation-matrix", "steady-state", "sector-bound"]))
     calls = []
 

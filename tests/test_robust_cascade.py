@@ -1,4 +1,4 @@
-"""The robust sampled cascade certificate (nniquad.analysis.cascade.certificate), each against something independent."""
+"""The robust sampled cascade certificate (nniquad.analysis.cascade.box_certificate), each against something independent."""
 
 from __future__ import annotations
 
@@ -10,11 +10,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from nniquad.analysis.cascade import certificate as RC
+from nniquad.analysis.cascade import box_certificate as RC
 from nniquad.analysis.cascade import family as RF, lyapunov as RL, section as RS
-from nniquad.analysis.cascade.linearised import linearise_cascade
+from nniquad.analysis.linearised_cascade import linearise_cascade
 from nniquad.analysis.sampled import contraction, sampled_cascade, sampled_loop_from_blocks
-from nniquad.control.gains import Gains, InnerLoopGains
+from nniquad.laws.nni import Gains
+from nniquad.control.inner_gains import InnerLoopGains
 from nniquad.errors import CascadeError, SolverError
 from nniquad.model.vehicle import PAPER_VEHICLE as V
 from nniquad.scenarios.draws import DEFAULT_RANGES
@@ -129,12 +130,12 @@ def test_family_with_mass_and_inertia_vs_finite_differences():
     """A perturbed true mass and inertia: the equilibrium by a root solve and the Jacobian by finite differences."""
     from scipy.optimize import root
 
-    from nniquad.analysis.cascade.linearised import _hover_params
+    from nniquad.analysis.linearised_cascade import hover_params
     from nniquad.sim import EXO_FIELDS, STATE_NAMES, initial_state, rhs_function
 
     pt = np.array([1.15, 0.85, 1.1, 0.9, 1.2, 1.4])
     fam = RC.sampled_family(V, GAINS, INNER, pt[None], tilt_limit_deg=TILT, rate_hz=RATE)
-    base = _hover_params(V, GAINS, INNER, TILT, None).with_(run={"sample_hold": 1.0})
+    base = hover_params(V, GAINS, INNER, TILT, None).with_(run={"sample_hold": 1.0})
     p = base.with_(plant={"m": V.m * pt[0], "Jx": V.Jx * pt[1], "Jy": V.Jy * pt[2], "Jz": V.Jz * pt[3],
                           "tau_motor": V.tau_motor * pt[5]},
                    inner={"attitude_gain_scale": pt[4]})
@@ -171,7 +172,7 @@ def test_dropped_couplings_vanish():
     fam = RC.sampled_family(V, GAINS, INNER, BOX.vertices(), tilt_limit_deg=TILT, rate_hz=RATE)
     assert RC.coupling(fam) < RC.COUPLING_TOL
     # and the coupling measure sees a coupling when there is one: mix a state of y into x
-    bad = RF._take(fam, np.arange(len(fam)))
+    bad = RF.take_points(fam, np.arange(len(fam)))
     Tm, names = RC.mode_transform(fam.state_names)
     A = bad.A_d.copy()
     A[:, fam.state_names.index("x"), fam.state_names.index("phi")] += 1e-3
@@ -204,7 +205,7 @@ def test_grid_numbers_vs_direct_rebuild(section):
                                  spectral_radius=0, T=0.01, decay_rate_1_s=0, min_eig_P=0, status="", ok=True)
             for n in RC.SUBSYSTEMS}
     fam = RC.sampled_family(V, GAINS, INNER, pts, tilt_limit_deg=TILT, rate_hz=RATE)
-    P = RL._assemble_P(lyap, dims, BOX, pts, fam.state_names)
+    P = RL.assemble_P(lyap, dims, BOX, pts, fam.state_names)
     ours = RC.contraction_batch(fam.A_d, P)
     for i, p in enumerate(pts):
         cas = linearise_cascade(V, GAINS, replace(INNER, attitude_gain_scale=p[4]), tilt_limit_deg=TILT,
@@ -357,7 +358,7 @@ def test_reach_lyapunov_gives_the_closed_form_reach_of_a_scalar_loop():
     A_v = a.reshape(2, 1, 1)
     theta = np.array([[-1.0], [1.0]])
     got = RC.reach_lyapunov(A_v, 0.01, np.array([[k]]), lim, 0.7, theta=theta)
-    P = RL._affine(got.P, theta)
+    P = RL.affine_in(got.P, theta)
     assert P[:, 0, 0] == pytest.approx([k * k / lim ** 2] * 2, rel=1e-5)
     assert got.rho == pytest.approx(0.6, rel=1e-9) and got.ok  # the numpy contraction, not the 0.7 asked for
     assert RC.reach_lyapunov(A_v, 0.01, np.array([[k]]), lim, 0.55, theta=theta) is None  # 0.6 > 0.55: infeasible
@@ -370,18 +371,18 @@ def test_mirrored_y_block_is_found_and_rechecked_on_its_own_loops():
     th = rng.uniform(-1, 1, size=(5, 2))
     d = np.array([1.0, -1.0, -1.0, 1.0])
     A_y, K_y = d[:, None] * A_x * d[None, :], K_x * d
-    assert np.array_equal(RL._mirror((A_x, K_x, th), (A_y, K_y, th)), d)
-    assert RL._mirror((A_x, K_x, th), (A_y + 1e-3, K_y, th)) is None  # not a mirror image
-    assert RL._mirror((A_x, K_x, th), (A_y, K_y, th + 0.1)) is None   # other points
+    assert np.array_equal(RL.mirror_blocks((A_x, K_x, th), (A_y, K_y, th)), d)
+    assert RL.mirror_blocks((A_x, K_x, th), (A_y + 1e-3, K_y, th)) is None  # not a mirror image
+    assert RL.mirror_blocks((A_x, K_x, th), (A_y, K_y, th + 0.1)) is None   # other points
     P = np.stack([np.eye(4) * 2.0, 0.1 * np.eye(4), np.zeros((4, 4))])
     lx = RC.RobustLyapunov(P=P, rho=0.0, rho_vertices=np.array([]), spectral_radius=0.0, T=0.01, decay_rate_1_s=0.0,
                            min_eig_P=0.0, status="test", ok=True)
-    ly = RL._mirrored(lx, d, A_y, th)
-    assert ly.rho == pytest.approx(float(np.max(RC.contraction_batch(A_x, RL._affine(P, th)))), rel=1e-12)
+    ly = RL.mirrored_blocks(lx, d, A_y, th)
+    assert ly.rho == pytest.approx(float(np.max(RC.contraction_batch(A_x, RL.affine_in(P, th)))), rel=1e-12)
     assert np.allclose(ly.P[0], d[:, None] * P[0] * d[None, :]) and "mirrored" in ly.status
     big = 10.0 * A_y  # a loop the mirrored P does not contract: refused
-    assert float(np.max(RC.contraction_batch(big, RL._affine(ly.P, th)))) >= 1.0
-    assert RL._mirrored(lx, d, big, th) is None
+    assert float(np.max(RC.contraction_batch(big, RL.affine_in(ly.P, th)))) >= 1.0
+    assert RL.mirrored_blocks(lx, d, big, th) is None
 
 
 def test_spectral_norms_equal_the_largest_singular_value_and_fail_as_the_svd_does():

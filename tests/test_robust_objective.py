@@ -1,4 +1,4 @@
-"""Robust objective (issue 14, item 3) and classical margins in the tuner (item 4)."""
+"""Robust objective and classical margins in the tuner (docs/notes/tuning.md)."""
 
 from __future__ import annotations
 
@@ -9,17 +9,18 @@ import numpy as np
 import pytest
 
 from nniquad.config import TUNING_SCENARIO_SEED
-from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, InnerLoopGains
+from nniquad.control.inner_gains import DEFAULT_INNER_LOOP_GAINS, InnerLoopGains
+from nniquad.laws.nni import Gains
 from nniquad.errors import NniquadError
 from nniquad.model.vehicle import PAPER_VEHICLE as V
 from nniquad.scenarios.draws import DEFAULT_RANGES
 from nniquad.tuning.tune_options import ROBUST_QUANTILE, TuneOptions
 from nniquad.tuning.robust_scenarios import N_RANDOM, tuning_scenarios
 
-# the old design at the Routh limit of the nominal motor (FINDINGS.md): fails every slow-motor corner
+# the old design at the Routh limit of the nominal motor (docs/notes/robustness.md): fails every slow-motor corner
 OLD_GAINS = Gains(13.148341568334407, 25.27258951977003, 0.19046572101699574)
 OLD_INNER = InnerLoopGains(attitude_wn_rad_s=101.56, attitude_zeta=1.132, attitude_accel_limit_rad_s2=31.14)
-# a design at the motor-lag cap (FINDINGS.md section 5)
+# a design at the motor-lag cap (docs/notes/robustness.md)
 NEW_GAINS = Gains(18.99, 41.86, 0.1318)
 NEW_INNER = InnerLoopGains(attitude_wn_rad_s=27.8, attitude_zeta=1.113, attitude_accel_limit_rad_s2=37.3)
 
@@ -148,7 +149,8 @@ def test_a_candidate_that_fails_one_corner_pays_the_penalty(monkeypatch):
     slow-motor corner (2 x the nominal motor) its actual tilt reaches ~42 deg: admissible under the robust
     tilt slack (limit + 15 deg), a failure with penalty under the nominal slack (limit + 1 deg)."""
     from nniquad.tuning import objective as O
-    from nniquad.tuning.coordinates import attitude_accel_headroom, encode
+    from nniquad.tuning.coordinates import encode
+    from nniquad.tuning.vehicle_limits import attitude_accel_headroom
 
     full = O.robust_scenarios(V, TuneOptions(model="full"))
     slow = next(s for s in full if s.label == "corner m+ tau+ att-")
@@ -185,7 +187,7 @@ def test_a_candidate_that_fails_one_corner_pays_the_penalty(monkeypatch):
     (Gains(5.0, 20.0, 0.6), DEFAULT_INNER_LOOP_GAINS, None),
 ])
 def test_fast_margins_agree_with_python_control(gains, inner, rate):
-    from nniquad.analysis.cascade.linearised import linearise_cascade
+    from nniquad.analysis.linearised_cascade import linearise_cascade
     from nniquad.analysis.fast_margins import fast_cascade_margins
     from nniquad.analysis.margins import cascade_margins
 
@@ -259,7 +261,8 @@ def test_a_candidate_that_cannot_beat_the_incumbent_skips_the_random_draws():
     """prune_above: the random draws are not run when the nominal run and corners already cost more; the cost
     is the lower bound (no more than the full cost, and here equal to it); without it every scenario runs."""
     from nniquad.tuning import objective as O
-    from nniquad.tuning.coordinates import attitude_accel_headroom, encode
+    from nniquad.tuning.coordinates import encode
+    from nniquad.tuning.vehicle_limits import attitude_accel_headroom
 
     opts = TuneOptions(model="full", require_margins=False, roa_radius_m=0.0)
     q = encode(NEW_GAINS, V.m, opts.gamma_max, NEW_INNER, attitude_accel_headroom(V, opts.tilt_limit_deg))[None]

@@ -8,11 +8,12 @@ import numpy as np
 import pytest
 import scipy.signal as sig
 
-from nniquad.analysis.cascade.linearised import linearise_cascade
+from nniquad.analysis.linearised_cascade import linearise_cascade
 from nniquad.analysis.sampled import discrete_lyapunov_decay, nni_zoh_closed_form, sampled_cascade, \
     sampled_reduced_loop, zoh
 from nniquad.control.discrete import DiscreteNNI
-from nniquad.control.gains import Gains, InnerLoopGains
+from nniquad.laws.nni import Gains
+from nniquad.control.inner_gains import InnerLoopGains
 from nniquad.errors import SolverError
 from nniquad.model.vehicle import PAPER_VEHICLE
 from nniquad.sim import SimOptions, simulate
@@ -51,7 +52,7 @@ def test_held_sampled_cascade_matches_the_nonlinear_simulator(cascade):
     opts = SimOptions(model="full", horizon_s=1.0, output_dt_s=0.01, motor_lag=True, sample_hold=True,
                       noise_rate_hz=100.0, xi0=xi0, inner=INNER)
     tr = simulate(PAPER_VEHICLE, GAINS, opts)[0]
-    sd = sampled_cascade(cascade, 100.0, controller="held")
+    sd = sampled_cascade(cascade, 100.0, variant="held")
     x = np.zeros(len(sd.state_names))
     x[sd.state_names.index("x")], x[sd.state_names.index("y")] = xi0
     iw = [sd.state_names.index(f"w{i}") for i in range(1, 5)]
@@ -85,7 +86,7 @@ def test_lmi_certifies_the_sampled_loops(which, cascade):
 
 
 def test_reduced_sampled_loop_tends_to_the_continuous_loop():
-    from nniquad.analysis.linear import ReducedLoop
+    from nniquad.analysis.reduced_loop import ReducedLoop
 
     cont = ReducedLoop.from_vehicle(PAPER_VEHICLE, GAINS).poles_and_damping()
     fast = sampled_reduced_loop(PAPER_VEHICLE, GAINS, 1e4)

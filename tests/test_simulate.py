@@ -19,9 +19,9 @@ from scipy.linalg import expm
 from nniquad import codecache, sim
 from nniquad.errors import GainError, SimulationError
 from nniquad.control.inner_loops import allocate
-from nniquad.control.gains import InnerLoopGains
-from nniquad.analysis.linear import ReducedLoop
-from nniquad.control.gains import PAPER_GAINS, Gains
+from nniquad.control.inner_gains import InnerLoopGains
+from nniquad.analysis.reduced_loop import ReducedLoop
+from nniquad.laws.nni import PAPER_GAINS, Gains
 from nniquad.sim.metrics import settling_time
 from nniquad.model.numeric import dynamics_function, mixer_function, param_vector
 from nniquad.sim import SimOptions, SimParams, simulate
@@ -47,7 +47,7 @@ def _expm_xy(A6: np.ndarray, x0: np.ndarray, t: np.ndarray) -> np.ndarray:
 
 @pytest.mark.parametrize("gains", [PAPER_GAINS, FAST], ids=["paper", "fast"])
 def test_linear_matches_matrix_exponential(gains):
-    """RK4 at 1 ms against expm of the closed-loop A of nniquad.analysis.linear: within 1e-6 m over 30 s."""
+    """RK4 at 1 ms against expm of the closed-loop A of nniquad.analysis.reduced_loop: within 1e-6 m over 30 s."""
     tr = simulate(V, gains, SimOptions(model="linear", horizon_s=30.0))[0]
     A6 = ReducedLoop(V.m, gains).closed_loop_A()
     ref = _expm_xy(A6, np.array([2.0, 0, 0, -1.5, 0, 0]), tr.t)
@@ -454,7 +454,7 @@ def test_params_vector_roundtrip_and_layout():
 
 
 def test_paper_figure_and_trajectory_plot(tmp_path):
-    from nniquad.reporting.plots import paper_figure, trajectory_plot
+    from nniquad.sim.plots import paper_figure, trajectory_plot
 
     runs = sim.paper_figure_runs(V, PAPER_GAINS, horizon_s=12.0)
     assert list(runs) == list(sim.MODELS)
@@ -530,7 +530,7 @@ def test_one_verdict_for_a_vehicle_that_falls():
     res = simulate(None, None, o, params=[heavy])
     m = res[0].metrics()
     assert m.altitude_dev_m > 10.0  # free fall for most of 3 s: ~ g t^2 / 2 less the remaining thrust
-    # the vehicle is lost (diverged, issue 22) through its altitude: the verdict names that cause
+    # the vehicle is lost (diverged) through its altitude: the verdict names that cause
     assert m.diverged and not m.blew_up and m.altitude_lost and m.failure == "altitude lost"
     assert res.altitude_lost.tolist() == [True] and res.diverged.tolist() == [True]
     setup = mc.study_setup_from(V, FAST, horizon_s=3.0)
@@ -549,12 +549,12 @@ def test_parameter_layout_is_generated_from_the_typed_blocks():
     """Every entry is group.field of a typed block, with that field's unit; a block's new field would appear here."""
     from dataclasses import fields
 
-    from nniquad.control.gains import CONTROLLER_GAINS
+    from nniquad.laws.registry import LAWS
     from nniquad.model.vehicle import UNITS, Vehicle
 
     vehicle = [f.name for f in fields(Vehicle) if f.name != "name"]
     inner = [f.name for f in fields(InnerLoopGains)]
-    for controller, block in CONTROLLER_GAINS.items():
+    for controller, block in ((name, law.gains_type) for name, law in LAWS.items()):
         layout = sim.param_layout(controller)
         names = [f.name for f in layout]
         expected = ([f"gains.{f.name}" for f in fields(block)] + [f"nominal.{n}" for n in vehicle]
@@ -578,7 +578,7 @@ def test_batch_threads_follow_the_usable_cpus_and_do_not_change_results(monkeypa
     cap (set_batch_threads) changes the threads only, never a number."""
     import os
 
-    from nniquad.control.gains import PAPER_GAINS, Gains
+    from nniquad.laws.nni import PAPER_GAINS, Gains
     from nniquad.model.vehicle import PAPER_VEHICLE
     from nniquad.resources import usable_cpu_count
     from nniquad.sim import SimOptions, simulate
@@ -609,7 +609,7 @@ def test_batch_threads_follow_the_usable_cpus_and_do_not_change_results(monkeypa
 def test_batch_slices_cover_every_run_once_and_leave_the_callers_arrays_alone():
     """The runs are split into contiguous, nearly equal slices, one per thread; run_batch overwrites its own copy
     of the state after every segment, never the caller's x0 (a batch of 3 on 2 threads, against runs of one)."""
-    from nniquad.control.gains import PAPER_GAINS, Gains
+    from nniquad.laws.nni import PAPER_GAINS, Gains
     from nniquad.model.vehicle import PAPER_VEHICLE
     from nniquad.sim import SimOptions, SimParams
     from nniquad.sim import runner

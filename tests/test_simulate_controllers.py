@@ -15,9 +15,10 @@ from scipy.linalg import expm
 from nniquad import sim
 from nniquad.config import XI0_M
 from nniquad.errors import GainError, SimulationError
-from nniquad.control.gains import PAPER_GAINS, Gains
+from nniquad.laws.nni import PAPER_GAINS, Gains
 from nniquad.sim import SimOptions
-from nniquad.control.gains import PDFilteredGains, PDGains
+from nniquad.laws.pd_filtered import PDFilteredGains
+from nniquad.laws.pd_velocity import PDGains
 from nniquad.model.vehicle import PAPER_VEHICLE
 
 XI0 = np.array(XI0_M)
@@ -91,10 +92,10 @@ def test_pd_velocity_ignores_position_noise_only_in_the_derivative():
     assert dirty.tilt_jitter_rms_deg > 2 * clean.tilt_jitter_rms_deg
 
 
-def test_nni_default_path_unchanged():
+def test_each_law_has_its_own_compiled_functions_and_the_default_is_the_paper_law():
     assert PAPER_GAINS.controller == "nni"
-    assert sim.step_function("linear").name() == "step_linear"
-    assert sim.models.chunk_function("linear", 10).name() == "nniquad_chunk_linear_10"
+    assert sim.step_function("linear").name() == "step_linear_nni"
+    assert sim.models.chunk_function("linear", 10).name() == "nniquad_chunk_linear_nni_10"
     assert sim.models.chunk_function("linear", 10, "pd_filtered").name() == "nniquad_chunk_linear_pd_filtered_10"
     # NNI results do not depend on whether the PD functions were built
     a = sim.simulate(PAPER_VEHICLE, PAPER_GAINS, SimOptions(model="linear", horizon_s=2.0))[0]

@@ -13,7 +13,9 @@ import pytest
 
 from nniquad.analysis.sampled import sampled_reduced_loop
 from nniquad.control.discrete import DiscreteNNI
-from nniquad.control.gains import Gains, PDFilteredGains, PDGains
+from nniquad.laws.nni import Gains
+from nniquad.laws.pd_filtered import PDFilteredGains
+from nniquad.laws.pd_velocity import PDGains
 from nniquad.errors import SimulationError
 from nniquad.model.vehicle import PAPER_VEHICLE as V
 from nniquad.sim import SimOptions, SimParams, exogenous_inputs, simulate
@@ -64,7 +66,7 @@ def test_linear_loop_equals_the_exact_discrete_closed_loop():
     """The linear model, discrete controller: pos/vel at kT and z_k equal A_d^k x_0 of sampled_reduced_loop."""
     o = SimOptions(model="linear", horizon_s=5.0, output_dt_s=0.01, controller_sampling="discrete", zc0=(0.1, 0.05))
     tr = simulate(V, G, o)[0]
-    loop = sampled_reduced_loop(V, G, 100.0, controller="discrete")
+    loop = sampled_reduced_loop(V, G, 100.0, variant="discrete")
     assert loop.state_names[:6] == ("x", "x_dot", "y", "y_dot", "zc_x", "zc_y")
     x = np.array([*o.xi0[:1], 0.0, o.xi0[1], 0.0, *o.zc0])
     xs = [x]

@@ -17,16 +17,19 @@ import scipy.linalg as sla
 import scipy.signal as sig
 
 from nniquad.analysis.lmi.ni import ni_lemma_dissipation
-from nniquad.analysis.sni_loop import SNI2Loop, reduced_loop
+from nniquad.analysis.reduced_loop import ReducedLoop, reduced_loop
 from nniquad.certificates.verify import ni_storage_check
-from nniquad.control import sni as SNI
+from nniquad.laws import sni2 as SNI
 from nniquad.control.discrete import DiscreteNNI
-from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, PDFilteredGains, SNI2Gains
-from nniquad.control.pd_equivalence import nni_from_filtered_pd
+from nniquad.control.inner_gains import DEFAULT_INNER_LOOP_GAINS
+from nniquad.laws.nni import Gains
+from nniquad.laws.pd_filtered import PDFilteredGains
+from nniquad.laws.sni2 import SNI2Gains
+from nniquad.laws.pd_filtered import nni_from_filtered_pd
 from nniquad.errors import GainError
 from nniquad.model.vehicle import PAPER_VEHICLE as V
 from nniquad.sim import SimOptions, simulate
-from nniquad.tuning.laws import law_of
+from nniquad.tuning.coordinates import tunable_law as law_of
 
 #: A resonant design (complex poles) and a well-damped one (real poles).
 RESONANT = SNI2Gains(kp=10.0, k=300.0, omega=8.0, zeta=0.4)
@@ -96,7 +99,7 @@ def test_image_of_an_nni_law_is_that_law_behind_a_low_pass():
 
 def test_start_state_is_the_dc_value():
     assert SNI.start_state(300.0, 8.0, (2.0, -1.5)) == pytest.approx((300.0 / 64 * 2.0, -300.0 / 64 * 1.5, 0.0, 0.0))
-    np.testing.assert_allclose(SNI2Loop.from_vehicle(V, RESONANT).start_direction(), [1.0, 0.0, 300.0 / 64, 0.0])
+    np.testing.assert_allclose(ReducedLoop.from_vehicle(V, RESONANT).start_direction(), [1.0, 0.0, 300.0 / 64, 0.0])
 
 
 # ----------------------------------------------------------------------------- NI lemma
@@ -107,7 +110,7 @@ def test_controller_passes_the_ni_lemma_with_the_energy_storage(g):
     """The NI lemma LMI is feasible and returns the storage V = (ω² z² + z'²)/(2k) (hand derivation: with
     CB = 0 the equality PB = A'C' forces P12 = 0, P22 = 1/k, and PA + A'P <= 0 then P11 = ω²/k)."""
     A, B, C, D = SNI.controller_matrices(g.k, g.omega, g.zeta)
-    loop = SNI2Loop.from_vehicle(V, g)
+    loop = ReducedLoop.from_vehicle(V, g)
     res = ni_lemma_dissipation(A, B, C, D, scaling=loop.controller_scaling())
     assert res.feasible, res.note
     np.testing.assert_allclose(res.matrices["P"], np.diag([g.omega**2, 1.0]) / g.k, rtol=1e-6,
@@ -148,7 +151,7 @@ def test_dc_loop_gain_and_the_exact_stability_condition():
     m = V.m
     for gamma, stable in ((0.98, True), (1.02, False)):
         g = SNI2Gains(kp=10.0, k=gamma * m * 10.0 * 64.0, omega=8.0, zeta=0.4)
-        loop = SNI2Loop.from_vehicle(V, g)
+        loop = ReducedLoop.from_vehicle(V, g)
         assert math.isclose(loop.smallest_gamma, gamma, rel_tol=1e-13) and loop.stable is stable
         poles = np.linalg.eigvals(loop.closed_loop_A_axis())
         assert bool(np.max(poles.real) < 0) == stable
@@ -268,7 +271,8 @@ def test_coordinates_round_trip_and_mean_the_dc_loop_gain(law_class):
 
 
 def test_nni_and_filtered_pd_designs_seed_the_law():
-    from nniquad.tuning.coordinates import attitude_accel_headroom, search_box, warm_start_coordinates
+    from nniquad.tuning.coordinates import search_box, warm_start_coordinates
+    from nniquad.tuning.vehicle_limits import attitude_accel_headroom
     from nniquad.tuning.tune_options import TuneOptions
 
     opts = TuneOptions(model="full", controller="sni2", law_class="cascade", roa_radius_m=0.0)
@@ -284,15 +288,14 @@ def test_nni_and_filtered_pd_designs_seed_the_law():
     assert math.isclose(g.dc_loop_gain(V.m), 1.0 / (V.m * image.kp * image.delta), rel_tol=1e-9)  # γ is kept
 
 
-def test_reduced_loop_picks_the_class_and_refuses_a_pd():
-    assert isinstance(reduced_loop(V, RESONANT), SNI2Loop)
-    assert type(reduced_loop(V, Gains(5.0, 160.0, 0.6))).__name__ == "ReducedLoop"
-    with pytest.raises(GainError, match="no reduced NI loop"):
+def test_one_reduced_loop_serves_every_law_of_the_ni_structure_and_refuses_a_pd():
+    assert reduced_loop(V, RESONANT).law.name == "sni2" and reduced_loop(V, Gains(5.0, 160.0, 0.6)).law.name == "nni"
+    with pytest.raises(GainError, match="law of the NI structure"):
         reduced_loop(V, PDFilteredGains(kp=8.0, kd=4.0))
 
 
 def test_at_the_sector_bound_sni2_decays_sqrt5_times_faster_than_the_best_nni_design():
-    """Why the ``sni2`` law reaches the nominal target the NNI law misses in the paper class (FINDINGS.md §28).
+    """Why the ``sni2`` law reaches the nominal target the NNI law misses in the paper class (docs/notes/laws.md).
 
     Hand derivation, high-frequency stiffness k_p = p² fixed, γ = γ_max = 0.8:
     * ``sni2``: ``s⁴ + 2ζω s³ + (ω² + k_p) s² + 2ζω k_p s + k_p ω² (1 - γ) = (s + p)⁴`` for ω = √5 p,

@@ -20,8 +20,8 @@ from nniquad.analysis.sampled import zoh
 from nniquad.certificates import (Certificate, build_certificate, canonical_digest, certificate_gains,
                                   verify_certificate, write_certificate)
 from nniquad.certificates.export import START_NAME, STEP_NAME, controller_from_certificate
-from nniquad.control.gains import SNI2Gains
-from nniquad.control.sni import controller_matrices, sni2_from_nni
+from nniquad.laws.sni2 import SNI2Gains
+from nniquad.laws.sni2 import controller_matrices, sni2_from_nni
 from nniquad.errors import CertificateError, NniquadError
 from nniquad.model.vehicle import PAPER_VEHICLE as V
 from nniquad.sim import SimOptions, simulate
@@ -129,7 +129,7 @@ def test_resigned_edit_of_the_law_is_refused(doc, edit):
 def test_monte_carlo_runs_the_certified_law(doc):
     """The study of an sni2 certificate simulates the sni2 law in discrete time from its take-over state."""
     from nniquad.jobs.montecarlo import montecarlo
-    from nniquad.scenarios.draws import study_setup
+    from nniquad.study.certificate_setup import study_setup
 
     setup = study_setup(doc)
     assert setup.controller == "sni2" and setup.controller_sampling == "discrete"
@@ -157,7 +157,7 @@ def test_json_export_states_the_exact_discretisation(doc, tmp_path, run_cli):
 
 @pytest.mark.skipif(shutil.which("gcc") is None, reason="needs the system C compiler")
 def test_readme_flight_stack_snippet_flies_the_sni2_controller(doc, tmp_path, run_cli):
-    """The README's C position task, compiled as written against an sni2 export, gives the Python controller's
+    """The docs' C position task (docs/export.md), compiled as written against an sni2 export, gives the Python controller's
     tilt set points from its take-over state (nniquad_nni_start), to 1e-12."""
     path = write_certificate(doc, tmp_path / "c.json")
     code, _, err = run_cli("export", str(path), "--format", "c", "--out", str(tmp_path))

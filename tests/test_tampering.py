@@ -42,7 +42,7 @@ from nniquad.certificates import TOLERANCES, build_certificate, canonical_digest
 from nniquad.certificates.verify import RECORD_FIELDS, clear_cache
 from nniquad.errors import NniquadError
 from nniquad.model.vehicle import PAPER_VEHICLE as V
-from nniquad.scenarios.draws import study_setup
+from nniquad.study.certificate_setup import study_setup
 from tests.test_certificate import GAINS, INNER, SMALL_BOX
 
 #: One xdist worker runs the loop: each of its two documents is built once, and no other worker waits for it (a
@@ -65,8 +65,8 @@ WITHIN_TOLERANCE: dict[str, str | None] = {
     "margins.break_points.*.gm_lower_db": "margin_db_abs",
     "margins.break_points.*.pm_deg": "margin_deg_abs",
     "lmi.controller_ni.P.0.0": None,  # the dissipation residual grows with the square of the edit
-    # (1 - rho) / bound is known to within 1 + 1e-3 x itself (the cascade grid check's tolerance, FINDINGS §17);
-    # here it is 1e4-1e6, so a 1 % edit is past it
+    # (1 - rho) / bound is known to within 1 + 1e-3 x itself (the cascade grid check's tolerance,
+    # docs/notes/verify.md); here it is 1e4-1e6, so a 1 % edit is past it
     "cascade.grid.margin_over_bound": None,
 }
 

@@ -9,9 +9,9 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from nniquad.errors import GainError, NniquadError
-from nniquad.analysis.linear import ReducedLoop
+from nniquad.analysis.reduced_loop import ReducedLoop
 from nniquad.analysis.lmi import certified_reach
-from nniquad.control.gains import Gains
+from nniquad.laws.nni import Gains
 from nniquad.sim.metrics import settling_time
 from nniquad.tuning.tune import (BUDGETS, SECTOR_FACE_SHARE, TuneOptions, attitude_accel_headroom, decode, encode,
                                 initial_design, search_box, tune)
@@ -51,7 +51,7 @@ def test_coordinates_make_the_sector_bound_a_box_bound():
         lo, hi = search_box(TuneOptions(gamma_max=gamma_max, roa_radius_m=0))
         for q in lo + rng.random((50, 3)) * (hi - lo):
             g, _ = decode(q, V.m, gamma_max)
-            # u = q1 >= 0 is exactly gamma <= gamma_max, computed independently by nniquad.analysis.linear
+            # u = q1 >= 0 is exactly gamma <= gamma_max, computed independently by nniquad.analysis.reduced_loop
             assert ReducedLoop.from_vehicle(V, g).smallest_gamma == pytest.approx(gamma_max * math.exp(-q[1]), rel=1e-12)
             np.testing.assert_allclose(encode(g, V.m, gamma_max), q, rtol=1e-12, atol=1e-12)
     g, _ = decode([math.log(7.0), 0.0, math.log(3.0)], V.m, 0.8)
@@ -68,7 +68,7 @@ def test_initial_design_puts_a_share_on_the_sector_bound_face():
     on_face = pts[:, 1] == lo[1]
     assert on_face.sum() == round(SECTOR_FACE_SHARE * n) > 0
     face, box = pts[on_face], pts[~on_face]
-    for q in face[:8]:  # gamma = gamma_max exactly, computed independently by nniquad.analysis.linear
+    for q in face[:8]:  # gamma = gamma_max exactly, computed independently by nniquad.analysis.reduced_loop
         g, _ = decode(q, V.m, options.gamma_max)
         assert ReducedLoop.from_vehicle(V, g).smallest_gamma == pytest.approx(options.gamma_max, rel=1e-12)
     # the face set is spread over the other coordinates (each quarter of each range holds a quarter of it) ...
@@ -168,14 +168,14 @@ def test_mass_range_tunes_the_worst_case():
 
 def test_margin_scenario_and_altitude_penalty():
     from nniquad.sim.verdicts import Metrics
-    from nniquad.tuning.objective import _cost, _scenario_options
+    from nniquad.tuning.objective import _cost, scenario_options
     from nniquad.tuning.tune import ALTITUDE_CAP_M, simulation_options
 
     opts = TuneOptions(model="full", roa_radius_m=0.0, margin=True, mass_range=(0.4, 0.6))
-    scen = _scenario_options(opts, simulation_options(opts, 5.0), V)
+    scen = scenario_options(opts, simulation_options(opts, 5.0), V)
     assert [s.true_mass_kg for s in scen[:3]] == [None, 0.4, 0.6]
     assert scen[-1].tau_motor_s == pytest.approx(1.5 * V.tau_motor) and scen[-1].noise_sigma_m > 0
-    assert len(_scenario_options(TuneOptions(model="reduced", roa_radius_m=0.0, margin=True),
+    assert len(scenario_options(TuneOptions(model="reduced", roa_radius_m=0.0, margin=True),
                                  simulation_options(opts, 5.0), V)) == 1
     ok = Metrics(1.2, 1.0, 30.0, 30.0, 0.1, 800.0, ALTITUDE_CAP_M / 2, 0.1, False, 5.0)
     lost = Metrics(1.2, 1.0, 30.0, 30.0, 0.1, 800.0, ALTITUDE_CAP_M + 1.0, 0.1, False, 5.0)
@@ -261,7 +261,7 @@ def _vehicle_file(name):
 def test_search_box_is_bounded_by_what_the_vehicle_can_realise(name):
     """kp: sqrt(kp) three times below the fastest attitude frequency the motor allows (0.75/tau at zeta 1.5),
     and kp x 5 cm band <= g tan 30 deg; Gamma delta below the 100 Hz Nyquist frequency. Worked out by hand."""
-    from nniquad.tuning.coordinates import gain_limits
+    from nniquad.tuning.vehicle_limits import gain_limits
 
     vehicle = V if name == "paper" else _vehicle_file(name)
     wn_a = min(150.0, 2 * 1.5 / (2.0 * 2.0 * vehicle.tau_motor))  # attitude_wn_limit at zeta 1.5, factor 2, margin 2
@@ -293,7 +293,7 @@ def test_search_box_refuses_a_vehicle_whose_motors_allow_no_horizontal_loop():
 
 def test_reduced_tune_stays_inside_the_realisable_box(quick_reduced):
     """The quick reduced tuner used to run to kp = 2000 (certified reach 5 mm, full model not settling)."""
-    from nniquad.tuning.coordinates import gain_limits
+    from nniquad.tuning.vehicle_limits import gain_limits
 
     assert quick_reduced.gains.kp <= gain_limits(V)["kp_max"] * (1 + 1e-12)
     assert quick_reduced.gains.Gamma * quick_reduced.gains.delta <= math.pi * 100.0 * (1 + 1e-12)
@@ -314,7 +314,7 @@ def _pd_settling_scipy(gains, horizon: float, tilt_deg: float = 30.0) -> float:
     with ``d' = (ξ - d)/τ_f`` started at ``d = ξ(0)`` (zero velocity estimate);
     the command is limited to ``g tan(tilt)`` in norm, as in the reduced model.
     """
-    from nniquad.control.gains import PDFilteredGains
+    from nniquad.laws.pd_filtered import PDFilteredGains
 
     a_max = V.g * math.tan(math.radians(tilt_deg))
     filtered = isinstance(gains, PDFilteredGains)
@@ -338,7 +338,8 @@ def _pd_settling_scipy(gains, horizon: float, tilt_deg: float = 30.0) -> float:
 @pytest.mark.parametrize("law", ["pd_velocity", "pd_filtered"])
 def test_pd_coordinates_by_hand(law):
     """kd = 2 ζ √kp (the loop's damping on the double integrator), τ_f = e^q; encode inverts decode."""
-    from nniquad.control.gains import PDFilteredGains, PDGains
+    from nniquad.laws.pd_filtered import PDFilteredGains
+    from nniquad.laws.pd_velocity import PDGains
 
     options = TuneOptions(model="full", controller=law)
     assert options.roa_radius_m == 0  # no sector bound, no certified region

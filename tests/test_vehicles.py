@@ -1,4 +1,4 @@
-"""Any user's vehicle (issue 14, item 8): the committed vehicle files, and the refusal of what no design can fly.
+"""Any user's vehicle: the committed vehicle files, and the refusal of what no design can fly.
 
 Fast tests: the feasibility limits worked out by hand, and ``certify`` refusing an infeasible vehicle file at
 once, with one line naming the limit and no file written.  Slow tests: ``certify --model full --budget quick`` on
@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 
 from nniquad.model.vehicle import PAPER_VEHICLE, load_vehicle
-from nniquad.tuning.feasibility import check_feasible, feasibility_problems
+from nniquad.tuning.vehicle_limits import check_feasible, feasibility_problems
 from nniquad.errors import VehicleError
 
 VEHICLES = Path(__file__).resolve().parents[1] / "notebooks" / "data" / "vehicles"

@@ -311,12 +311,11 @@ def test_the_layout_check_reads_every_section_and_names_the_one_that_is_off(cert
 
 
 def test_the_layout_of_an_sni2_certificate_has_its_own_sector_keys(shared_json):
-    """The sni2 law states its gain bound k_max where the IRC states delta_min (SNI2_SECTOR_KEYS)."""
-    from nniquad.certificates.verify import SNI2_SECTOR_KEYS
+    """The sni2 law states its gain bound k_max where the IRC states delta_min (the law's sector_limit key)."""
     from tests.test_sni2_certificate import build_sni2_certificate
 
     doc = shared_json("sni2-small-certificate", build_sni2_certificate)
-    assert set(doc["sector"]) == SNI2_SECTOR_KEYS != SECTION_KEYS["sector"]
+    assert set(doc["sector"]) == {"gamma", "gamma_max", "k_max"} != SECTION_KEYS["sector"]
     assert verify_certificate(doc, simulate=False)["layout"].ok
     c = copy.deepcopy(doc)
     c["sector"]["delta_min"] = 0.1
@@ -355,7 +354,7 @@ def test_the_settings_check_names_every_run_and_key_that_differs(cert):
 
 
 def test_the_law_class_check_says_why_it_refuses(cert, shared_json):
-    from nniquad.control.law_classes import LAW_CLASSES
+    from nniquad.laws.classes import LAW_CLASSES
 
     def law(c):
         return verify_certificate(_resign(c), simulate=False)["law_class"]
@@ -396,7 +395,7 @@ def test_a_certificate_from_before_law_classes_is_of_the_paper_class(cert):
     c = copy.deepcopy(cert)
     del c["law_class"]
     res = verify_certificate(_resign(c), simulate=False)
-    from nniquad.control.law_classes import LAW_CLASSES
+    from nniquad.laws.classes import LAW_CLASSES
 
     assert res.ok and res["law_class"].detail == ("class paper (not stated: a certificate from before classes); "
                                                   f"certified by {LAW_CLASSES['paper'].theorem}")

@@ -44,16 +44,16 @@ def _export(module: str, *names: str, **renamed: str) -> None:
 
 # core objects
 _export("nniquad.model.vehicle", "Vehicle", "PAPER_VEHICLE", "load_vehicle")
-_export("nniquad.control.gains", "Gains", "PAPER_GAINS", "PDGains", "PDFilteredGains", "InnerLoopGains",
-        "DEFAULT_INNER_LOOP_GAINS", "DEFAULT_TAU_F_S")
-_export("nniquad.control.law_classes", "LAW_CLASSES", "DEFAULT_LAW_CLASS", "LawClass")
-_export("nniquad.tuning.coordinates", "gain_limits")
+_export("nniquad.laws", "Gains", "PAPER_GAINS", "PDGains", "PDFilteredGains", "SNI2Gains", "DEFAULT_TAU_F_S",
+        "ControlLaw", "LAWS", "law_named", "register", "LAW_CLASSES", "DEFAULT_LAW_CLASS", "LawClass")
+_export("nniquad.control.inner_gains", "InnerLoopGains", "DEFAULT_INNER_LOOP_GAINS")
+_export("nniquad.tuning.vehicle_limits", "gain_limits")
 _export("nniquad.analysis.fast_margins", "design_margins", "margin_shortfall")
-_export("nniquad.control.pd_equivalence", "nni_from_filtered_pd", "filtered_pd_from_nni", "nni_start_state",
+_export("nniquad.laws.pd_filtered", "nni_from_filtered_pd", "filtered_pd_from_nni", "nni_start_state",
         "filtered_pd_gamma", "filtered_pd_in_sector")
 _export("nniquad.certificates.certificate", "Certificate", "read_certificate", "write_certificate")
 _export("nniquad.certificates.verify", "Verification", "Check")
-_export("nniquad.analysis.linear", "ReducedLoop", "PolesDamping")
+_export("nniquad.analysis.reduced_loop", "ReducedLoop", "PolesDamping")
 _export("nniquad.sim", "SimOptions", "SimulationResult", "Trajectory", "paper_figure_runs", "PAPER_FIGURE_HORIZON_S")
 _export("nniquad.tuning.tune", "TuneOptions", "TuneResult", "search_box", "decode", "encode",
         "attitude_accel_headroom", "attitude_wn_cap", "required_hold_s", "settling_shown", "TILT_SLACK_DEG")
@@ -74,7 +74,7 @@ _export("nniquad.analysis.lmi", "LMIResult", "region_of_attraction", "axis_accel
 _export("nniquad.sim.metrics", "settling_time", "settling_time_batch", "overshoot_pct", "tilt_deg", "rms_after")
 _export("nniquad.sim.verdicts", "Metrics", "compute_metrics")
 # figures and tables (matplotlib and IPython are imported only when these are used)
-_export("nniquad.reporting.plots", "paper_figure", "trajectory_plot")
+_export("nniquad.sim.plots", "paper_figure", "trajectory_plot")
 _export("nniquad.reporting.display", "show_figure", "show_table", "markdown_table", "notebook_size", "sized")
 _export("nniquad.format", "fmt")
 _export("nniquad.progress", "Progress")

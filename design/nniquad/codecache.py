@@ -17,7 +17,9 @@ Where
 Key
     SHA-256 of the entry's name and arguments, the Python implementation and
     version, the machine, the versions of CasADi, sympy and numpy, and the
-    source of every module of the ``nniquad`` package (:func:`source_digest`).
+    source of every module of the ``nniquad`` package (:func:`source_digest`),
+    with the source files added by :func:`add_source` (a control law registered
+    from outside the package: its realisation generates the simulator's code).
     Hashing the whole package costs milliseconds and cannot miss a module that
     takes part in generating a function; any edit therefore rebuilds once.
 
@@ -45,7 +47,8 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any, Callable, Mapping, TypeVar
 
-__all__ = ["ENV_DIR", "ENV_DISABLE", "cache_dir", "writable_cache_dir", "enabled", "source_digest", "entry_key",
+__all__ = ["ENV_DIR", "ENV_DISABLE", "cache_dir", "writable_cache_dir", "enabled", "source_digest", "add_source",
+           "entry_key",
            "read_entry", "write_entry", "cached_casadi_function", "cached_numpy_functions", "clear_memory",
            "STATS"]
 
@@ -123,13 +126,41 @@ def enabled() -> bool:
     return os.environ.get(ENV_DISABLE, "") in ("", "0")
 
 
+#: Source files outside the package that take part in generating code (:func:`add_source`).
+_EXTRA_SOURCES: set[Path] = set()
+
+
+def add_source(path: str | os.PathLike[str]) -> None:
+    """Make a source file outside the package part of every key (:func:`source_digest`): an edit of it rebuilds.
+
+    Parameters
+    ----------
+    path
+        The file (a control law's module registered from outside ``nniquad``).
+    """
+    p = Path(path).resolve()
+    if _PACKAGE_ROOT not in p.parents:
+        _EXTRA_SOURCES.add(p)
+
+
 @functools.lru_cache(maxsize=1)
-def source_digest() -> str:
-    """SHA-256 over the relative path and bytes of every ``.py`` file of the ``nniquad`` package."""
+def _package_digest() -> str:
     h = hashlib.sha256()
     for path in sorted(_PACKAGE_ROOT.rglob("*.py")):
         h.update(path.relative_to(_PACKAGE_ROOT).as_posix().encode() + b"\0")
         h.update(path.read_bytes() + b"\0")
+    return h.hexdigest()
+
+
+def source_digest() -> str:
+    """SHA-256 over the relative path and bytes of every ``.py`` file of the ``nniquad`` package (read once per
+    process), and of the files added by :func:`add_source` (their absolute paths)."""
+    if not _EXTRA_SOURCES:
+        return _package_digest()
+    h = hashlib.sha256(_package_digest().encode())
+    for path in sorted(_EXTRA_SOURCES):
+        h.update(path.as_posix().encode() + b"\0")
+        h.update((path.read_bytes() if path.is_file() else b"") + b"\0")
     return h.hexdigest()
 
 

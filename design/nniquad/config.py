@@ -72,7 +72,7 @@ DT_S: float = 1e-3
 OUTPUT_DT_S: float = 0.01
 #: Default true-mass interval of the robust LMIs and certificates, as fractions of the nominal mass.
 MASS_RANGE_FRACTION: tuple[float, float] = (0.8, 1.2)
-#: Control rate = position sample rate [Hz] of the sampled-data loop and of the exported controller (issue 15).
+#: Control rate = position sample rate [Hz] of the sampled-data loop and of the exported controller.
 CONTROL_RATE_HZ: float = 100.0
 #: Required gain margin [dB], both ways (gain increase and reduction); flight-control practice (MIL-F-9490D).
 REQUIRED_GM_DB: float = 6.0
@@ -91,7 +91,7 @@ WIND_WEIGHT_FRACTION_RANGE: tuple[float, float] = (0.0, 0.06)
 ATTITUDE_GAIN_MARGIN: float = 2.0
 #: The tuner's search box keeps the horizontal loop's natural frequency sqrt(kp) this factor below the
 #: fastest attitude natural frequency the vehicle's motors allow (the usual 3-5x time-scale separation of a
-#: cascade, at its permissive end; nniquad.tuning.coordinates.gain_limits).
+#: cascade, at its permissive end; nniquad.tuning.vehicle_limits.gain_limits).
 CASCADE_BANDWIDTH_RATIO: float = 3.0
 #: Seed of the robust tuner's fixed scenario set (nniquad.tuning.robust_scenarios). A benchmark Monte Carlo
 #: study of a tuned design must use another seed, or it re-measures the scenarios it was tuned on.
@@ -106,8 +106,8 @@ INPUT_MAX_BYTES: int = 16 * 2**20
 INPUT_MAX_DEPTH: int = 64
 #: Longest integer literal accepted in an input file (Python's default int-to-str limit, whatever it is set to).
 INPUT_MAX_INT_DIGITS: int = 4300
-#: RK4 is stable for every pole lambda with |lambda dt| <= 2.61 in the left half-plane (2.785 on the real
-#: axis); every step-size check (controller pole Gamma*delta, inner loops, motor lag) demands |lambda| dt <= this.
+#: RK4 is stable for every pole lambda with ``|lambda dt| <= 2.61`` in the left half-plane (2.785 on the real
+#: axis); every step-size check (controller pole Gamma*delta, inner loops, motor lag) demands ``|lambda| dt <=`` this.
 RK4_STEP_LIMIT: float = 2.5
 #: A request may use at most this fraction of the memory available when it starts.
 MEMORY_FRACTION: float = 0.8
@@ -125,7 +125,7 @@ MC_STARTUP_GRACE_S: float = 60.0
 MC_WITHIN_RIM_FRACTION: float = 0.1
 
 #: Points per coordinate of the numpy grid check inside a cascade certificate's parameter box
-#: (nniquad.analysis.cascade.certificate.grid_check; six coordinates, so 4 gives 4096 points).
+#: (nniquad.analysis.cascade.box_certificate.grid_check; six coordinates, so 4 gives 4096 points).
 CASCADE_GRID_POINTS_PER_AXIS: int = 4
 #: The most points per coordinate a cascade grid may have (6**6 = 46,656 rebuilt 29-state loops, about 0.3 GB):
 #: ``certify`` refuses more, and ``verify`` refuses a certificate that asks for more (an absurd resource request).

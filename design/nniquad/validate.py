@@ -76,7 +76,7 @@ def finite_int(name: str, value: Any, *, error: type[NniquadError] = NniquadErro
 
 
 def _second_order_pole(wn: float, zeta: float, scale: float = 1.0) -> float:
-    """Largest |lambda| of lambda^2 + 2 zeta wn s lambda + s wn^2 (a PD loop whose torque is scaled by s)."""
+    """Largest ``|lambda|`` of ``lambda^2 + 2 zeta wn s lambda + s wn^2`` (a PD loop whose torque is scaled by s)."""
     b, c = 2.0 * zeta * wn * scale, scale * wn * wn
     root = cmath.sqrt(b * b - 4.0 * c)
     return max(abs((-b + root) / 2.0), abs((-b - root) / 2.0))
@@ -84,12 +84,12 @@ def _second_order_pole(wn: float, zeta: float, scale: float = 1.0) -> float:
 
 def inner_loop_poles(inner: Any, *, attitude_gain_scale: float | None = None,
                      tau_motor_s: float | None = None) -> dict[str, float]:
-    """Magnitudes |lambda| [1/s] of the inner-loop poles near hover (see :mod:`nniquad.control.inner_loops`).
+    """Magnitudes ``|lambda|`` [1/s] of the inner-loop poles near hover (see :mod:`nniquad.control.inner_loops`).
 
     Parameters
     ----------
     inner
-        An :class:`nniquad.control.gains.InnerLoopGains` (read by attribute).
+        An :class:`nniquad.control.inner_gains.InnerLoopGains` (read by attribute).
     attitude_gain_scale
         Factor on the attitude torques (default: ``inner.attitude_gain_scale``);
         a Monte Carlo study passes the top of its range.

@@ -1,4 +1,4 @@
-"""Regenerate the tuned designs, certificates and Monte Carlo families the notebooks read (issue 24).
+"""Regenerate the tuned designs, certificates and Monte Carlo families the notebooks read (docs/notes/laws.md).
 
     .venv/bin/python notebooks/data/make_data.py                # every step, in order
     .venv/bin/python notebooks/data/make_data.py families       # some steps
@@ -11,39 +11,39 @@ once, not regenerated to check this.  On 2 idle cores a tuning step takes 3-5 mi
 ``pd_velocity``, ``pd_filtered``
     The two PD comparison laws tuned by the same tuner on the same 20 robust scenarios (robust default, the
     discrete controller at the control rate, no margin requirement: a PD law has no NNI cascade of its own).
-    ``designs/pd_*_held.json`` (no step) are issue 14's designs, ranked on the continuous controller on the
-    held measurement (the 1.60 s and 1.93 s of issue 24); ``pd_filtered_held.json`` seeds the cascade-class
-    steps below, as it did when their committed files were made.
+    ``designs/pd_*_held.json`` (no step) are the PD designs the speed study started from, ranked on the
+    continuous controller on the held measurement (the 1.60 s and 1.93 s the speed study names);
+    ``pd_filtered_held.json`` seeds the cascade-class steps below, as it did when their committed files were made.
 ``pd_filtered_paper``, ``pd_filtered_cascade``
     The filtered PD restricted to the designs whose NNI image lies in each law class, with the image's gain
-    margins required as for the NNI law (issue 24, item 3: "the best filtered PD whose image lies in that
-    class").
+    margins required as for the NNI law (as the speed study asked: "the best filtered PD whose image lies in
+    that class").
 ``pd_image``
-    The certificate of the unrestricted filtered PD's NNI image in the cascade class (item 2: does the
+    The certificate of the unrestricted filtered PD's NNI image in the cascade class (does the
     sampled cascade certificate certify it?).
 ``nni_paper``, ``nni_cascade``, ``sni2_cascade``
     The certified designs (``nni_paper`` is not the committed ``full_model_certificate.json`` of
     ``nniquad certify --model full``, which the tests and notebooks 01-03 read): the NNI law in each class
-    and the second-order SNI law in the cascade class, each seeded with the image of a filtered PD of the class (``nni_cascade`` and ``sni2_cascade``: issue 14's
+    and the second-order SNI law in the cascade class, each seeded with the image of a filtered PD of the class (``nni_cascade`` and ``sni2_cascade``: the speed study's
     unrestricted filtered PD, whose image lies in the cascade class).
 ``nni_cascade_seeded``
     The cascade-class NNI design seeded with the image of the filtered PD of step ``pd_filtered`` (ranked as
     it flies; its image lies in the class and meets the gain margins), so it is never slower than that PD.
 ``sni2_cascade_seeded``
     The sni2 law in the cascade class seeded with the same PD's image (through the NNI law behind a fast
-    low-pass, :func:`nniquad.control.sni.sni2_from_nni`).
+    low-pass, :func:`nniquad.laws.sni2.sni2_from_nni`).
 ``nni_cascade_no_margins``
     The cascade-class NNI design tuned without the gain-margin requirement, as the unrestricted filtered PD
-    is (item 2: what the margins cost; a certificate of the class, not a design the notebooks recommend).
+    is (what the margins cost; a certificate of the class, not a design the notebooks recommend).
 ``pd_velocity_quiet``, ``pd_filtered_quiet``, ``pd_image_quiet``
     The two PD laws tuned again on the same robust set without position noise (``--scenario-noise-range 0 0``;
     every other perturbation the same), and the certificate of the quiet filtered PD's NNI image in the cascade
     class: what the 2 cm of noise in the corners costs a law that differentiates the measured position
-    (notebook 03, section 6; FINDINGS.md §25).
+    (notebook 03, section 6; docs/notes/robustness.md).
 ``sni2_paper``
     The second-order SNI law in the paper class (the sector bound ``k/(m kp ω²) <= γ_max``), unseeded: the
-    fastest certified design that also keeps the paper's theorem and its 2.5 m certified reach (FINDINGS.md
-    §28; ``benchmarks/bench_robust.py`` certifies it again and studies it).
+    fastest certified design that also keeps the paper's theorem and its 2.5 m certified reach
+    (docs/notes/laws.md; ``benchmarks/bench_robust.py`` certifies it again and studies it).
 ``families``
     Notebook 03 section 5: every law's design run λ times faster and slower (``time_scaled``), each member
     on the nominal run and a small Monte Carlo study (:data:`FAMILY_LAMBDAS`, :data:`FAMILY_SAMPLES`,
@@ -126,14 +126,14 @@ def sha256_of(path: Path) -> str:
 def load_design(relpath: str):
     """(gains block, inner loops) of a certificate or a 'tune --json' file in this folder."""
     from nniquad import InnerLoopGains, read_certificate
-    from nniquad.control.gains import CONTROLLER_GAINS
+    from nniquad.laws import law_named
 
     path = HERE / relpath
     data = json.loads(path.read_text())
     if data.get("schema") is not None:
         cert = read_certificate(path)
         return cert.gains, cert.inner_loop
-    return CONTROLLER_GAINS[data["controller"]](**data["gains"]), InnerLoopGains(**data["inner_loop"])
+    return law_named(data["controller"]).gains(data["gains"]), InnerLoopGains(**data["inner_loop"])
 
 
 def families() -> dict:

@@ -16,6 +16,8 @@ from functools import lru_cache
 import casadi as ca
 import numpy as np
 
+from nniquad.sim.codegen import compile_function
+
 __all__ = ["evaluate_map"]
 
 
@@ -30,7 +32,6 @@ def _block_function(fn: ca.Function, n: int) -> tuple[ca.Function, list[np.ndarr
     simulator's functions; the CasADi VM without a compiler), with numpy buffers bound to its inputs and outputs,
     and the evaluation callable.  Compiled, the cascade's Jacobians take a fifth of the VM's time, with the same
     numbers (the same operations, in the same order)."""
-    from nniquad.sim.codegen import compile_function
 
     fm = compile_function(fn.map(n, "serial"))
     buf, evaluate = fm.buffer()

@@ -42,8 +42,8 @@ from numpy.typing import NDArray
 
 from nniquad.config import TILT_LIMIT_DEG, XI0_M
 from nniquad.errors import SimulationError, SolverError
-from nniquad.sim.metrics import DEFAULT_BAND_FRACTION
 from nniquad.model.vehicle import PAPER_VEHICLE, Vehicle
+from nniquad.sim.metrics import DEFAULT_BAND_FRACTION
 
 __all__ = [
     "BoundTrajectory",

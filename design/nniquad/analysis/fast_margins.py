@@ -4,7 +4,7 @@
 (python-control FRDs on 3000 frequencies, the exact ZOH loop, disk margins).  The
 tuner needs the gain interval and the phase margin at the two break points of
 every candidate, so this module computes them from the same
-:class:`nniquad.analysis.cascade.linearised.ClosedLoop` (Padé model of the sampling delays)
+:class:`nniquad.analysis.linearised_cascade.ClosedLoop` (Padé model of the sampling delays)
 another way:
 
 * the exact frequency response ``L(jω) = -c (jωI - A_0)⁻¹ b`` by batched solves (the
@@ -30,7 +30,8 @@ from typing import Any
 
 import numpy as np
 
-from nniquad.analysis.cascade.linearised import BREAK_POINTS, ClosedLoop, LinearCascade
+from nniquad.analysis.interpolation import bracketed_root
+from nniquad.analysis.linearised_cascade import BREAK_POINTS, ClosedLoop, LinearCascade, linearise_cascade
 from nniquad.config import CONTROL_RATE_HZ, REQUIRED_GM_DB, REQUIRED_PM_DEG
 
 __all__ = ["N_FREQUENCIES", "FastMargins", "fast_loop_margins", "fast_cascade_margins", "design_margins",
@@ -148,7 +149,6 @@ class _Modal:
 
 def _bisect(f, a: float, b: float, fa: float) -> float:
     """Root of a scalar function with a sign change on [a, b] (Brent's method in log frequency)."""
-    from nniquad.analysis.interpolation import bracketed_root
 
     return math.exp(bracketed_root(lambda u: f(math.exp(u)), math.log(a), math.log(b), xtol=1e-12, rtol=1e-12))
 
@@ -160,7 +160,7 @@ def fast_loop_margins(cl: ClosedLoop, break_point: str, rate_hz: float | None = 
     Parameters
     ----------
     cl
-        The closed loop (:meth:`nniquad.analysis.cascade.linearised.LinearCascade.closed_loop`).
+        The closed loop (:meth:`nniquad.analysis.linearised_cascade.LinearCascade.closed_loop`).
     break_point
         One of ``cl.breaks``.
     rate_hz
@@ -217,13 +217,24 @@ def fast_loop_margins(cl: ClosedLoop, break_point: str, rate_hz: float | None = 
 
 
 def fast_cascade_margins(cascade: LinearCascade, rate_hz: float | None = CONTROL_RATE_HZ, *,
-                         controller: str = "discrete", pade_order: int = 2) -> dict[str, FastMargins]:
-    """Fast margins at both break points (:data:`nniquad.analysis.cascade.linearised.BREAK_POINTS`), Padé sampling model.
+                         variant: str = "discrete", pade_order: int = 2) -> dict[str, FastMargins]:
+    """Fast margins at both break points (:data:`nniquad.analysis.linearised_cascade.BREAK_POINTS`), Padé sampling model.
 
     The same closed loop as :func:`nniquad.analysis.margins.cascade_margins` (its ``"horizontal"`` and
     ``"attitude"`` entries).
+
+    Parameters
+    ----------
+    cascade
+        The linearised cascade.
+    rate_hz
+        The control rate [Hz] (``None``: continuous).
+    variant
+        ``"discrete"`` or ``"held"`` (:data:`nniquad.analysis.linearised_cascade.CONTROLLER_VARIANTS`).
+    pade_order
+        Order of the Padé model of each sampling delay.
     """
-    cl = cascade.closed_loop(rate_hz, controller=controller, pade_order=pade_order)
+    cl = cascade.closed_loop(rate_hz, variant=variant, pade_order=pade_order)
     return {bp: fast_loop_margins(cl, bp, rate_hz) for bp in BREAK_POINTS}
 
 
@@ -240,7 +251,6 @@ def design_margins(vehicle, gains, inner, *, tilt_limit_deg: float | None = None
     rate_hz
         Position sample rate [Hz] (default :data:`nniquad.config.CONTROL_RATE_HZ`).
     """
-    from nniquad.analysis.cascade.linearised import linearise_cascade
 
     cas = linearise_cascade(vehicle, gains, inner, tilt_limit_deg=tilt_limit_deg)
     return fast_cascade_margins(cas, rate_hz)

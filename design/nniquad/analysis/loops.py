@@ -1,6 +1,6 @@
 """Loop algebra on plain matrices: closed loops with break points, loop transfer functions, Padé delays.
 
-:mod:`nniquad.analysis.cascade.linearised` derives the cascade's matrices from the
+:mod:`nniquad.analysis.linearised_cascade` derives the cascade's matrices from the
 simulator; this module holds what is done with them once they are numbers:
 
 * :class:`ClosedLoop`: a continuous-time closed loop ``x' = A x`` and its break

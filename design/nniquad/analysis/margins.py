@@ -1,6 +1,6 @@
 """Classical stability margins of the linearised cascade at its two break points.
 
-Break points (:mod:`nniquad.analysis.cascade.linearised`):
+Break points (:mod:`nniquad.analysis.linearised_cascade`):
 
 ``horizontal``
     the horizontal acceleration command ``a_h`` of the x axis (y loop closed);
@@ -46,7 +46,9 @@ from typing import Any
 
 import numpy as np
 
-from nniquad.analysis.cascade.linearised import BREAK_POINTS, LinearCascade
+from nniquad.analysis.interpolation import InterpolatingSpline, bracketed_root
+from nniquad.analysis.linearised_cascade import BREAK_POINTS, LinearCascade
+from nniquad.analysis.sampled import sampled_cascade
 from nniquad.config import CONTROL_RATE_HZ, REQUIRED_GM_DB, REQUIRED_PM_DEG
 
 __all__ = [
@@ -231,7 +233,6 @@ def frd_crossings(resp: np.ndarray, omega: np.ndarray) -> tuple[np.ndarray, np.n
         and phase margins [deg] at the gain crossovers ``w_gc`` [rad/s], in
         increasing frequency.
     """
-    from nniquad.analysis.interpolation import InterpolatingSpline, bracketed_root
 
     w = np.asarray(omega, float)
     r = np.asarray(resp, complex)
@@ -319,18 +320,18 @@ def loop_margins(L, break_point: str, method: str, rate_hz: float | None,
     )
 
 
-def cascade_margins(cascade: LinearCascade, rate_hz: float | None = CONTROL_RATE_HZ, *, controller: str = "discrete",
+def cascade_margins(cascade: LinearCascade, rate_hz: float | None = CONTROL_RATE_HZ, *, variant: str = "discrete",
                     pade_order: int = 2) -> dict[str, Margins]:
     """Margins at both break points, plus the exact discrete-time horizontal margins when sampled.
 
     Parameters
     ----------
     cascade
-        The linearised cascade (:func:`nniquad.analysis.cascade.linearised.linearise_cascade`).
+        The linearised cascade (:func:`nniquad.analysis.linearised_cascade.linearise_cascade`).
     rate_hz
         Position sample rate [Hz]; ``None`` for a continuous measurement.
-    controller
-        ``"discrete"`` or ``"held"`` (:data:`nniquad.analysis.cascade.linearised.CONTROLLER_VARIANTS`).
+    variant
+        ``"discrete"`` or ``"held"`` (:data:`nniquad.analysis.linearised_cascade.CONTROLLER_VARIANTS`).
     pade_order
         Order of the Padé approximants of the sampling delays.
 
@@ -340,15 +341,14 @@ def cascade_margins(cascade: LinearCascade, rate_hz: float | None = CONTROL_RATE
         ``"horizontal"``, ``"attitude"`` (continuous or Padé) and, when sampled,
         ``"horizontal_zoh"`` (exact).
     """
-    from nniquad.analysis.sampled import sampled_cascade
 
-    cl = cascade.closed_loop(rate_hz, controller=controller, pade_order=pade_order)
+    cl = cascade.closed_loop(rate_hz, variant=variant, pade_order=pade_order)
     method = "continuous" if rate_hz is None else "pade"
     out = {bp: loop_margins(cl.loop_system(bp), bp, method, rate_hz) for bp in BREAK_POINTS}
     if rate_hz is not None:
-        sd = sampled_cascade(cascade, rate_hz, controller=controller)
+        sd = sampled_cascade(cascade, rate_hz, variant=variant)
         # the held variant has no discrete a_h[k]: its x loop is broken at the sampled measurement,
         # the same scalar loop (the controller is diagonal, so every path back to a_h_x passes xi_x)
-        name = "horizontal" if controller == "discrete" else "measurement"
+        name = "horizontal" if variant == "discrete" else "measurement"
         out["horizontal_zoh"] = loop_margins(sd.loop_system(name), "horizontal", "zoh", rate_hz)
     return out

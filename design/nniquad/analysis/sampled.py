@@ -47,13 +47,21 @@ from typing import Any
 import numpy as np
 import scipy.linalg as sla
 
-from nniquad.analysis.cascade.linearised import CONTROLLER_VARIANTS, LinearCascade
+from nniquad.analysis.linearised_cascade import CONTROLLER_VARIANTS, LinearCascade, linearise
 from nniquad.analysis.loops import LinearSystem
+
 # the Lyapunov certificate of a sampled loop, re-exported (its callers import it from here)
-from nniquad.analysis.sampled_lyapunov import (DiscreteDecay, _conditioning_transform, best_decay, contraction,  # noqa: F401
-                                               discrete_lyapunov_decay, solve_with_clarabel)
+from nniquad.analysis.sampled_lyapunov import (  # noqa: F401
+    DiscreteDecay,
+    best_decay,
+    conditioning_transform,
+    contraction,
+    discrete_lyapunov_decay,
+    solve_with_clarabel,
+)
 from nniquad.config import CONTROL_RATE_HZ
 from nniquad.errors import CascadeError
+from nniquad.sim import SimOptions, SimParams
 
 __all__ = [
     "zoh",
@@ -71,7 +79,7 @@ __all__ = [
 ]
 
 
-def _period(rate_hz: float) -> float:
+def control_period(rate_hz: float) -> float:
     if isinstance(rate_hz, bool) or not isinstance(rate_hz, (int, float, np.floating)) or not math.isfinite(rate_hz) \
             or rate_hz <= 0:
         raise CascadeError(f"sample rate must be a finite positive number of Hz, got {rate_hz!r}")
@@ -119,7 +127,7 @@ class SampledLoop:
         Sample period [s].
     state_names
         Names of the states (at the sample instants).
-    controller
+    variant
         ``"discrete"`` or ``"held"`` (module docstring).
     breaks
         ``name -> (b, c)``: a scalar discrete-time signal ``v_k = c x_k`` fed back through ``b``.
@@ -128,7 +136,7 @@ class SampledLoop:
     A_d: np.ndarray
     T: float
     state_names: tuple[str, ...]
-    controller: str
+    variant: str
     breaks: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
 
     @property
@@ -174,17 +182,17 @@ def _plant_with_torque_gain(cascade: LinearCascade, k: float) -> tuple[np.ndarra
     return cascade.A_p + (k - 1.0) * np.outer(b, t_p), cascade.B_p + (k - 1.0) * np.outer(b, t_a)
 
 
-def sampled_cascade(cascade: LinearCascade, rate_hz: float = CONTROL_RATE_HZ, *, controller: str = "discrete",
+def sampled_cascade(cascade: LinearCascade, rate_hz: float = CONTROL_RATE_HZ, *, variant: str = "discrete",
                     torque_gain: float = 1.0) -> SampledLoop:
     """The exact sampled-data cascade at the sample instants.
 
     Parameters
     ----------
     cascade
-        Linearised cascade (:func:`nniquad.analysis.cascade.linearised.linearise_cascade`).
+        Linearised cascade (:func:`nniquad.analysis.linearised_cascade.linearise_cascade`).
     rate_hz
         Position sample rate = control rate [Hz].
-    controller
+    variant
         ``"discrete"``: plant discretised with ``a_h`` held, controller by its
         exact ZOH equivalent.  ``"held"``: plant and continuous controller
         discretised together with the measurement held.
@@ -201,23 +209,23 @@ def sampled_cascade(cascade: LinearCascade, rate_hz: float = CONTROL_RATE_HZ, *,
     """
     A_p, B_p = _plant_with_torque_gain(cascade, torque_gain)
     return sampled_loop_from_blocks(A_p, B_p, cascade.C_p, cascade.A_k, cascade.B_k, cascade.C_k, cascade.D_k,
-                                    cascade.plant_states + cascade.controller_states, rate_hz, controller)
+                                    cascade.plant_states + cascade.controller_states, rate_hz, variant)
 
 
 def sampled_loop_from_blocks(A_p: np.ndarray, B_p: np.ndarray, C_p: np.ndarray, A_k: np.ndarray, B_k: np.ndarray,
                              C_k: np.ndarray, D_k: np.ndarray, names: tuple[str, ...], rate_hz: float,
-                             controller: str = "discrete") -> SampledLoop:
+                             variant: str = "discrete") -> SampledLoop:
     """The sampled loop of a plant ``(A_p, B_p, C_p)`` (input ``a_h``) and controller ``(A_k, B_k, C_k, D_k)``.
 
     See :func:`sampled_cascade` for the two controller variants and the break points.
     """
-    if controller not in CONTROLLER_VARIANTS:
-        raise CascadeError(f"unknown controller variant {controller!r} (choose one of {', '.join(CONTROLLER_VARIANTS)})")
-    T = _period(rate_hz)
+    if variant not in CONTROLLER_VARIANTS:
+        raise CascadeError(f"unknown controller variant {variant!r} (choose one of {', '.join(CONTROLLER_VARIANTS)})")
+    T = control_period(rate_hz)
     n_p, n_k = A_p.shape[0], A_k.shape[0]
     n_y = C_p.shape[0]
     breaks: dict[str, tuple[np.ndarray, np.ndarray]] = {}
-    if controller == "discrete":
+    if variant == "discrete":
         Phi, Gam = zoh(A_p, B_p, T)
         A_kd, B_kd = zoh(A_k, B_k, T)
         ah = np.hstack([D_k @ C_p, C_k])            # a_h[k] from the state at k
@@ -237,22 +245,20 @@ def sampled_loop_from_blocks(A_p: np.ndarray, B_p: np.ndarray, C_p: np.ndarray, 
         bm = Gam[:, 0]
     cm = np.concatenate([C_p[0], np.zeros(n_k)])
     breaks["measurement"] = (bm, cm)
-    return SampledLoop(A_d, T, tuple(names), controller, breaks)
+    return SampledLoop(A_d, T, tuple(names), variant, breaks)
 
 
-def sampled_reduced_loop(vehicle, gains, rate_hz: float = CONTROL_RATE_HZ, *, controller: str = "discrete") -> SampledLoop:
+def sampled_reduced_loop(vehicle, gains, rate_hz: float = CONTROL_RATE_HZ, *, variant: str = "discrete") -> SampledLoop:
     """The paper's reduced loop (``ξ'' = a_h``, both axes) sampled at ``rate_hz``, from the ``linear`` model.
 
     The plant and the controller are the Jacobian blocks of the simulator's
-    ``linear`` model (:func:`nniquad.analysis.cascade.linearised.linearise`), split as in
+    ``linear`` model (:func:`nniquad.analysis.linearised_cascade.linearise`), split as in
     the cascade; the sampling is as in :func:`sampled_cascade`.
     """
-    from nniquad.analysis.cascade.linearised import linearise
-    from nniquad.sim import CONTROLLER_STATES, SimOptions, SimParams
 
     p = SimParams.from_options(vehicle, gains, SimOptions(model="linear", sample_hold=True))
     lin = linearise("linear", p)
-    ctrl = CONTROLLER_STATES[p.controller]
+    ctrl = p.gains.law.sim_state_names
     ik, ih = lin.index(*ctrl), lin.index("held_x", "held_y")
     plant = ("x", "x_dot", "y", "y_dot")
     ip = lin.index(*plant)
@@ -262,10 +268,10 @@ def sampled_reduced_loop(vehicle, gains, rate_hz: float = CONTROL_RATE_HZ, *, co
     C_p = np.zeros((2, len(plant)))
     C_p[0, plant.index("x")] = C_p[1, plant.index("y")] = 1.0
     return sampled_loop_from_blocks(lin.J[np.ix_(ip, ip)], B_p, C_p, A_k, B_k, C_k, D_k, plant + ctrl,
-                                    rate_hz, controller)
+                                    rate_hz, variant)
 
 
-def sampled_gain_interval(cascade: LinearCascade, rate_hz: float = CONTROL_RATE_HZ, *, controller: str = "discrete",
+def sampled_gain_interval(cascade: LinearCascade, rate_hz: float = CONTROL_RATE_HZ, *, variant: str = "discrete",
                           k_max: float = 1e5, rtol: float = 1e-6) -> tuple[float, float]:
     """Exact gain interval of the continuous roll-torque command inside the sampled-data loop.
 
@@ -279,7 +285,7 @@ def sampled_gain_interval(cascade: LinearCascade, rate_hz: float = CONTROL_RATE_
         Stable for ``k_lo < k < k_hi`` around 1 (``k_hi = inf`` if stable up to ``k_max``).
     """
     def stable(k: float) -> bool:
-        return sampled_cascade(cascade, rate_hz, controller=controller, torque_gain=k).stable
+        return sampled_cascade(cascade, rate_hz, variant=variant, torque_gain=k).stable
 
     if not stable(1.0):
         return math.nan, math.nan

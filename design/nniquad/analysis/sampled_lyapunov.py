@@ -75,7 +75,7 @@ def contraction(A_d: np.ndarray, P: np.ndarray) -> float:
     return float(np.linalg.norm(M, 2))
 
 
-def _conditioning_transform(A: np.ndarray, max_cond: float = 1e8) -> np.ndarray:
+def conditioning_transform(A: np.ndarray, max_cond: float = 1e8) -> np.ndarray:
     """A similarity ``S`` that makes ``S^{-1} A S`` well scaled for the SDP solver.
 
     The real modal form (scipy ``cdf2rdf`` of the eigenvectors) when its basis is
@@ -192,7 +192,7 @@ def discrete_lyapunov_decay(A_d: np.ndarray, T: float, *, rtol: float = 1e-3, ma
     condition bound ``t`` with ``P ⪯ t I``); the target ``ρ`` is searched by
     :func:`best_decay` between the spectral radius (the infimum) and 1, and the
     stated ``ρ`` is the numpy contraction of the best answer.  The LMI is posed in well-scaled
-    coordinates (:func:`_conditioning_transform`) because the cascade mixes
+    coordinates (:func:`conditioning_transform`) because the cascade mixes
     metres, radians and rotor speeds of ~10³ rad/s.
 
     Parameters
@@ -222,7 +222,7 @@ def discrete_lyapunov_decay(A_d: np.ndarray, T: float, *, rtol: float = 1e-3, ma
     rho_spec = float(np.max(np.abs(np.linalg.eigvals(A_d))))
     if not rho_spec < 1.0:
         raise SolverError(f"discrete Lyapunov LMI: the sampled loop is unstable (spectral radius {rho_spec:.6g})")
-    S = _conditioning_transform(A_d)  # A_d = S Ab S^{-1}
+    S = conditioning_transform(A_d)  # A_d = S Ab S^{-1}
     Ab = np.linalg.solve(S, A_d @ S)
     P = cp.Variable((n, n), symmetric=True)
     t = cp.Variable()

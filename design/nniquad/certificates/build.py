@@ -9,21 +9,45 @@ from typing import TYPE_CHECKING, Any, Callable, Mapping, Sequence
 
 import numpy as np
 
-from nniquad.analysis.sni_loop import reduced_loop
-from nniquad.certificates.certificate import (NI_FORM, PERFORMANCE_HORIZON_S, ROA_MODEL, TOLERANCES, Certificate,
-                                              reference_run_options)
-from nniquad.config import (CASCADE_GRID_POINTS_PER_AXIS, CONTROL_RATE_HZ, DT_S, GAMMA_MAX, MASS_RANGE_FRACTION,
-                            TILT_LIMIT_DEG, XI0_M)
-from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, InnerLoopGains, SNI2Gains
-from nniquad.control.law_classes import DEFAULT_LAW_CLASS
-from nniquad.control.law_classes import law_class as law_class_of, within_sector_bound
-from nniquad.errors import CertificateError
+from nniquad.analysis.bound import time_optimal_bound
+from nniquad.analysis.cascade.box_certificate import cascade_section
+from nniquad.analysis.linearised_cascade import linearise_cascade
+from nniquad.analysis.lmi import certified_region, closed_loop_decay, ni_lemma_dissipation, reach_of, robust_mass_decay
+from nniquad.analysis.margins import cascade_margins
+from nniquad.analysis.reduced_loop import ReducedLoop, reduced_loop
+from nniquad.certificates.certificate import (
+    NI_FORM,
+    PERFORMANCE_HORIZON_S,
+    ROA_MODEL,
+    TOLERANCES,
+    Certificate,
+    reference_run_options,
+)
+from nniquad.config import (
+    CASCADE_GRID_POINTS_PER_AXIS,
+    CONTROL_RATE_HZ,
+    DT_S,
+    GAMMA_MAX,
+    MASS_RANGE_FRACTION,
+    REQUIRED_GM_DB,
+    REQUIRED_PM_DEG,
+    TILT_LIMIT_DEG,
+    XI0_M,
+)
+from nniquad.control.inner_gains import DEFAULT_INNER_LOOP_GAINS, InnerLoopGains
+from nniquad.errors import CascadeError, CertificateError, SolverError
+from nniquad.laws.base import GainBlock
+from nniquad.laws.classes import DEFAULT_LAW_CLASS, law_class as law_class_of, within_sector_bound
+from nniquad.laws.registry import law_named, ni_law_names
 from nniquad.model.vehicle import Vehicle
+from nniquad.sim import simulate
+from nniquad.sim.options import check_rate_hz
+from nniquad.tuning.objective import required_hold_s, settling_shown
 
 if TYPE_CHECKING:
-    from nniquad.analysis.cascade.certificate import ParameterBox
+    from nniquad.analysis.cascade.box_certificate import ParameterBox
 
-__all__ = ["build_certificate", "performance_runs", "margins_section", "MARGIN_FIELDS", "sector_pm_ceiling_deg",
+__all__ = ["build_certificate", "unsettled_reference_run", "performance_runs", "margins_section", "MARGIN_FIELDS", "sector_pm_ceiling_deg",
            "sector_section"]
 
 
@@ -41,7 +65,7 @@ def _mat(M: np.ndarray) -> list[list[float]]:
     return np.asarray(M, dtype=float).tolist()
 
 
-def performance_runs(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, tilt_limit_deg: float = TILT_LIMIT_DEG,
+def performance_runs(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, *, tilt_limit_deg: float = TILT_LIMIT_DEG,
                      xi0: Sequence[float] = XI0_M, horizon_s: float = PERFORMANCE_HORIZON_S,
                      motor_lag: bool = True, rate_hz: float | None = None) -> dict[str, Any]:
     """Settings and metrics of the two reference runs (``reduced`` and ``full``).
@@ -58,7 +82,6 @@ def performance_runs(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, t
     tilt_limit_deg, xi0, horizon_s, motor_lag, rate_hz
         As in :func:`~nniquad.certificates.certificate.reference_run_options`.
     """
-    from nniquad.sim import simulate
 
     out = {}
     for model in ("reduced", "full"):
@@ -76,28 +99,22 @@ MARGIN_FIELDS = ("gm_db", "gm_lower_db", "pm_deg", "w_gc_rad_s", "w_pc_rad_s", "
 
 
 def sector_pm_ceiling_deg(gamma_max: float, controller: str = "nni") -> float:
-    """Largest phase margin of the law on a pure double integrator under the sector bound [deg].
+    """Largest phase margin of the law on a pure double integrator under the sector bound [deg]
+    (:meth:`nniquad.laws.base.NILaw.pm_ceiling_deg`: ``asin(γ_max/(2 - γ_max))``, 41.8° at γ_max = 0.8, for the
+    NNI law; no ceiling below 180° for ``sni2``).  The cascade's attitude loop, motor lag and sampling only take
+    phase away.
 
-    ``a_h = -k_p ξ + z/m``, ``z' = -Γδ z + Γ ξ`` is a lead compensator
-    ``k_p (s + a)/(s + b)`` with ``a/b = 1 - 1/(m k_p δ)``; the sector bound
-    ``m k_p δ >= 1/γ_max`` limits ``b/a`` to ``1/(1 - γ_max)``, so the phase lead, and
-    with the double integrator's -180° the phase margin, is at most
-    ``asin(γ_max/(2 - γ_max))``: 41.8° at γ_max = 0.8.  The cascade's attitude loop,
-    motor lag and sampling only take phase away, so PM >= 45° at the horizontal
-    break point is out of reach of every admissible gain set of this law.
-
-    The ``sni2`` law is ``k_p (s² + 2ζωs + ω²(1 - γ))/(s² + 2ζωs + ω²)``: between the frequencies
-    ``ω sqrt(1 - γ)`` and ``ω`` of its zero and pole pairs the phase of the numerator exceeds 90° and
-    that of the denominator stays below it, and as ``ζ → 0`` the lead there tends to 180° for any
-    ``γ > 0``: no ceiling below 180° (what it costs in robustness the cascade margins say).
+    Parameters
+    ----------
+    gamma_max
+        The sector bound's ceiling.
+    controller
+        The law's name.
     """
-    if controller == "sni2":
-        return 180.0
-    g = float(gamma_max)
-    return math.degrees(math.asin(g / (2.0 - g)))
+    return law_named(controller).pm_ceiling_deg(gamma_max)
 
 
-def margins_section(vehicle: Vehicle, gains: Gains | SNI2Gains, inner: InnerLoopGains, *,
+def margins_section(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, *,
                     tilt_limit_deg: float = TILT_LIMIT_DEG,
                     gamma_max: float = GAMMA_MAX, rate_hz: float | None = None) -> dict[str, Any]:
     """The certificate's ``margins`` section: classical margins of the linearised cascade.
@@ -107,13 +124,10 @@ def margins_section(vehicle: Vehicle, gains: Gains | SNI2Gains, inner: InnerLoop
     discrete time, Padé order 2 for the sampling delays; the horizontal break point also
     exactly in discrete time (``horizontal_zoh``).  ``verify`` recomputes all of it.
     """
-    from nniquad.analysis.cascade.linearised import linearise_cascade
-    from nniquad.analysis.margins import cascade_margins
-    from nniquad.config import CONTROL_RATE_HZ, REQUIRED_GM_DB, REQUIRED_PM_DEG
 
     rate = CONTROL_RATE_HZ if rate_hz is None else float(rate_hz)
     cas = linearise_cascade(vehicle, gains, inner, tilt_limit_deg=tilt_limit_deg)
-    ms = cascade_margins(cas, rate, controller="discrete", pade_order=2)
+    ms = cascade_margins(cas, rate, variant="discrete", pade_order=2)
     points = {}
     for name, m in ms.items():
         d = m.to_json()
@@ -123,23 +137,27 @@ def margins_section(vehicle: Vehicle, gains: Gains | SNI2Gains, inner: InnerLoop
         "required": {"gm_db": REQUIRED_GM_DB, "pm_deg": REQUIRED_PM_DEG},
         "break_points": points,
         "meets_requirement": all(p["meets_requirement"] for p in points.values()),
-        "horizontal_pm_ceiling_deg": sector_pm_ceiling_deg(gamma_max, gains.controller),
+        "horizontal_pm_ceiling_deg": gains.law.pm_ceiling_deg(gamma_max),
     }
 
 
-def sector_section(loop: Any, gamma_max: float) -> dict[str, float]:
-    """The certificate's ``sector`` section: ``gamma`` (the DC loop gain ``1/(m kp δ)``, or ``k/(m kp ω²)`` for
-    ``sni2``), ``gamma_max``, and the bound on the law's own gain: ``delta_min = 1/(γ_max m kp)`` (NNI) or
-    ``k_max = γ_max m kp ω²`` (``sni2``)."""
-    out = {"gamma": loop.smallest_gamma, "gamma_max": float(gamma_max)}
-    if isinstance(loop.gains, SNI2Gains):
-        out["k_max"] = loop.sector_k_max(gamma_max)
-    else:
-        out["delta_min"] = loop.sector_delta_min(gamma_max)
-    return out
+def sector_section(loop: ReducedLoop, gamma_max: float) -> dict[str, float]:
+    """The certificate's ``sector`` section: ``gamma`` (the DC loop gain: ``1/(m kp δ)`` for the NNI law,
+    ``k/(m kp ω²)`` for ``sni2``), ``gamma_max``, and the bound it puts on the law's own gain
+    (:meth:`nniquad.laws.base.NILaw.sector_limit`: ``delta_min = 1/(γ_max m kp)`` or ``k_max = γ_max m kp ω²``).
+
+    Parameters
+    ----------
+    loop
+        The certified reduced loop.
+    gamma_max
+        The sector bound's ceiling.
+    """
+    key, limit = loop.sector_limit(gamma_max)
+    return {"gamma": loop.smallest_gamma, "gamma_max": float(gamma_max), key: limit}
 
 
-def build_certificate(vehicle: Vehicle, gains: Gains | SNI2Gains, *, inner: InnerLoopGains = DEFAULT_INNER_LOOP_GAINS,
+def build_certificate(vehicle: Vehicle, gains: GainBlock, *, inner: InnerLoopGains = DEFAULT_INNER_LOOP_GAINS,
                       gamma_max: float = GAMMA_MAX, tilt_limit_deg: float = TILT_LIMIT_DEG,
                       mass_range: tuple[float, float] | None = None, xi0: Sequence[float] = XI0_M,
                       model: str = "reduced", tuning: Mapping[str, Any] | None = None,
@@ -157,7 +175,7 @@ def build_certificate(vehicle: Vehicle, gains: Gains | SNI2Gains, *, inner: Inne
     gains
         The gain set (equal axes): the NNI law's :class:`Gains` or the ``sni2`` law's :class:`SNI2Gains`
         (the same sections; its DC loop gain ``k/(m kp ω²)`` is the sector constant, its controller's
-        NI lemma is solved in scaled coordinates, :meth:`nniquad.analysis.sni_loop.SNI2Loop.controller_scaling`).
+        NI lemma is solved in scaled coordinates, :meth:`nniquad.laws.base.NILaw.controller_scaling`).
     inner
         Inner-loop gains of the ``full`` run.
     gamma_max
@@ -180,12 +198,12 @@ def build_certificate(vehicle: Vehicle, gains: Gains | SNI2Gains, *, inner: Inne
         ``full`` reference run (position sampled, NNI controller in discrete time).
     cascade
         Certify the sampled-data cascade over a parameter box (schema 2, the
-        default; :func:`nniquad.analysis.cascade.certificate.cascade_section`).
+        default; :func:`nniquad.analysis.cascade.box_certificate.cascade_section`).
         ``False`` writes a schema-1 certificate: the continuous reduced loop
         only, the ``full`` reference run continuous, margins at the default rate.
     box
         The parameter box of the cascade section
-        (:class:`nniquad.analysis.cascade.certificate.ParameterBox`); ``None``: the
+        (:class:`nniquad.analysis.cascade.box_certificate.ParameterBox`); ``None``: the
         Monte Carlo default box if it certifies, else its scale halved until it does.
     widest_box
         Search the widest scale of the Monte Carlo default box that certifies
@@ -196,10 +214,10 @@ def build_certificate(vehicle: Vehicle, gains: Gains | SNI2Gains, *, inner: Inne
         :data:`nniquad.config.CASCADE_GRID_POINTS_PER_AXIS`: 4, so 4096 points).
     refuse_unsettled
         Refuse (before the cascade section) when a reference run is not shown
-        to settle (:func:`nniquad.jobs.certify.unsettled_reference_run`;
+        to settle (:func:`unsettled_reference_run`;
         what ``certify`` does).
     law_class
-        The class of the design (:mod:`nniquad.control.law_classes`): ``"paper"``
+        The class of the design (:mod:`nniquad.laws.classes`): ``"paper"``
         (default) refuses gains outside the sector bound for ``gamma_max``;
         ``"cascade"`` drops the sector bound (the reduced loop must still be stable,
         ``m kp δ > 1``) and needs the cascade section, which is then the proof.
@@ -213,16 +231,13 @@ def build_certificate(vehicle: Vehicle, gains: Gains | SNI2Gains, *, inner: Inne
         unknown or needs a cascade section that is not asked for, or the rate
         is not one the simulator can run (finite, positive, a period of whole RK4 steps).
     """
-    from nniquad.analysis.bound import time_optimal_bound
-    from nniquad.analysis.lmi import certified_region, closed_loop_decay, ni_lemma_dissipation, reach_of, robust_mass_decay
-    from nniquad.sim.options import check_rate_hz
 
     say = progress or (lambda msg: None)
     rate_hz = check_rate_hz(rate_hz, DT_S, option="rate", error=CertificateError)
-    if not isinstance(gains, (Gains, SNI2Gains)):
-        raise CertificateError(f"certificates cover the laws of the NI structure (nni, sni2), not a "
-                               f"{type(gains).__name__}")
-    if isinstance(gains, Gains) and gains.kpy is not None and gains.kpy != gains.kp:
+    if not (isinstance(gains, GainBlock) and gains.law.ni_structure):
+        raise CertificateError(f"certificates cover the laws of the NI structure ({', '.join(ni_law_names())}), "
+                               f"not a {type(gains).__name__}")
+    if len(set(gains.axes())) != 1:
         raise CertificateError("certificates cover equal axis gains only (kpy must equal kp)")
     if not 0.0 < gamma_max < 1.0:
         raise CertificateError(f"gamma_max must lie in (0, 1), got {gamma_max!r}")
@@ -233,20 +248,15 @@ def build_certificate(vehicle: Vehicle, gains: Gains | SNI2Gains, *, inner: Inne
     if cls.needs_cascade and not cascade:
         raise CertificateError(f"the {cls.name} class is certified by the sampled-data cascade section: it cannot "
                                "be written without one (schema 1)")
-    loop = reduced_loop(vehicle, gains)
     m = vehicle.m
+    loop = reduced_loop(vehicle, gains)
     gamma = loop.smallest_gamma
     if cls.sector_bound and not within_sector_bound(gamma, gamma_max):
-        if isinstance(gains, SNI2Gains):
-            what = (f"k = {gains.k:.6g} > gamma_max m kp omega^2 = {loop.sector_k_max(gamma_max):.6g} (DC loop gain "
-                    f"k/(m kp omega^2) = {gamma:.6g} > gamma_max {gamma_max:g})")
-        else:
-            what = (f"delta = {gains.delta:.6g} < 1/(gamma_max m kp) = {loop.sector_delta_min(gamma_max):.6g} "
-                    f"(smallest gamma {gamma:.6g} > gamma_max {gamma_max:g})")
+        what = gains.law.sector_violation(gains, m, gamma_max)
         raise CertificateError(f"gains violate the sector bound of the paper class: {what}; --law-class cascade "
                                "drops the bound and certifies with the sampled-data cascade alone")
     if not gamma < 1.0:
-        what = "k/(m kp omega^2)" if isinstance(gains, SNI2Gains) else "1/(m kp delta)"
+        what = gains.law.gamma_formula
         raise CertificateError(f"DC loop gain {what} = {gamma:.6g} >= 1: the reduced loop is not stable "
                                "(no law class certifies it)")
     lo, hi = mass_range if mass_range is not None else (MASS_RANGE_FRACTION[0] * m, MASS_RANGE_FRACTION[1] * m)
@@ -277,15 +287,11 @@ def build_certificate(vehicle: Vehicle, gains: Gains | SNI2Gains, *, inner: Inne
     perf = performance_runs(vehicle, gains, inner, tilt_limit_deg=tilt_limit_deg, xi0=xi0,
                             rate_hz=rate_hz if cascade else None)
     if refuse_unsettled:
-        from nniquad.jobs.certify import unsettled_reference_run
-
         unsettled = unsettled_reference_run({"performance": perf})
         if unsettled is not None:
             raise CertificateError(f"refused: {unsettled}; nothing certified")
     section = None
     if cascade:
-        from nniquad.analysis.cascade.certificate import cascade_section
-        from nniquad.errors import CascadeError, SolverError
 
         say(f"certifying the sampled-data cascade at {rate_hz:g} Hz over the parameter box")
         try:
@@ -299,7 +305,7 @@ def build_certificate(vehicle: Vehicle, gains: Gains | SNI2Gains, *, inner: Inne
     cert = Certificate(
         model=model,
         vehicle=vehicle,
-        gains=gains if isinstance(gains, SNI2Gains) else Gains(kp=gains.kp, Gamma=gains.Gamma, delta=gains.delta),
+        gains=type(gains).from_values(gains.values()),  # canonical: a second-axis gain equal to the first is dropped
         inner_loop=inner,
         tilt_limit_deg=float(tilt_limit_deg),
         xi0_m=(float(xi0[0]), float(xi0[1])),
@@ -337,3 +343,36 @@ def build_certificate(vehicle: Vehicle, gains: Gains | SNI2Gains, *, inner: Inne
         law_class={"name": cls.name, "theorem": cls.theorem},
     )
     return cert.signed()
+
+
+def unsettled_reference_run(cert: Certificate | Mapping[str, Any]) -> str | None:
+    """Why a certificate's reference runs do not show settling, or ``None`` when both do.
+
+    The rule is the tuner's (:func:`nniquad.tuning.tune.settling_shown`): a last exit
+    at ``s`` counts only if the run is then seen inside the band for
+    ``max(5 s, 2 s)`` before its horizon ends.  A run that never settles, that
+    diverges, or whose last exit comes too late to be shown is refused: the
+    certificate would state a performance it has not observed (``docs/notes/certificates.md``).
+
+    Parameters
+    ----------
+    cert
+        A :class:`Certificate` or its JSON content.
+
+    Returns
+    -------
+    str or None
+        A one-line reason naming the reference run, or ``None``.
+    """
+    perf = cert["performance"] if isinstance(cert, Mapping) else cert.performance  # JSON content or Certificate
+    for model, run in perf.items():
+        horizon = float(run["settings"]["horizon_s"])
+        s = run["settling_s"]
+        if run.get("diverged"):
+            return f"the {model} reference run diverged (the vehicle was lost: it blew up or lost its altitude)"
+        if s is None:
+            return f"the {model} reference run did not settle within its {horizon:g} s horizon"
+        if not settling_shown(s, horizon):
+            return (f"the {model} reference run was last in the band from {s:.3g} s, but is not shown to stay "
+                    f"there for {required_hold_s(s):.3g} s within its {horizon:g} s horizon")
+    return None

@@ -4,13 +4,14 @@ A certificate is one JSON document (:data:`SCHEMA`, :data:`SCHEMA_VERSION`):
 
 ``vehicle``, ``gains``, ``inner_loop``, ``tilt_limit_deg``, ``xi0_m``
     What is certified: the vehicle, the horizontal gains ``kp, Gamma, delta`` (the NNI law;
-    the ``sni2`` law states ``{"controller": "sni2", "kp", "k", "omega", "zeta"}``: the NNI structure
-    with a second-order SNI controller, :mod:`nniquad.control.sni`),
+    every other law of the NI structure names itself, ``{"controller": "sni2", "kp", "k", "omega", "zeta"}``,
+    :meth:`nniquad.laws.base.ControlLaw.gains_json`),
     the inner loops the ``full`` performance was measured with, the tilt
     limit and the initial position of the reference run.
 ``sector``
     ``gamma`` (the smallest γ the gains satisfy ``δ >= 1/(γ m kp)`` with),
-    ``gamma_max`` and ``delta_min = 1/(γ_max m kp)``; for ``sni2`` ``gamma`` is the DC loop
+    ``gamma_max`` and the bound on the law's own gain (:meth:`nniquad.laws.base.NILaw.sector_limit`:
+    ``delta_min = 1/(γ_max m kp)`` for the NNI law); for ``sni2`` ``gamma`` is the DC loop
     gain ``k/(m kp ω²)`` and ``k_max = γ_max m kp ω²`` replaces ``delta_min``.
 ``stability_margin``
     ``m kp δ - 1`` (the exact Routh condition is ``> 0``), the slowest pole's
@@ -29,13 +30,13 @@ A certificate is one JSON document (:data:`SCHEMA`, :data:`SCHEMA_VERSION`):
 ``bound``, ``ratio_to_bound``
     The time-optimal bound and each model's settling time divided by it.
 ``law_class``
-    ``{"name", "theorem"}``: the class of the design (:mod:`nniquad.control.law_classes`:
+    ``{"name", "theorem"}``: the class of the design (:mod:`nniquad.laws.classes`:
     ``paper``, the sector bound holds, or ``cascade``, the sector bound dropped) and the
     theorem that certifies it.  A certificate written before classes existed has no
     such field and is of the ``paper`` class (its digest is unchanged).
 ``cascade`` (schema 2 only)
     The sampled-data cascade certificate (rate, parameter box, matrices, decay
-    rate, reach, margins; :mod:`nniquad.analysis.cascade.certificate`).  A document
+    rate, reach, margins; :mod:`nniquad.analysis.cascade.box_certificate`).  A document
     with this section has ``schema_version`` 2, one without it 1
     (:data:`SCHEMA_VERSIONS`); each version refuses the other's layout.
 ``software``
@@ -65,19 +66,34 @@ import math
 from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from types import MappingProxyType
-from typing import TYPE_CHECKING, Any, ClassVar, Mapping
+from typing import Any, ClassVar, Mapping
 
-from nniquad.analysis.linear import ReducedLoop
-
-if TYPE_CHECKING:
-    from nniquad.analysis.sni_loop import SNI2Loop
-from nniquad.certificates.document import (CASCADE_SCHEMA_VERSION, DIGEST_ALGORITHM, SCHEMA, SCHEMA_VERSION,
-                                           SCHEMA_VERSIONS, canonical_digest, canonical_json, check_form, checked_form_text,
-                                           load_certificate, write_certificate)
-from nniquad.certificates.sections import (GAINS_LAW_KEY, _get, certificate_gains, certificate_inner_loop,
-                                           certificate_vehicle, gains_json)
-from nniquad.control.gains import Gains, InnerLoopGains, SNI2Gains
+from nniquad.analysis.reduced_loop import ReducedLoop
+from nniquad.certificates.document import (
+    CASCADE_SCHEMA_VERSION,
+    DIGEST_ALGORITHM,
+    SCHEMA,
+    SCHEMA_VERSION,
+    SCHEMA_VERSIONS,
+    canonical_digest,
+    canonical_json,
+    check_form,
+    checked_form_text,
+    load_certificate,
+    write_certificate,
+)
+from nniquad.certificates.sections import (
+    GAINS_LAW_KEY,
+    certificate_gains,
+    certificate_inner_loop,
+    certificate_vehicle,
+    gains_json,
+    section_of,
+)
+from nniquad.control.inner_gains import InnerLoopGains
 from nniquad.errors import CertificateError
+from nniquad.laws.base import GainBlock
+from nniquad.laws.classes import DEFAULT_LAW_CLASS
 from nniquad.model.vehicle import Vehicle
 
 __all__ = [
@@ -239,7 +255,7 @@ class Certificate:
     vehicle
         The certified vehicle.
     gains
-        The certified gains (equal axes): NNI :class:`Gains` or :class:`SNI2Gains`.
+        The certified gains (equal axes) of a law of the NI structure.
     inner_loop
         The inner-loop gains of the ``full`` performance run.
     tilt_limit_deg
@@ -261,7 +277,7 @@ class Certificate:
         certificate written before they were stated (it then has no such field,
         so its digest is unchanged).
     law_class
-        ``{"name", "theorem"}`` (:mod:`nniquad.control.law_classes`); ``None`` in a
+        ``{"name", "theorem"}`` (:mod:`nniquad.laws.classes`); ``None`` in a
         certificate written before classes existed (of the ``paper`` class, no such
         field, digest unchanged): :attr:`law_class_name` resolves it.
     signature
@@ -273,7 +289,7 @@ class Certificate:
 
     model: str
     vehicle: Vehicle
-    gains: Gains | SNI2Gains
+    gains: GainBlock
     inner_loop: InnerLoopGains
     tilt_limit_deg: float
     xi0_m: tuple[float, float]
@@ -335,8 +351,6 @@ class Certificate:
     @property
     def law_class_name(self) -> Any:
         """The stated class name (``law_class.name``); ``"paper"`` when the certificate states none."""
-        from nniquad.control.law_classes import DEFAULT_LAW_CLASS
-
         return DEFAULT_LAW_CLASS if self.law_class is None else self.law_class.get("name")
 
     @property
@@ -397,7 +411,7 @@ class Certificate:
             what = f"lacks '{missing[0]}'" if missing else f"has an unknown field '{extra[0]}'"
             raise CertificateError(f"{where}: {what}")
         for key in _SECTIONS:
-            _get(data, key)
+            section_of(data, key)
         for key in ("margins", "law_class"):
             if key in data and not isinstance(data[key], Mapping):
                 raise CertificateError(f"{where}: '{key}' must be an object")
@@ -436,16 +450,13 @@ class Certificate:
     # ------------------------------------------------------------------ derived objects
 
     @property
-    def loop(self) -> "ReducedLoop | SNI2Loop":
-        """The certified reduced loop (vehicle mass and gravity, gains): :class:`ReducedLoop` (NNI) or
-        :class:`nniquad.analysis.sni_loop.SNI2Loop`."""
-        from nniquad.analysis.sni_loop import reduced_loop
-
-        return reduced_loop(self.vehicle, self.gains)
+    def loop(self) -> ReducedLoop:
+        """The certified reduced loop (vehicle mass and gravity, gains)."""
+        return ReducedLoop.from_vehicle(self.vehicle, self.gains)
 
     @property
     def controller(self) -> str:
-        """The certified law (``"nni"`` or ``"sni2"``: the type of :attr:`gains`)."""
+        """The certified law's name (the type of :attr:`gains`)."""
         return self.gains.controller
 
     @property
@@ -476,7 +487,7 @@ class Certificate:
 
     def __repr__(self) -> str:
         gains = ", ".join(f"{k}={v:.6g}" for k, v in gains_json(self.gains).items() if k != GAINS_LAW_KEY)
-        law = "" if self.controller == "nni" else f"controller={self.controller!r}, "
+        law = f"controller={self.controller!r}, " if GAINS_LAW_KEY in gains_json(self.gains) else ""
         return (f"Certificate(vehicle={self.vehicle.name!r}, {law}{gains}, "
                 f"model={self.model!r}, reach={self.region_of_attraction.get('max_displacement_m')!r} m, "
                 f"digest={self.signature[:16]}...)")
@@ -492,17 +503,3 @@ _OPTIONAL_FIELDS = ("schema", "schema_version", "digest", "margins", "cascade", 
 
 def _is_number(v: Any) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
-
-
-def __getattr__(name: str) -> Any:
-    # Until the callers move to ``nniquad.certificates``: the builder and the verifier
-    # live in their own modules (they import this one, so they cannot be imported here).
-    if name in ("build_certificate", "performance_runs"):
-        from nniquad.certificates import build
-
-        return getattr(build, name)
-    if name in ("verify_certificate", "Verification", "Check"):
-        from nniquad.certificates import verify
-
-        return getattr(verify, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

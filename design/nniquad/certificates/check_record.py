@@ -18,7 +18,7 @@ from typing import Any, Callable, Mapping
 
 import numpy as np
 
-from nniquad.certificates.certificate import Certificate
+from nniquad.certificates.certificate import Certificate, gains_json
 from nniquad.errors import CertificateError
 
 __all__ = ["Check", "stated_array", "stated_part", "memo", "clear_cache", "thaw_json", "gains_key", "is_number",
@@ -101,7 +101,6 @@ def thaw_json(value: Any) -> Any:
 
 def gains_key(cert: Certificate) -> dict[str, Any]:
     """The certified law and gains, as the exact inputs of a cached recomputation (:func:`memo`)."""
-    from nniquad.certificates.certificate import gains_json
 
     return {"controller": cert.controller, **gains_json(cert.gains)}
 

@@ -16,20 +16,17 @@ from __future__ import annotations
 import hashlib
 import json
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Mapping
+from typing import Any, Mapping
 
 from nniquad.errors import CertificateCheckError, CertificateError
-from nniquad.io import atomic_write_text
-
-if TYPE_CHECKING:
-    from nniquad.certificates.certificate import Certificate
+from nniquad.io import atomic_write_text, parse_data, read_text_file
 
 __all__ = ["SCHEMA", "SCHEMA_VERSION", "CASCADE_SCHEMA_VERSION", "SCHEMA_VERSIONS", "DIGEST_ALGORITHM",
            "canonical_digest", "canonical_json", "check_form", "checked_form_text", "load_certificate",
            "write_certificate"]
 
 SCHEMA = "nniquad-certificate"
-#: Version of a certificate without a ``cascade`` section (every certificate before issue 15).
+#: Version of a certificate without a ``cascade`` section (every certificate written before the sampled-data cascade section).
 SCHEMA_VERSION = 1
 #: Version of a certificate with a ``cascade`` section (the sampled-data cascade over a parameter box).
 CASCADE_SCHEMA_VERSION = 2
@@ -126,7 +123,6 @@ def load_certificate(path: str | Path) -> dict[str, Any]:
         One line naming the problem (unreadable, not JSON, wrong schema or
         version, digest mismatch).
     """
-    from nniquad.io import parse_data, read_text_file
 
     p = Path(path)
     # the shared reader: a regular file of bounded size, UTF-8, no duplicate keys, bounded nesting and integers

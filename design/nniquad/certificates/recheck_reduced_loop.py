@@ -5,7 +5,7 @@ vehicle and gains (never from stored system matrices), with the re-check
 functions the LMIs use (:mod:`nniquad.analysis.lmi.checks`); each strict
 inequality must hold with a margin above its rounding bound.  The schema-2
 ``cascade`` section is rebuilt by
-:func:`nniquad.analysis.cascade.certificate.check_cascade_section`.
+:func:`nniquad.analysis.cascade.box_certificate.check_cascade_section`.
 """
 
 from __future__ import annotations
@@ -15,12 +15,23 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from nniquad.analysis.bound import time_optimal_bound
+from nniquad.analysis.cascade.box_certificate import check_cascade_section
 from nniquad.analysis.lmi import checks as K
 from nniquad.analysis.lmi.reduced_region import axis_acceleration_limit
 from nniquad.certificates.certificate import Certificate
-from nniquad.certificates.check_record import (Check, close, fmt_value, gains_key, memo, stated_array, stated_part,
-                                        thaw_json)
+from nniquad.certificates.check_record import (
+    Check,
+    close,
+    fmt_value,
+    gains_key,
+    memo,
+    stated_array,
+    stated_part,
+    thaw_json,
+)
 from nniquad.errors import CertificateError
+from nniquad.laws.classes import LAW_CLASSES, within_sector_bound
 
 __all__ = ["ni_storage_check", "same_multiset", "POLE_RTOL", "sector_check", "poles_check", "ni_checks",
            "closed_loop_check", "robust_mass_check", "roa_check", "bound_check", "cascade_checks"]
@@ -50,7 +61,6 @@ def ni_storage_check(name: str, P: np.ndarray, A: np.ndarray, B: np.ndarray, C: 
 
 def sector_check(cert: Certificate, tol: Mapping[str, float]) -> Check:
     """The stated sector numbers, recomputed; the paper class (only) needs gamma <= gamma_max."""
-    from nniquad.control.law_classes import LAW_CLASSES, within_sector_bound
 
     loop = cert.loop
     sec = cert.sector
@@ -64,17 +74,13 @@ def sector_check(cert: Certificate, tol: Mapping[str, float]) -> Check:
     ok = abs(gamma - gamma_stated) <= tol["sector_relative"] * gamma and 0 < gamma_max < 1 and gamma < 1
     if bound:
         ok = ok and within_sector_bound(gamma, gamma_max)
-    sni2 = cert.controller == "sni2"
-    key = "k_max" if sni2 else "delta_min"
-    if 0 < gamma_max < 1:
-        limit = loop.sector_k_max(gamma_max) if sni2 else loop.sector_delta_min(gamma_max)
-    else:
-        limit = math.nan
+    key, _ = loop.sector_limit(0.5)
+    limit = loop.sector_limit(gamma_max)[1] if 0 < gamma_max < 1 else math.nan
     ok = ok and close(sec.get(key), limit, tol["sector_relative"])
     claim = (f"<= gamma_max = {gamma_max:g} < 1 (the paper class's sector bound)" if bound else
              f"< 1 (class {cert.law_class_name}: the sector bound with gamma_max = {gamma_max:g} is not claimed"
              f"{'' if within_sector_bound(gamma, gamma_max) else '; it does not hold'})")
-    what = "the DC loop gain k/(m kp omega^2) is" if sni2 else "delta m kp gamma >= 1 holds with"
+    what = f"the DC loop gain {loop.law.gamma_formula} is"
     return Check("sector", ok, f"{what} gamma = {gamma:.6g} (stated {gamma_stated:.6g}) {claim}; {key} "
                                f"{limit:.6g} (stated {fmt_value(sec.get(key))})")
 
@@ -85,7 +91,7 @@ POLE_RTOL = 1e-9
 
 def poles_check(cert: Certificate) -> Check:
     loop = cert.loop
-    routh = loop.routh_margin  # m kp delta - 1 (NNI), 1/gamma - 1 (sni2): positive iff the reduced loop is stable
+    routh = loop.routh_margin  # 1/gamma - 1 (m kp delta - 1 for the NNI law): positive iff the loop is stable
     pd = loop.poles_and_damping()
     margin = cert.stability_margin
     stated_rate = float(margin.get("decay_rate_1_s", math.nan))
@@ -238,7 +244,6 @@ def roa_check(cert: Certificate) -> Check:
 
 def bound_check(cert: Certificate) -> Check:
     """The time-optimal bound, recomputed; each ratio from the stated settling time and the recomputed bound."""
-    from nniquad.analysis.bound import time_optimal_bound
 
     b = memo("bound", [cert.vehicle.as_dict(), list(cert.xi0_m), cert.tilt_limit_deg],
               lambda: time_optimal_bound(cert.vehicle, xi0=cert.xi0_m, tilt_limit_deg=cert.tilt_limit_deg))
@@ -258,13 +263,8 @@ def bound_check(cert: Certificate) -> Check:
 
 
 def cascade_checks(cert: Certificate, fail_fast: bool = False) -> list[Check]:
-    """The schema-2 ``cascade`` section, rebuilt by :func:`nniquad.analysis.cascade.certificate.check_cascade_section`
+    """The schema-2 ``cascade`` section, rebuilt by :func:`nniquad.analysis.cascade.box_certificate.check_cascade_section`
     (with ``fail_fast``, up to its first failed row)."""
-    try:
-        from nniquad.analysis.cascade.certificate import check_cascade_section
-    except ImportError:
-        return [Check("cascade", False, "this nniquad cannot check a cascade section "
-                                        "(nniquad.analysis.cascade.certificate.check_cascade_section is missing)")]
     section = thaw_json(cert.cascade)
     if isinstance(section, dict):
         section.pop("box_search", None)  # a record (RECORD_FIELDS): how the box was found, not what is certified

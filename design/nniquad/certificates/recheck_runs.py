@@ -11,9 +11,11 @@ from __future__ import annotations
 import math
 from typing import Any, Mapping
 
+from nniquad.certificates.build import MARGIN_FIELDS, margins_section, sector_pm_ceiling_deg
 from nniquad.certificates.certificate import Certificate
 from nniquad.certificates.check_record import Check, close, fmt_value, gains_key, is_number, memo, thaw_json
 from nniquad.errors import CertificateError, NniquadError
+from nniquad.sim import SimOptions, simulate
 
 __all__ = ["same_margin", "meets_within", "margins_check", "performance_check"]
 
@@ -58,7 +60,6 @@ def meets_within(stated: Any, comp: Mapping[str, Any], required: Mapping[str, fl
 
 def margins_check(cert: Certificate, tol: Mapping[str, float]) -> Check:
     """Recompute the classical margins from the vehicle, the gains and the inner loops (never stored matrices)."""
-    from nniquad.certificates.build import MARGIN_FIELDS, margins_section, sector_pm_ceiling_deg
 
     stated = cert.margins
     try:
@@ -110,7 +111,6 @@ def margins_check(cert: Certificate, tol: Mapping[str, float]) -> Check:
 
 def performance_check(cert: Certificate, tol: Mapping[str, float], model: str) -> Check:
     """Re-simulate one reference run with its stated settings (checked by ``settings``) and compare every number."""
-    from nniquad.sim import SimOptions, simulate
 
     stated = cert.performance.get(model)
     if not isinstance(stated, Mapping) or not isinstance(stated.get("settings"), Mapping):

@@ -8,20 +8,18 @@ turns a bad section into one :class:`nniquad.errors.CertificateError` line.
 
 from __future__ import annotations
 
-from dataclasses import fields
-from typing import TYPE_CHECKING, Any, Mapping
+from typing import Any, Mapping
 
-from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, InnerLoopGains, SNI2Gains
+from nniquad.control.inner_gains import DEFAULT_INNER_LOOP_GAINS, InnerLoopGains
 from nniquad.errors import CertificateError, GainError, NniquadError, VehicleError
-from nniquad.model.vehicle import Vehicle
-
-if TYPE_CHECKING:
-    from nniquad.certificates.certificate import Certificate
+from nniquad.laws.base import ControlLaw, GainBlock
+from nniquad.laws.registry import DEFAULT_LAW, law_named, law_names
+from nniquad.model.vehicle import Vehicle, vehicle_from_mapping
 
 __all__ = ["GAINS_LAW_KEY", "gains_json", "certificate_gains", "certificate_vehicle", "certificate_inner_loop"]
 
 
-def _get(cert: Mapping[str, Any], key: str, kind: type = dict) -> Any:
+def section_of(cert: Mapping[str, Any], key: str, kind: type = dict) -> Any:
     value = cert.get(key) if isinstance(cert, Mapping) else None
     if not isinstance(value, kind):
         raise CertificateError(f"certificate has no valid '{key}' ({kind.__name__} expected)")
@@ -29,17 +27,22 @@ def _get(cert: Mapping[str, Any], key: str, kind: type = dict) -> Any:
 
 
 #: The ``controller`` entry of the ``gains`` section of a law other than the NNI law (whose section has none).
-GAINS_LAW_KEY = "controller"
+GAINS_LAW_KEY = ControlLaw.SECTION_LAW_KEY
 
 
-def gains_json(gains: Gains | SNI2Gains) -> dict[str, Any]:
-    """The ``gains`` section of a gain set: ``kp, Gamma, delta`` (NNI), ``controller, kp, k, omega, zeta`` (``sni2``)."""
-    if isinstance(gains, SNI2Gains):
-        return {GAINS_LAW_KEY: gains.controller, **gains.values()}
-    return {"kp": gains.kp, "Gamma": gains.Gamma, "delta": gains.delta}
+def gains_json(gains: GainBlock) -> dict[str, Any]:
+    """The ``gains`` section of a gain set (:meth:`nniquad.laws.base.ControlLaw.gains_json`: ``kp, Gamma, delta``
+    for the NNI law, ``controller`` and every gain for the others).
+
+    Parameters
+    ----------
+    gains
+        A gain block.
+    """
+    return gains.law.gains_json(gains)
 
 
-def certificate_gains(cert: "Mapping[str, Any] | Certificate") -> Gains | SNI2Gains:
+def certificate_gains(cert: "Mapping[str, Any] | Certificate") -> GainBlock:
     """The certified gain set, of a :class:`Certificate` or of a form-checked mapping.
 
     Parameters
@@ -49,27 +52,18 @@ def certificate_gains(cert: "Mapping[str, Any] | Certificate") -> Gains | SNI2Ga
     """
     if not isinstance(cert, Mapping):  # a Certificate: typed already
         return cert.gains
-    g = _get(cert, "gains")
-    law = g.get(GAINS_LAW_KEY, "nni")
-    if law == SNI2Gains.controller:
-        names = [f.name for f in fields(SNI2Gains)]
-        missing = [k for k in names if k not in g]
-        if missing:
-            raise CertificateError(f"certificate 'gains' lacks '{missing[0]}'")
-        try:
-            return SNI2Gains(**{k: g[k] for k in names})
-        except (GainError, TypeError) as exc:
-            raise CertificateError(f"certificate gains: {exc}") from None
-    if GAINS_LAW_KEY in g:  # the NNI law's section names no law: any other value is not a certified law
-        raise CertificateError(f"certificate 'gains' names an unknown law {law!r} (known: nni without the key, "
-                               f"{SNI2Gains.controller})")
-    missing = [k for k in ("kp", "Gamma", "delta") if k not in g]
-    if missing:
-        raise CertificateError(f"certificate 'gains' lacks '{missing[0]}'")
+    g = section_of(cert, "gains")
+    name = g.get(GAINS_LAW_KEY, DEFAULT_LAW)
     try:
-        return Gains(kp=g["kp"], Gamma=g["Gamma"], delta=g["delta"])
-    except (GainError, TypeError) as exc:
-        raise CertificateError(f"certificate gains: {exc}") from None
+        law = law_named(name)
+    except GainError:
+        raise CertificateError(f"certificate 'gains' names an unknown law {name!r} (known: {', '.join(law_names())})"
+                               ) from None
+    try:
+        return law.gains_from_json(g)
+    except GainError as exc:
+        raise CertificateError(f"certificate 'gains' {exc}" if str(exc).startswith("lacks") else
+                               f"certificate gains: {exc}") from None
 
 
 def certificate_vehicle(cert: "Mapping[str, Any] | Certificate") -> Vehicle:
@@ -80,12 +74,10 @@ def certificate_vehicle(cert: "Mapping[str, Any] | Certificate") -> Vehicle:
     cert
         The certificate.
     """
-    from nniquad.model.vehicle import vehicle_from_mapping
-
     if not isinstance(cert, Mapping):  # a Certificate: typed already
         return cert.vehicle
     try:
-        return vehicle_from_mapping(_get(cert, "vehicle"), source="certificate")
+        return vehicle_from_mapping(section_of(cert, "vehicle"), source="certificate")
     except VehicleError as exc:
         raise CertificateError(f"certificate vehicle: {exc}") from None
 

@@ -11,7 +11,7 @@ simulation setting, the ``diverged`` flags, the bound and the ratios to it), or
 is one of :data:`RECORD_FIELDS`, which no check and no Monte Carlo run reads;
 ``tests/test_tampering.py`` edits every leaf of a certificate to show it.  A
 schema-2 ``cascade`` section is rebuilt by
-:func:`nniquad.analysis.cascade.certificate.check_cascade_section`.  The checks run
+:func:`nniquad.analysis.cascade.box_certificate.check_cascade_section`.  The checks run
 cheap first, ``fail_fast`` stops at the first failure, and re-simulations,
 margins and bounds are cached in the process by their exact inputs
 (:func:`clear_cache`).
@@ -32,13 +32,34 @@ from typing import Any, Callable, Mapping
 
 import numpy as np
 
-from nniquad.certificates.certificate import TOLERANCES, Certificate, read_certificate
+from nniquad.certificates.build import MARGIN_FIELDS
+from nniquad.certificates.certificate import (
+    NI_FORM,
+    PERFORMANCE_HORIZON_S,
+    ROA_MODEL,
+    TOLERANCES,
+    Certificate,
+    read_certificate,
+    reference_run_options,
+)
 from nniquad.certificates.check_record import Check, clear_cache, fmt_value, is_number, thaw_json
-from nniquad.certificates.recheck_reduced_loop import (bound_check, cascade_checks, closed_loop_check, ni_checks,
-                                               ni_storage_check, poles_check, robust_mass_check, roa_check,
-                                               same_multiset, sector_check)
+from nniquad.certificates.recheck_reduced_loop import (
+    bound_check,
+    cascade_checks,
+    closed_loop_check,
+    ni_checks,
+    ni_storage_check,
+    poles_check,
+    roa_check,
+    robust_mass_check,
+    same_multiset,
+    sector_check,
+)
 from nniquad.certificates.recheck_runs import margins_check, performance_check
+from nniquad.config import CONTROL_RATE_HZ
 from nniquad.errors import CertificateCheckError, CertificateError, NniquadError
+from nniquad.laws.classes import LAW_CLASSES
+from nniquad.sim.options import MODELS
 
 __all__ = ["Check", "Verification", "verify_certificate", "ni_storage_check", "coverage_notes", "clear_cache",
            "same_multiset",
@@ -128,8 +149,19 @@ SECTION_KEYS: dict[str, frozenset[str]] = {k: frozenset(v) for k, v in {
     "law_class": ("name", "theorem"),
 }.items()}
 
-#: The ``sector`` keys of an ``sni2`` certificate (its controller gain bound ``k_max`` in place of ``delta_min``).
-SNI2_SECTOR_KEYS: frozenset[str] = frozenset(("gamma", "gamma_max", "k_max"))
+
+def sector_keys(cert: Certificate) -> frozenset[str]:
+    """The keys of the certificate's ``sector`` section: ``gamma``, ``gamma_max`` and the key of the bound on the
+    law's own gain (:meth:`nniquad.laws.base.NILaw.sector_limit`: ``delta_min``, ``k_max``, ...).
+
+    Parameters
+    ----------
+    cert
+        The certificate.
+    """
+    key, _ = cert.loop.sector_limit(0.5)
+    return frozenset(("gamma", "gamma_max", key))
+
 
 #: Sections a certificate may lack (written before they existed): the layout check skips them when absent.
 OPTIONAL_SECTIONS = ("margins", "law_class")
@@ -253,7 +285,6 @@ def _verify(cert: Certificate, simulate: bool, say: Callable[[str], None], fail_
 
 
 def _model_check(cert: Certificate) -> Check:
-    from nniquad.sim.options import MODELS
 
     tuned = cert.tuning.get("model") if isinstance(cert.tuning, Mapping) and "model" in cert.tuning else cert.model
     ok = isinstance(cert.model, str) and cert.model in MODELS and tuned == cert.model
@@ -273,16 +304,14 @@ def _tolerances_check(cert: Certificate) -> Check:
 
 def _layout_check(cert: Certificate) -> Check:
     """Every section has exactly its keys, and the stated forms are the library's."""
-    from nniquad.certificates.build import MARGIN_FIELDS
-    from nniquad.certificates.certificate import NI_FORM, ROA_MODEL
 
     doc = cert.body()
     bad: list[str] = []
     for path, keys in SECTION_KEYS.items():
         if path in OPTIONAL_SECTIONS and getattr(cert, path) is None:
             continue
-        if path == "sector" and cert.controller == "sni2":  # the law's own gain bound: k_max, not delta_min
-            keys = SNI2_SECTOR_KEYS
+        if path == "sector":  # the law's own gain bound: delta_min (NNI), k_max (sni2)
+            keys = sector_keys(cert)
         node: Any = doc
         for part in path.split("."):
             node = node.get(part) if isinstance(node, Mapping) else None
@@ -305,8 +334,6 @@ def _layout_check(cert: Certificate) -> Check:
 
 def _settings_check(cert: Certificate) -> Check:
     """The reference runs' settings are the reference settings of the certified tilt limit, start and inner loops."""
-    from nniquad.certificates.certificate import PERFORMANCE_HORIZON_S, reference_run_options
-    from nniquad.config import CONTROL_RATE_HZ
 
     bad = []
     for model in ("reduced", "full"):
@@ -342,7 +369,6 @@ def _settings_check(cert: Certificate) -> Check:
 
 def _law_class_check(cert: Certificate) -> Check:
     """The stated class is a known one, its theorem the library's, and what the class's proof needs is there."""
-    from nniquad.control.law_classes import LAW_CLASSES
 
     name = cert.law_class_name
     cls = LAW_CLASSES.get(name) if isinstance(name, str) else None

@@ -46,8 +46,18 @@ import traceback
 from typing import Sequence
 
 from nniquad import __version__
-from nniquad.errors import (EXIT_CHECK_FAILED, EXIT_INTERNAL_ERROR, EXIT_INTERRUPTED, EXIT_OK, EXIT_STUDY_FAILED,
-                            EXIT_TERMINATED, EXIT_USER_ERROR, NniquadError, Terminated)
+from nniquad.cli.commands.common import check_declared_outputs
+from nniquad.errors import (
+    EXIT_CHECK_FAILED,
+    EXIT_INTERNAL_ERROR,
+    EXIT_INTERRUPTED,
+    EXIT_OK,
+    EXIT_STUDY_FAILED,
+    EXIT_TERMINATED,
+    EXIT_USER_ERROR,
+    NniquadError,
+    Terminated,
+)
 from nniquad.termination import sigterm_as_interrupt, termination_requested
 
 __all__ = ["main", "COMMANDS", "build_parser", "EXIT_STATUS_HELP"]
@@ -186,8 +196,6 @@ def _main(argv: Sequence[str] | None) -> int:
         return EXIT_TERMINATED
 
     try:
-        from nniquad.cli.commands.common import check_declared_outputs
-
         check_declared_outputs(args)  # every output path, before any work
         return int(args._run(args) or 0)
     except NniquadError as exc:

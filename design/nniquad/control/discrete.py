@@ -1,24 +1,24 @@
-"""The horizontal law of an NI structure in discrete time: a reference implementation and its CasADi step.
+"""A velocity-free horizontal law in discrete time: a reference implementation and its CasADi step.
 
 At the control rate ``f_s = 1/T`` the position ``ξ_k`` (both axes) is sampled
-and the law runs once per sample (exact ZOH equivalent of its SNI controller,
-:mod:`nniquad.analysis.sampled`).  The NNI law, ``C(s) = Γ/(s + Γδ)``:
+and the law runs once per sample, the exact ZOH equivalent of its realisation
+(:meth:`nniquad.laws.base.ControlLaw.zoh`):
 
-.. math:: z_{k+1} = a z_k + b \\xi_k,\\quad a = e^{-\\Gamma\\delta T},\\ b = (1 - a)/\\delta,
-          \\qquad a_k = -k_p \\xi_k + z_k/\\hat m,
+.. math:: x_{k+1} = A_d x_k + B_d \\xi_k, \\qquad a_k = C x_k + D \\xi_k,
 
-per axis (``k_p^x``, ``k_p^y``).  The ``sni2`` law (:mod:`nniquad.control.sni`) has the
-state ``(z, z')`` per axis, ordered ``(z_x, z_y, z'_x, z'_y)`` as in the simulator, and
-its ZOH matrices come from ``scipy.linalg.expm`` (:func:`nniquad.analysis.sampled.zoh`),
-independently of the closed form the simulator uses; ``a_k = -k_p ξ_k + z_k/m̂`` again.
+the states of both axes interleaved ``(s1_x, s1_y, s2_x, s2_y, ...)`` as in the
+simulator.  The NNI law, ``C(s) = Γ/(s + Γδ)``: ``z_{k+1} = a z_k + b ξ_k``,
+``a = e^{-ΓδT}``, ``b = (1 - a)/δ``, ``a_k = -k_p ξ_k + z_k/m̂`` per axis (its
+closed form); the ``sni2`` law's ``(z, z')`` from ``scipy.linalg.expm``,
+independently of the closed form the simulator uses.
 The command ``a_k`` is held until the next sample.  The output stage is the simulator's
 (:mod:`nniquad.control.inner_loops`): the norm limit ``‖a‖ <= g_z tan(T_lim)`` with
 ``g_z = max(g - a_z, 0.2 g)`` (``a_z`` the altitude loop's vertical command, NED) and the
 tilt setpoints ``φ_d, θ_d`` at yaw ``ψ``.  The controller state integrates the measurement
 whatever the limit does (as in the simulator).
 
-:class:`DiscreteNNI` holds the matrices and steps in numpy (the reference);
-:meth:`DiscreteNNI.casadi_step` is the same step as a CasADi function, which
+:class:`DiscreteLaw` holds the matrices and steps in numpy (the reference);
+:meth:`DiscreteLaw.casadi_step` is the same step as a CasADi function, which
 ``nniquad export`` turns into C99 source.
 """
 
@@ -32,15 +32,25 @@ import casadi as ca
 import numpy as np
 
 from nniquad.control import inner_loops as IL
-from nniquad.control.gains import Gains, SNI2Gains
 from nniquad.errors import GainError
+from nniquad.laws.base import GainBlock
+from nniquad.laws.registry import law_named
 
-__all__ = ["DiscreteNNI", "STEP_INPUTS", "STEP_OUTPUTS", "step_inputs"]
+__all__ = ["DiscreteLaw", "DiscreteNNI", "STEP_INPUTS", "STEP_OUTPUTS", "step_inputs"]
 
 
-def step_inputs(n_state: int = 2, unit: str = "N") -> tuple[tuple[str, int, str, str], ...]:
-    """Inputs of one step: (name, size, unit, meaning); the controller state has ``n_state`` entries."""
-    what = "z_k (x, y)" if n_state == 2 else "(z_x, z_y, z'_x, z'_y)_k"
+def step_inputs(n_state: int = 2, unit: str = "N", what: str = "z_k (x, y)") -> tuple[tuple[str, int, str, str], ...]:
+    """Inputs of one step: (name, size, unit, meaning); the controller state has ``n_state`` entries.
+
+    Parameters
+    ----------
+    n_state
+        Controller states of both axes.
+    unit
+        Their units, as the table lists them.
+    what
+        The state's names, as the table lists them.
+    """
     return (
         ("z", n_state, unit, f"controller state {what}, zero at start-up"),
         ("xi", 2, "m", "measured horizontal position xi_k (north, east) relative to the setpoint"),
@@ -60,14 +70,15 @@ STEP_OUTPUTS: tuple[tuple[str, int, str, str], ...] = (
 
 
 @dataclass(frozen=True)
-class DiscreteNNI:
-    """The discrete-time controller of an NI law, both axes: ``z_{k+1} = A z_k + B ξ_k``, ``a_k = C z_k + D ξ_k``.
+class DiscreteLaw:
+    """The discrete-time controller of a velocity-free law, both axes: ``x_{k+1} = A x_k + B ξ_k``,
+    ``a_k = C x_k + D ξ_k``.
 
     Attributes
     ----------
     A, B, C, D : ndarray
-        State-space matrices (state z [N] (and z' [N/s] for ``sni2``), input ξ [m], output a_h [m/s²]);
-        ``A`` is ``(n, n)`` with ``n = 2`` (NNI) or 4 (``sni2``).
+        State-space matrices (the law's states, input ξ [m], output a_h [m/s²]); ``A`` is ``(n, n)`` with ``n``
+        the law's states of both axes, interleaved.
     T
         Sample period [s].
     g
@@ -75,10 +86,10 @@ class DiscreteNNI:
     tilt_limit_rad
         Tilt limit [rad].
     law
-        ``"nni"`` or ``"sni2"``.
+        The law's name (:mod:`nniquad.laws`).
     S : ndarray (n, 2), optional
-        Start map: the state at take-over is ``z_0 = S ξ_0`` (:meth:`start`); ``None``: zero (the NNI law).
-        ``sni2``: at rest at the DC value, ``S = [C(0) I; 0]`` (:func:`nniquad.control.sni.start_state`).
+        Start map: the state at take-over is ``x_0 = S ξ_0`` (:meth:`start`); ``None``: zero (the NNI law).
+        ``sni2``: at rest at the DC value, ``S = [C(0) I; 0]``.
     """
 
     A: np.ndarray
@@ -92,40 +103,45 @@ class DiscreteNNI:
     S: np.ndarray | None = None
 
     @classmethod
-    def from_gains(cls, gains: Gains | SNI2Gains, m_nom: float, g: float, rate_hz: float,
-                   tilt_limit_deg: float) -> "DiscreteNNI":
-        """Exact ZOH discretisation at ``rate_hz`` (NNI: the closed form of the module docstring; ``sni2``:
-        ``scipy.linalg.expm``).
+    def from_gains(cls, gains: GainBlock, m_nom: float, g: float, rate_hz: float,
+                   tilt_limit_deg: float) -> "DiscreteLaw":
+        """Exact ZOH discretisation at ``rate_hz`` (:meth:`nniquad.laws.base.ControlLaw.zoh`: the NNI law's closed
+        form, ``scipy.linalg.expm`` for the others).
+
+        Parameters
+        ----------
+        gains
+            The gains of a velocity-free law.
+        m_nom
+            The controller's nominal mass [kg].
+        g
+            Gravity the controller assumes [m/s²].
+        rate_hz
+            Control rate [Hz].
+        tilt_limit_deg
+            Tilt limit [deg].
 
         Raises
         ------
         GainError
-            Non-positive or non-finite rate, mass, gravity or tilt limit, or a law without this structure.
+            Non-positive or non-finite rate, mass, gravity or tilt limit, or a law that reads the velocity.
         """
         for name, v in (("rate", rate_hz), ("nominal mass", m_nom), ("gravity", g)):
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
                 raise GainError(f"{name} must be a finite positive number, got {v!r}")
         if not (isinstance(tilt_limit_deg, (int, float)) and 0 < tilt_limit_deg < 90):
             raise GainError(f"tilt limit must be in (0, 90) deg, got {tilt_limit_deg!r}")
+        if not isinstance(gains, GainBlock):
+            raise GainError(f"no discrete controller for a {type(gains).__name__}")
+        law = gains.law
+        if law.measures_velocity:
+            raise GainError(f"no discrete velocity-free controller for the {law.name} law: it reads the velocity")
         T = 1.0 / float(rate_hz)
-        if isinstance(gains, SNI2Gains):
-            from nniquad.analysis.sampled import zoh
-            from nniquad.control.sni import controller_matrices, start_state
-
-            A_c, B_c, C_c, _ = controller_matrices(gains.k, gains.omega, gains.zeta)
-            Ad, Bd = zoh(A_c, B_c, T)
-            # state (z_x, z_y, z'_x, z'_y): entry (i, j) of the per-axis matrix acts on both axes alike
-            I2 = np.eye(2)
-            S = np.array([start_state(gains.k, gains.omega, col) for col in I2]).T  # columns: unit positions
-            return cls(A=np.kron(Ad, I2), B=np.kron(Bd, I2), C=np.kron(C_c, I2) / m_nom, D=-gains.kp * I2, T=T,
-                       g=float(g), tilt_limit_rad=math.radians(tilt_limit_deg), law="sni2", S=S)
-        if not isinstance(gains, Gains):
-            raise GainError(f"no discrete NI controller for a {type(gains).__name__} gain block")
-        a = math.exp(-gains.Gamma * gains.delta * T)
-        b = -math.expm1(-gains.Gamma * gains.delta * T) / gains.delta
-        kp = np.diag(gains.axes())
-        return cls(A=a * np.eye(2), B=b * np.eye(2), C=np.eye(2) / m_nom, D=-kp, T=T, g=float(g),
-                   tilt_limit_rad=math.radians(tilt_limit_deg))
+        Ad, Bd = law.zoh(gains, m_nom, T)
+        _, _, C, D = law.both_axes(gains, m_nom)
+        S = law.start_map(gains, m_nom)
+        return cls(A=Ad, B=Bd, C=C, D=D, T=T, g=float(g), tilt_limit_rad=math.radians(tilt_limit_deg),
+                   law=law.name, S=S if np.any(S) else None)
 
     @property
     def rate_hz(self) -> float:
@@ -149,14 +165,26 @@ class DiscreteNNI:
         return ca.Function(name, [xi], [ca.mtimes(ca.DM(S), xi)], ["xi"], ["z0"])
 
     @property
+    def state_units(self) -> str:
+        """The units of the law's states, as the tables list them (``"N"``, ``"N, N/s"``)."""
+        return ", ".join(law_named(self.law).state_units)
+
+    @property
+    def state_names(self) -> list[str]:
+        """The names of the state entries of both axes, interleaved (``z_x, z_y, zdot_x, zdot_y``)."""
+        base = ["z", "zdot", "zddot", "z3"]
+        return [f"{base[i] if i < len(base) else f'z{i}'}_{a}" for i in range(self.n_state // 2) for a in "xy"]
+
+    @property
     def step_inputs(self) -> tuple[tuple[str, int, str, str], ...]:
         """Inputs of one step (:func:`step_inputs` with this controller's state size)."""
-        return step_inputs(self.n_state, "N" if self.law == "nni" else "N, N/s")
+        what = "z_k (x, y)" if self.n_state == 2 else "(" + ", ".join(self.state_names) + ")_k"
+        return step_inputs(self.n_state, self.state_units, what)
 
     @property
     def step_outputs(self) -> tuple[tuple[str, int, str, str], ...]:
         """Outputs of one step (:data:`STEP_OUTPUTS` with this controller's state size)."""
-        z_next = ("z_next", self.n_state, STEP_OUTPUTS[0][2] if self.law == "nni" else "N, N/s", STEP_OUTPUTS[0][3])
+        z_next = ("z_next", self.n_state, self.state_units, STEP_OUTPUTS[0][3])
         return (z_next,) + STEP_OUTPUTS[1:]
 
     # ------------------------------------------------------------------ numpy reference
@@ -215,32 +243,24 @@ class DiscreteNNI:
 
     def to_json(self) -> dict[str, Any]:
         """Matrices with units and the discretisation, for a flight stack."""
-        if self.law == "sni2":
-            law = {"discretisation": "exact zero-order hold of C(s) = k/(s^2 + 2 zeta omega s + omega^2), realised "
-                                     "per axis as (z, z')' = [[0, 1], [-omega^2, -2 zeta omega]] (z, z') + [0, k] xi "
-                                     "(scipy.linalg.expm); state order (z_x, z_y, z'_x, z'_y)",
-                   "units": {"state z": "N", "state z'": "N/s", "input xi": "m", "output a_h": "m/s^2",
-                             "A": "- (z rows/columns), 1/s or s across", "B": "N/m (z), N/(m s) (z')",
-                             "C": "1/kg", "D": "1/s^2"},
-                   "state_names": ["z_x", "z_y", "zdot_x", "zdot_y"]}
-        else:
-            law = {"discretisation": "exact zero-order hold of C(s) = Gamma/(s + Gamma delta): "
-                                     "A = exp(-Gamma delta T) I, B = (1 - exp(-Gamma delta T))/delta I",
-                   "units": {"state z": "N", "input xi": "m", "output a_h": "m/s^2",
-                             "A": "-", "B": "N/m", "C": "1/kg", "D": "1/s^2"},
-                   "state_names": ["z_x", "z_y"]}
+        law = law_named(self.law)
+        units = {f"state {n}": u for n, u in zip(("z", "z'", "z''"), law.state_units)}
         return {
             "law": self.law,
             "form": "z[k+1] = A z[k] + B xi[k];  a_h[k] = C z[k] + D xi[k]  (then the tilt limit)",
-            "discretisation": law["discretisation"],
+            "discretisation": law.discretisation_text(),
             "sample_period_s": self.T,
             "rate_hz": self.rate_hz,
             "A": self.A.tolist(), "B": self.B.tolist(), "C": self.C.tolist(), "D": self.D.tolist(),
-            "units": law["units"],
-            "state_names": law["state_names"], "input_names": ["xi_x", "xi_y"], "output_names": ["a_x", "a_y"],
+            "units": {**units, "input xi": "m", "output a_h": "m/s^2", **law.export_matrix_units()},
+            "state_names": self.state_names, "input_names": ["xi_x", "xi_y"], "output_names": ["a_x", "a_y"],
             "g_m_s2": self.g,
             "tilt_limit_deg": math.degrees(self.tilt_limit_rad),
             "output_stage": "a_h scaled to norm <= g_z tan(tilt_limit), g_z = max(g - a_z, "
                             f"{IL.G_Z_MIN_FRACTION:g} g); theta_d = atan2(-b_x, g_z), "
                             "phi_d = atan(b_y cos(theta_d)/g_z), b = Rz(-psi) a_h",
         }
+
+
+#: The name of the first release, when only the NNI law was exported.
+DiscreteNNI = DiscreteLaw

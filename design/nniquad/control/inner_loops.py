@@ -73,7 +73,7 @@ Frames: NED inertial frame (z down), FRD body frame, ZYX Euler angles
    c. the yaw share is clipped to the interval that keeps all four thrusts in
       ``[0, T_max]`` given ``c, r, q`` (it always contains 0).
 
-   Why the collective comes first (Monte Carlo finding, FINDINGS.md): the old
+   Why the collective comes first (a Monte Carlo finding, docs/notes/robustness.md): the old
    priority (roll/pitch first, ``M ≤ T_max/2``, then the collective shifted
    into ``[M, T_max - M]``) cuts the collective to ``T_max/2`` per rotor whenever
    roll/pitch saturate.  With a thrust-to-weight ratio of 2 that is the hover
@@ -104,7 +104,6 @@ allocated collective: the vehicle falls ("altitude lost").
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, fields
 
 import casadi as ca
 

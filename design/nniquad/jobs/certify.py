@@ -5,14 +5,17 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
-from nniquad.certificates.build import build_certificate
+from nniquad.certificates.build import build_certificate, unsettled_reference_run
 from nniquad.certificates.certificate import Certificate
 from nniquad.certificates.verify import Verification, verify_certificate
-from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, InnerLoopGains, SNI2Gains
+from nniquad.control.inner_gains import DEFAULT_INNER_LOOP_GAINS, InnerLoopGains
 from nniquad.errors import CertificateCheckError, CertificateError, NniquadError
+from nniquad.laws.base import GainBlock
+from nniquad.laws.registry import law_names
 from nniquad.model.vehicle import PAPER_VEHICLE, Vehicle
+from nniquad.tuning.tune import TuneOptions, TuneResult, tune
 
-__all__ = ["certify", "verify", "unsettled_reference_run"]
+__all__ = ["certify", "verify"]
 
 
 def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLoopGains | None = None,
@@ -29,16 +32,16 @@ def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLo
     vehicle
         The vehicle; default the paper's.
     gains
-        Gains to certify (:class:`nniquad.control.gains.Gains`, the ``sni2`` law's
-        :class:`~nniquad.control.gains.SNI2Gains`, or a
-        :class:`~nniquad.control.gains.PDFilteredGains`, certified as its NNI image,
-        :func:`nniquad.control.pd_equivalence.nni_from_filtered_pd`); a
+        Gains to certify: of a law of the NI structure (:class:`nniquad.laws.nni.Gains`, the ``sni2``
+        law's :class:`~nniquad.laws.sni2.SNI2Gains`, ...), or of a law certified through its NNI image
+        (:class:`~nniquad.laws.pd_filtered.PDFilteredGains`,
+        :meth:`nniquad.laws.base.ControlLaw.ni_image`); a
         :class:`nniquad.tuning.tune.TuneResult` (its gains and inner loops, and
         the record of how they were found); or ``None``, which tunes them first
         with ``options``.
     inner
         Inner-loop gains of the ``full`` reference run (with given ``gains``;
-        default :data:`nniquad.control.gains.DEFAULT_INNER_LOOP_GAINS`).  When the
+        default :data:`nniquad.control.inner_gains.DEFAULT_INNER_LOOP_GAINS`).  When the
         gains are tuned, the inner loops are tuned with them.
     options
         A :class:`nniquad.tuning.tune.TuneOptions`: the model, ``gamma_max``, the
@@ -50,7 +53,7 @@ def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLo
         Called with one-line status messages.
     box
         Parameter box of the sampled-data cascade section
-        (:class:`nniquad.analysis.cascade.certificate.ParameterBox`); ``None``: the Monte
+        (:class:`nniquad.analysis.cascade.box_certificate.ParameterBox`); ``None``: the Monte
         Carlo default box if it certifies, else its scale halved until it does.
     widest_box
         Also search the widest scale of the Monte Carlo default box that certifies
@@ -75,11 +78,9 @@ def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLo
     CertificateError
         The gains violate the sector bound (class ``paper``), an LMI is infeasible, or the
         certificate fails its own verification, or a reference run does not
-    settle, diverges or is not seen to stay in the band for the hold time
-    (:func:`unsettled_reference_run`): nothing is certified.
+        settle, diverges or is not seen to stay in the band for the hold time
+        (:func:`nniquad.certificates.build.unsettled_reference_run`): nothing is certified.
     """
-    from nniquad.tuning.tune import TuneOptions, TuneResult, tune
-
     vehicle = PAPER_VEHICLE if vehicle is None else vehicle
     if options is None:
         options = gains.options if isinstance(gains, TuneResult) else TuneOptions()
@@ -87,11 +88,9 @@ def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLo
         raise NniquadError("options must be a TuneOptions")
     say = progress or (lambda msg: None)
     tuning: dict[str, Any]
-    from nniquad.control.gains import PDFilteredGains
-    from nniquad.control.pd_equivalence import nni_from_filtered_pd
-
-    if options.controller == "pd_velocity":
-        raise NniquadError("the PD law with true velocity is no NNI law: there is nothing to certify")
+    if not options.law.certifiable:
+        raise NniquadError(f"the {options.controller} law is no law of the NI structure and has no NNI image: there "
+                           "is nothing to certify")
     law_class = options.law_class if options.law_class is not None else "paper"
     if gains is None or isinstance(gains, TuneResult):
         if inner is not None:
@@ -104,12 +103,16 @@ def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLo
         tuning = {"source": "given gains"}
         if isinstance(tuning_record, Mapping) and tuning_record.get("model") == options.model:
             tuning = {**tuning_record, "source": "given gains, with the record of the tune that found them"}
-    if isinstance(gains, PDFilteredGains):  # the filtered PD is the NNI law with these gains
-        tuning["certified_as_nni_image_of"] = {"pd_filtered": gains.as_dict()}
-        gains = nni_from_filtered_pd(gains, vehicle.m)
-    if not isinstance(gains, (Gains, SNI2Gains)):
-        raise NniquadError("gains must be a Gains (kp, Gamma, delta), an SNI2Gains (kp, k, omega, zeta) or a filtered "
-                           "PD (certified as its NNI image)")
+    if not isinstance(gains, GainBlock):
+        raise NniquadError(f"gains must be a gain block of a registered law ({', '.join(law_names())}), got "
+                           f"{type(gains).__name__}")
+    image = gains.law.ni_image(gains, vehicle.m)
+    if image is None:
+        raise NniquadError(f"the {gains.law.name} law is no law of the NI structure and has no NNI image: there is "
+                           "nothing to certify")
+    if image is not gains:  # a filtered PD is the NNI law with these gains: certified as that image
+        tuning["certified_as_nni_image_of"] = {gains.law.name: gains.as_dict()}
+        gains = image
     cert = build_certificate(vehicle, gains, inner=inner, gamma_max=options.gamma_max,
                              tilt_limit_deg=options.tilt_limit_deg, mass_range=options.mass_range,
                              model=options.model, tuning=tuning, progress=progress,
@@ -125,41 +128,6 @@ def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLo
         raise CertificateCheckError(f"certificate failed its own verification ({bad.name}: {bad.detail}); "
                                "nothing certified")
     return cert
-
-
-def unsettled_reference_run(cert: Certificate | Mapping[str, Any]) -> str | None:
-    """Why a certificate's reference runs do not show settling, or ``None`` when both do.
-
-    The rule is the tuner's (:func:`nniquad.tuning.tune.settling_shown`): a last exit
-    at ``s`` counts only if the run is then seen inside the band for
-    ``max(5 s, 2 s)`` before its horizon ends.  A run that never settles, that
-    diverges, or whose last exit comes too late to be shown is refused: the
-    certificate would state a performance it has not observed (issue 14, item 1).
-
-    Parameters
-    ----------
-    cert
-        A :class:`Certificate` or its JSON content.
-
-    Returns
-    -------
-    str or None
-        A one-line reason naming the reference run, or ``None``.
-    """
-    from nniquad.tuning.tune import required_hold_s, settling_shown
-
-    perf = cert["performance"] if isinstance(cert, Mapping) else cert.performance  # JSON content or Certificate
-    for model, run in perf.items():
-        horizon = float(run["settings"]["horizon_s"])
-        s = run["settling_s"]
-        if run.get("diverged"):
-            return f"the {model} reference run diverged (the vehicle was lost: it blew up or lost its altitude)"
-        if s is None:
-            return f"the {model} reference run did not settle within its {horizon:g} s horizon"
-        if not settling_shown(s, horizon):
-            return (f"the {model} reference run was last in the band from {s:.3g} s, but is not shown to stay "
-                    f"there for {required_hold_s(s):.3g} s within its {horizon:g} s horizon")
-    return None
 
 
 def verify(certificate: Certificate | Mapping[str, Any] | str | Path, *, simulate: bool = True,

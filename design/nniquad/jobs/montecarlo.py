@@ -6,11 +6,18 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
+from nniquad.certificates import load_certificate
 from nniquad.errors import MonteCarloError, StudyFailedError
-from nniquad.study.executors import StopRequest, StudyRun, run_study
+from nniquad.scenarios.draws import (
+    DEFAULT_RANGES,
+    ScenarioRanges,
+    StudySetup,
+    draw_scenarios,
+    within_certificate_ranges,
+)
 from nniquad.scenarios.setup import check_study_step
-from nniquad.scenarios.draws import (DEFAULT_RANGES, ScenarioRanges, StudySetup, draw_scenarios, study_setup,
-                                     within_certificate_ranges)
+from nniquad.study.certificate_setup import study_setup
+from nniquad.study.executors import StopRequest, StudyRun, run_study
 from nniquad.study.statistics import Summary, summarize
 
 __all__ = ["MonteCarloResult", "montecarlo"]
@@ -152,7 +159,6 @@ def montecarlo(certificate: Any, samples: int = 1000, seed: int = 0, *, ranges: 
         An unreadable or tampered certificate.
     """
     if isinstance(certificate, (str, Path)):
-        from nniquad.certificates import load_certificate
 
         certificate = load_certificate(certificate)
     elif not isinstance(certificate, (Mapping, StudySetup)):

@@ -7,6 +7,8 @@ from pathlib import Path
 from typing import Any, Callable
 
 from nniquad.config import GAMMA_MAX
+from nniquad.errors import CertificateError
+from nniquad.jobs.report_sections import ReportOptions, build_report
 from nniquad.model.vehicle import PAPER_VEHICLE, Vehicle
 
 __all__ = ["Report", "report"]
@@ -73,7 +75,7 @@ def report(out_dir: str | Path = "out", vehicle: Vehicle | None = None, *, model
     objective
         ``"robust"`` (default for ``full``) or ``"nominal"`` (:class:`nniquad.tuning.tune.TuneOptions`).
     law_class
-        ``"paper"`` (default) or ``"cascade"`` (:mod:`nniquad.control.law_classes`): the class
+        ``"paper"`` (default) or ``"cascade"`` (:mod:`nniquad.laws.classes`): the class
         the design is tuned in and certified as; the report names the theorem.
     certificate
         An issued certificate file: report on it instead of tuning and certifying (it is
@@ -86,10 +88,8 @@ def report(out_dir: str | Path = "out", vehicle: Vehicle | None = None, *, model
     Report
         The folder and every number of ``report.json``.
     """
-    from nniquad.jobs.report_sections import ReportOptions, build_report
 
     if certificate is not None and vehicle is not None:
-        from nniquad.errors import CertificateError
 
         raise CertificateError("a report on a given certificate is of the certificate's vehicle: give no vehicle")
     vehicle = PAPER_VEHICLE if vehicle is None else vehicle

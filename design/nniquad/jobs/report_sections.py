@@ -42,12 +42,28 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Callable
 
+from nniquad.analysis.bound import time_optimal_bound
+from nniquad.analysis.reduced_loop import ReducedLoop
+from nniquad.certificates import (
+    build_certificate,
+    certificate_gains,
+    certificate_inner_loop,
+    certificate_vehicle,
+    load_certificate,
+    verify_certificate,
+    write_certificate,
+)
 from nniquad.config import GAMMA_MAX
-from nniquad.reporting.display import markdown_table
+from nniquad.errors import CertificateCheckError
 from nniquad.io import atomic_write_json, atomic_write_text
+from nniquad.laws.base import gains_text
+from nniquad.laws.nni import PAPER_GAINS
 from nniquad.model.vehicle import UNITS, Vehicle
-
+from nniquad.proofs.claims import audit_table, audit_to_json, audit_to_markdown, run_audit
+from nniquad.reporting.display import markdown_table
 from nniquad.reporting.folder import MANIFEST, ReportFolder
+from nniquad.sim import SimOptions, paper_figure_runs, plots
+from nniquad.tuning.tune import TuneOptions, tune
 
 __all__ = ["ReportOptions", "build_report", "fmt", "REPORT_FILES", "REPORT_OUTPUTS"]
 
@@ -96,7 +112,7 @@ class ReportOptions:
         Tuning objective (:attr:`nniquad.tuning.tune.TuneOptions.objective`; ``None``:
         robust for ``full``, nominal for ``reduced``).
     law_class
-        ``"paper"`` or ``"cascade"`` (:mod:`nniquad.control.law_classes`); ``roa_radius_m``
+        ``"paper"`` or ``"cascade"`` (:mod:`nniquad.laws.classes`); ``roa_radius_m``
         ``None`` demands ‖ξ_h(0)‖ in the paper class and nothing in the cascade class.
     certificate
         An issued certificate file to report on instead of tuning and certifying (``None``: tune and
@@ -155,14 +171,11 @@ def build_report(vehicle: Vehicle, options: ReportOptions, progress: Progress | 
         If the certificate cannot be issued (for example no admissible gain set)
         or does not verify; nothing of this run is left half-written.
     """
-    from nniquad.sim import SimOptions
-    from nniquad.tuning.tune import TuneOptions
 
     say = progress or (lambda stage, frac, detail="": None)
     # every option first: a bad one is refused before any work (and before the folder is touched)
     given = given_check = None
     if options.certificate is not None:
-        from nniquad.certificates import certificate_vehicle, load_certificate
 
         given = load_certificate(options.certificate)  # unreadable, not a certificate or tampered: one line
         vehicle = certificate_vehicle(given)
@@ -182,8 +195,6 @@ def build_report(vehicle: Vehicle, options: ReportOptions, progress: Progress | 
 
 def _verified(cert: dict[str, Any], which: str) -> Any:
     """``verify_certificate(cert)``; raises CertificateCheckError naming the failed checks when one fails."""
-    from nniquad.certificates import verify_certificate
-    from nniquad.errors import CertificateCheckError
 
     check = verify_certificate(cert)
     if not check.ok:
@@ -199,15 +210,6 @@ def _build(vehicle: Vehicle, options: ReportOptions, tune_opts: Any, out: Path, 
     ``given``: the certificate to report on (no tuning, no new certificate), else ``None``; ``given_check``: its
     verification.
     """
-    from nniquad.proofs.claims import audit_table, audit_to_json, audit_to_markdown, run_audit
-
-    from nniquad.reporting import plots
-    from nniquad.analysis.bound import time_optimal_bound
-    from nniquad.certificates import build_certificate, certificate_gains, certificate_inner_loop, write_certificate
-    from nniquad.analysis.linear import ReducedLoop
-    from nniquad.control.gains import PAPER_GAINS, gains_text
-    from nniquad.sim import SimOptions, paper_figure_runs
-    from nniquad.tuning.tune import tune
 
     t_start = time.perf_counter()
     written: list[Path] = []

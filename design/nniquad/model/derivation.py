@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from nniquad.errors import NniquadError
+from nniquad.model import symbolic as S
 
 __all__ = ["VARIANTS", "FORMATS", "Equation", "Derivation", "derive"]
 
@@ -109,7 +110,6 @@ def derive(variant: str = "exact") -> Derivation:
         raise NniquadError(f"variant must be one of {', '.join(VARIANTS)}, got {variant!r}")
     import sympy as sp
 
-    from nniquad.model import symbolic as S
 
     s = S.symbols()
     eqs = [

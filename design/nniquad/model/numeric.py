@@ -105,8 +105,8 @@ def numpy_function(
 
 
 def _dynamics_inputs() -> dict[str, tuple[sp.Symbol, ...]]:
-    from nniquad.model import symbolic as S
 
+    from nniquad.model import symbolic as S  # lazily: sympy costs 0.3 s, and a cached build needs none
     s = S.symbols()
     return {"x": s.state, "u": (s.u1,) + s.tau, "Omega_r": (s.Omega_r,), "p": s.params}
 
@@ -120,7 +120,7 @@ def dynamics_function(variant: str = "exact") -> ca.Function:
     :func:`nniquad.model.symbolic.full_dynamics` (``"exact"`` or ``"paper"``), or
     ``"paper-printed"`` for the paper's eq. (full_dynamics) as printed.
     """
-    from nniquad.model import symbolic as S
+    from nniquad.model import symbolic as S  # lazily: sympy costs 0.3 s, and a cached build needs none
 
     f = S.paper_full_dynamics() if variant == "paper-printed" else S.full_dynamics(variant)
     return casadi_function(f"quadrotor_{variant.replace('-', '_')}", _dynamics_inputs(), {"xdot": f})
@@ -129,7 +129,7 @@ def dynamics_function(variant: str = "exact") -> ca.Function:
 @lru_cache(maxsize=None)
 def dynamics_numpy(variant: str = "exact") -> Callable[..., np.ndarray]:
     """Numpy version of :func:`dynamics_function`: ``f(x, u, Omega_r, p) -> xdot`` (1-D arrays)."""
-    from nniquad.model import symbolic as S
+    from nniquad.model import symbolic as S  # lazily: sympy costs 0.3 s, and a cached build needs none
 
     f = S.paper_full_dynamics() if variant == "paper-printed" else S.full_dynamics(variant)
     s = S.symbols()
@@ -146,8 +146,8 @@ def dynamics_numpy(variant: str = "exact") -> Callable[..., np.ndarray]:
 def mixer_function() -> ca.Function:
     """CasADi ``mixer(w[4], p) -> (u[4], Omega_r)``: rotor speeds [rad/s] to thrust/torques."""
     import sympy as sp
+    from nniquad.model import symbolic as S  # lazily: sympy costs 0.3 s, and a cached build needs none
 
-    from nniquad.model import symbolic as S
 
     s = S.symbols()
     A = S.mixer_matrix()
@@ -165,7 +165,7 @@ def reaction_torque_function() -> ca.Function:
 
     :func:`nniquad.model.symbolic.rotor_reaction_torque`, ``-Jr dOmega_r/dt e3_B``.
     """
-    from nniquad.model import symbolic as S
+    from nniquad.model import symbolic as S  # lazily: sympy costs 0.3 s, and a cached build needs none
 
     s = S.symbols()
     return casadi_function(
@@ -177,8 +177,8 @@ def reaction_torque_function() -> ca.Function:
 
 @lru_cache(maxsize=None)
 def _mixer_matrix_numpy() -> Callable[..., np.ndarray]:
-    from nniquad.model import symbolic as S
 
+    from nniquad.model import symbolic as S  # lazily: sympy costs 0.3 s, and a cached build needs none
     s = S.symbols()
     return numpy_function(list(s.params), S.mixer_matrix())
 
@@ -191,7 +191,7 @@ def mixer_numpy(vehicle: Vehicle) -> np.ndarray:
 @cached_casadi_function
 def rotation_function() -> ca.Function:
     """CasADi ``rotation(eta[3]) -> (R[3x3], W[3x3])``."""
-    from nniquad.model import symbolic as S
+    from nniquad.model import symbolic as S  # lazily: sympy costs 0.3 s, and a cached build needs none
 
     s = S.symbols()
     return casadi_function(

@@ -31,6 +31,7 @@ from pathlib import Path
 from typing import Any, Mapping
 
 from nniquad.errors import VehicleError
+from nniquad.io import load_data_file
 
 __all__ = ["Vehicle", "UNITS", "DESCRIPTIONS", "PAPER_VEHICLE", "load_vehicle", "vehicle_from_mapping"]
 
@@ -234,7 +235,6 @@ def load_vehicle(path: str | Path | None) -> Vehicle:
     """
     if path is None:
         return PAPER_VEHICLE
-    from nniquad.io import load_data_file
 
     data = load_data_file(path, what="vehicle file", error=VehicleError, formats=("toml", "json"))
     return vehicle_from_mapping(data, source=str(Path(path)))

@@ -6,6 +6,8 @@ import io
 import os
 from typing import Any, Sequence, TypeVar
 
+from nniquad.errors import NniquadError
+
 __all__ = ["markdown_table", "show_table", "show_figure", "NOTEBOOK_SIZE_ENV", "NOTEBOOK_SIZES", "notebook_size",
            "sized"]
 
@@ -79,7 +81,6 @@ def notebook_size() -> str:
     NniquadError
         Any other value, named in one line.
     """
-    from nniquad.errors import NniquadError
 
     value = os.environ.get(NOTEBOOK_SIZE_ENV, "").strip() or "full"
     if value not in NOTEBOOK_SIZES:

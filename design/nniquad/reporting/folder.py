@@ -38,6 +38,7 @@ from pathlib import Path
 from typing import Any, Iterable
 
 from nniquad.errors import NniquadError, OutputError
+from nniquad.io import atomic_write_json
 
 __all__ = ["ReportFolder", "ReportBusyError", "MANIFEST", "MANIFEST_MARKER", "file_digest", "owned_files"]
 
@@ -231,7 +232,6 @@ class ReportFolder:
         unknown = [n for n in names if n not in self.outputs]
         if unknown:
             raise NniquadError(f"report wrote an undeclared file {unknown[0]!r}")  # a bug, caught by the tests
-        from nniquad.io import atomic_write_json
 
         digests = {n: file_digest(self.path / n) for n in names if n != MANIFEST}
         atomic_write_json(self.path / MANIFEST, {"marker": MANIFEST_MARKER, "files": digests})

@@ -10,23 +10,28 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
 from nniquad.errors import MonteCarloError
+from nniquad.laws.base import wind_equilibrium_m
+from nniquad.scenarios.ranges import (
+    BOX_KEYS,
+    DEFAULT_RANGES,
+    ScenarioRanges,
+    certificate_rate_hz,
+    positive_number_or_none,
+    within_certificate_ranges,
+)
+from nniquad.scenarios.setup import DEFAULT_HORIZON_S, StudySetup, study_setup_from
 from nniquad.sim import SimParams
-
-from nniquad.scenarios.ranges import (BOX_KEYS, DEFAULT_RANGES, ScenarioRanges, certificate_rate_hz,
-                                  within_certificate_ranges)
-from nniquad.scenarios.setup import DEFAULT_HORIZON_S, StudySetup, study_setup, study_setup_from
 
 __all__ = [
     "ScenarioRanges",
     "DEFAULT_RANGES",
     "StudySetup",
     "Scenario",
-    "study_setup",
     "study_setup_from",
     "draw_scenario",
     "draw_scenarios",
@@ -95,8 +100,7 @@ class Scenario:
         return replace(self, params=tuple(float(v) for v in self.sim_params.with_(**changes).vector()))
 
     def equilibrium_m(self) -> tuple[float, float]:
-        """Static equilibrium under the constant wind (:func:`nniquad.control.gains.wind_equilibrium_m`)."""
-        from nniquad.control.gains import wind_equilibrium_m
+        """Static equilibrium under the constant wind (:func:`nniquad.laws.base.wind_equilibrium_m`)."""
 
         p = self.sim_params
         return wind_equilibrium_m(p.gains, p.nominal.m, (p.run.wind_x, p.run.wind_y))
@@ -187,22 +191,36 @@ def draw_scenario(index: int, seed: int, ranges: ScenarioRanges, setup: StudySet
 
 
 def draw_scenarios(n: int, seed: int, ranges: ScenarioRanges = DEFAULT_RANGES,
-                   cert: Mapping[str, Any] | StudySetup | None = None, *,
-                   horizon_s: float | None = None) -> list[Scenario]:
-    """Scenarios ``0 .. n-1`` of seed ``seed`` (``cert``: a loaded certificate or a :class:`StudySetup`).
+                   setup: StudySetup | None = None, *, horizon_s: float | None = None) -> list[Scenario]:
+    """Scenarios ``0`` to ``n - 1`` of seed ``seed`` of a study (:func:`nniquad.study.study_setup` makes the setup of a
+    certificate).
 
-    ``horizon_s`` as in :func:`study_setup`: a setup keeps its own horizon
-    unless one is given.
+    Parameters
+    ----------
+    n
+        Number of scenarios.
+    seed
+        The study's seed.
+    ranges
+        What may vary.
+    setup
+        What every scenario shares.
+    horizon_s
+        Replaces the setup's horizon when given [s].
 
     Raises
     ------
     MonteCarloError
-        ``n <= 0``, a negative or non-integer seed, no certificate.
+        ``n <= 0``, a negative or non-integer seed, no setup.
     """
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n <= 0:
         raise MonteCarloError(f"number of samples must be a positive integer, got {n!r}")
-    if cert is None:
-        raise MonteCarloError("a certificate (or a StudySetup) is required")
-    setup = study_setup(cert, ranges, horizon_s=horizon_s)
+    if not isinstance(setup, StudySetup):
+        raise MonteCarloError("a StudySetup is required (nniquad.study.study_setup(certificate) makes one)")
+    if horizon_s is not None and horizon_s != setup.horizon_s:
+        h = positive_number_or_none(horizon_s)
+        if h is None:
+            raise MonteCarloError(f"horizon must be a positive number of seconds, got {horizon_s!r}")
+        setup = replace(setup, horizon_s=h)
     return [draw_scenario(i, seed, ranges, setup) for i in range(int(n))]
 

@@ -9,8 +9,13 @@ import math
 from dataclasses import asdict, dataclass, replace
 from typing import Any, Mapping
 
-from nniquad.config import (ALTITUDE_LIMIT_M, CONTROL_RATE_HZ, MC_WITHIN_RIM_FRACTION, TAU_MOTOR_FACTOR_RANGE,
-                             WIND_WEIGHT_FRACTION_RANGE)
+from nniquad.config import (
+    ALTITUDE_LIMIT_M,
+    CONTROL_RATE_HZ,
+    MC_WITHIN_RIM_FRACTION,
+    TAU_MOTOR_FACTOR_RANGE,
+    WIND_WEIGHT_FRACTION_RANGE,
+)
 from nniquad.errors import MonteCarloError
 
 __all__ = ["ScenarioRanges", "DEFAULT_RANGES", "BOX_KEYS", "certificate_rate_hz", "within_certificate_ranges"]
@@ -129,7 +134,7 @@ class ScenarioRanges:
 DEFAULT_RANGES = ScenarioRanges()
 
 
-def _cert_float(value: Any) -> float | None:
+def positive_number_or_none(value: Any) -> float | None:
     try:
         v = float(value)
     except (TypeError, ValueError):
@@ -151,7 +156,7 @@ def certificate_rate_hz(cert: Mapping[str, Any]) -> float:
     for section in ("cascade", "margins"):
         sec = cert.get(section)
         if isinstance(sec, Mapping):
-            v = _cert_float(sec.get("rate_hz"))
+            v = positive_number_or_none(sec.get("rate_hz"))
             if v is not None:
                 return v
     return float(CONTROL_RATE_HZ)
@@ -204,10 +209,10 @@ def within_certificate_ranges(cert: Mapping[str, Any]) -> tuple[ScenarioRanges, 
         raise MonteCarloError(f"the certificate's cascade box lacks '{missing[0]}'")
     factors = {k: _pair(f"cascade.box.{k}", box[k], positive=True) for k in BOX_KEYS}
     roa = cas.get("region_of_attraction")
-    region = _cert_float(roa.get("max_displacement_m")) if isinstance(roa, Mapping) else None
+    region = positive_number_or_none(roa.get("max_displacement_m")) if isinstance(roa, Mapping) else None
     if region is None:
         raise MonteCarloError("the certificate's cascade section states no region_of_attraction.max_displacement_m")
-    rate = _cert_float(cas.get("rate_hz"))
+    rate = positive_number_or_none(cas.get("rate_hz"))
     if rate is None:
         raise MonteCarloError("the certificate's cascade section states no rate_hz")
     ranges = ScenarioRanges(**factors, tau_motor_s=None, noise_sigma_m=(0.0, 0.0), noise_rate_hz=rate,

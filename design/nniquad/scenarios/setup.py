@@ -1,22 +1,22 @@
 """What every scenario of a study shares: the nominal parameter vector, start, band and horizon of one design.
 
-Built from a certificate (:func:`study_setup`) or from a vehicle and a gain set (:func:`study_setup_from`).
+From a vehicle and a gain set (:func:`study_setup_from`); :func:`nniquad.study.study_setup` reads a certificate into one.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Any, Mapping, Sequence
 
 from nniquad.config import BAND_FRACTION, DT_S, OUTPUT_DT_S, TILT_LIMIT_DEG, XI0_M
 from nniquad.errors import MonteCarloError
+from nniquad.scenarios.ranges import DEFAULT_RANGES, ScenarioRanges, positive_number_or_none
 from nniquad.sim import SimOptions, SimParams, to_gains
+from nniquad.sim.options import check_rate_hz
 from nniquad.sim.step_check import check_step
 
-from nniquad.scenarios.ranges import DEFAULT_RANGES, ScenarioRanges, _cert_float
-
-__all__ = ["StudySetup", "study_setup", "study_setup_from", "DEFAULT_HORIZON_S", "check_study_step", "RANGE_HINTS"]
+__all__ = ["StudySetup", "study_setup_from", "DEFAULT_HORIZON_S", "check_study_step", "RANGE_HINTS"]
 
 #: Default simulated time of a scenario [s].
 DEFAULT_HORIZON_S = 20.0
@@ -92,8 +92,8 @@ def study_setup_from(vehicle: Any, gains: Any, *, inner: Any = None, tilt_limit_
                      label: str = "", controller_sampling: str | None = None) -> StudySetup:
     """The shared part of a study from a vehicle, a gain set and inner-loop gains (no certificate).
 
-    ``gains`` is any controller's gain block (:class:`~nniquad.control.gains.Gains`,
-    :class:`~nniquad.control.gains.PDGains`, :class:`~nniquad.control.gains.PDFilteredGains`)
+    ``gains`` is any controller's gain block (:class:`~nniquad.laws.nni.Gains`,
+    :class:`~nniquad.laws.pd_velocity.PDGains`, :class:`~nniquad.laws.pd_filtered.PDFilteredGains`)
     or a mapping / tuple of NNI gains; the block's type picks the law, so the PD
     comparison laws are studied on the same scenarios as the NNI law.
 
@@ -104,7 +104,7 @@ def study_setup_from(vehicle: Any, gains: Any, *, inner: Any = None, tilt_limit_
     gains
         The horizontal law's gain block (see above).
     inner
-        Inner-loop gains (default :data:`nniquad.control.gains.DEFAULT_INNER_LOOP_GAINS`).
+        Inner-loop gains (default :data:`nniquad.control.inner_gains.DEFAULT_INNER_LOOP_GAINS`).
     tilt_limit_deg
         Tilt limit [deg].
     xi0_m
@@ -133,7 +133,7 @@ def study_setup_from(vehicle: Any, gains: Any, *, inner: Any = None, tilt_limit_
         A non-positive horizon, a bad initial position, or a rate the discrete
         controller cannot run at (its period must be a whole number of RK4 steps).
     """
-    h = _cert_float(horizon_s)
+    h = positive_number_or_none(horizon_s)
     if h is None:
         raise MonteCarloError(f"horizon must be a positive number of seconds, got {horizon_s!r}")
     try:
@@ -142,12 +142,11 @@ def study_setup_from(vehicle: Any, gains: Any, *, inner: Any = None, tilt_limit_
             raise ValueError
     except (TypeError, ValueError):
         raise MonteCarloError(f"initial position xi0_m must be a non-zero pair of numbers, got {xi0_m!r}") from None
-    block = gains if hasattr(gains, "controller") else to_gains(gains, "nni")
+    block = to_gains(gains)
     sampling = controller_sampling or "discrete"
     if sampling not in ("discrete", "held"):
         raise MonteCarloError(f"controller sampling of a study must be 'discrete' or 'held', got {sampling!r}")
     if sampling == "discrete":
-        from nniquad.sim.options import check_rate_hz
 
         check_rate_hz(ranges.noise_rate_hz, DT_S, option="rate", error=MonteCarloError)
     opts: dict[str, Any] = {"model": "full", "horizon_s": h, "motor_lag": True, "controller_sampling": sampling,
@@ -156,7 +155,7 @@ def study_setup_from(vehicle: Any, gains: Any, *, inner: Any = None, tilt_limit_
         opts["inner"] = inner
     options = SimOptions(**opts)
     base = SimParams.from_options(vehicle, block, options)
-    region = _cert_float(region_m)
+    region = positive_number_or_none(region_m)
     if region is None:
         region = math.hypot(*xi0)
     return StudySetup(
@@ -171,66 +170,6 @@ def study_setup_from(vehicle: Any, gains: Any, *, inner: Any = None, tilt_limit_
         controller=base.controller,
         controller_sampling=sampling,
     )
-
-
-def _certificate_label(cert: Mapping[str, Any]) -> str:
-    for key in ("digest", "sha256"):
-        v = cert.get(key)
-        if isinstance(v, Mapping):
-            v = v.get("sha256") or v.get("value")
-        if isinstance(v, str) and v:
-            return f"sha256:{v[:16]}" if not v.startswith("sha256") else v[:23]
-    return str(cert.get("name", ""))
-
-
-def study_setup(cert: Mapping[str, Any] | StudySetup, ranges: ScenarioRanges = DEFAULT_RANGES, *,
-                horizon_s: float | None = None, region_m: float | None = None) -> StudySetup:
-    """The shared part of a study from a loaded certificate (:func:`nniquad.certificates.certificate.load_certificate`).
-
-    ``horizon_s`` defaults to :data:`DEFAULT_HORIZON_S` for a certificate.  A
-    :class:`StudySetup` is returned as it is (its own horizon and displacement
-    radius; ``ranges`` is not applied again), with ``horizon_s`` replaced only
-    when one is given.
-
-    Gains, vehicle and inner-loop gains come from
-    :func:`nniquad.certificates.certificate.certificate_gains`, ``certificate_vehicle`` and
-    ``certificate_inner_loop``; the displacement radius from
-    ``region_of_attraction.max_displacement_m`` (the nominal ``‖xi0_m‖`` when the
-    certificate states no region), capped at ``ranges.max_displacement_m``;
-    ``region_m`` replaces the certificate's region (e.g. the cascade's,
-    :func:`within_certificate_ranges`), capped the same way; the settling band
-    is then at most ``BAND_FRACTION`` (2 %) of that radius, so a run starting
-    in a region narrower than the normal band must still be seen to converge.
-
-    Raises
-    ------
-    MonteCarloError
-        Bad horizon, or a certificate without a usable initial position.
-    """
-    if isinstance(cert, StudySetup):
-        if horizon_s is None or horizon_s == cert.horizon_s:
-            return cert
-        h = _cert_float(horizon_s)
-        if h is None:
-            raise MonteCarloError(f"horizon must be a positive number of seconds, got {horizon_s!r}")
-        return replace(cert, horizon_s=h)
-    from nniquad.certificates import certificate as C
-
-    roa = cert.get("region_of_attraction")
-    tilt = _cert_float(cert.get("tilt_limit_deg"))
-    setup = study_setup_from(
-        C.certificate_vehicle(cert), C.certificate_gains(cert), inner=C.certificate_inner_loop(cert),
-        tilt_limit_deg=TILT_LIMIT_DEG if tilt is None else tilt, xi0_m=cert.get("xi0_m", XI0_M),
-        region_m=region_m if region_m is not None else
-        (roa.get("max_displacement_m") if isinstance(roa, Mapping) else None),
-        ranges=ranges, horizon_s=DEFAULT_HORIZON_S if horizon_s is None else horizon_s,
-        label=_certificate_label(cert),
-    )
-    if region_m is not None:
-        # a region narrower than the normal band (2 % of the nominal start): a run must converge to 2 % of the
-        # region's radius, or a start inside the band would count as settled at 0 s and prove nothing
-        setup = replace(setup, band_m=min(setup.band_m, BAND_FRACTION * setup.region_m))
-    return setup
 
 
 #: What to change when the fastest scenario is too fast for the step (the Python API's names).

@@ -23,11 +23,28 @@ Modules
 from nniquad.sim.codegen import cache_dir, compile_status
 from nniquad.sim.models import output_function, rhs_function, step_function, vehicle_dynamics
 from nniquad.sim.options import CONTROLLER_SAMPLING, MODELS, SimOptions, check_rate_hz
-from nniquad.sim.params import (CONTROLLER_STATES, CONTROLLERS, EXO_FIELDS, OUTPUT_NAMES, STATE_NAMES, ParamField,
-                                RunSettings, SimParams, VehicleParams, n_params, param_layout, state_names, to_gains)
+from nniquad.sim.params import (
+                                EXO_FIELDS,
+                                OUTPUT_NAMES,
+                                STATE_NAMES,
+                                ParamField,
+                                RunSettings,
+                                SimParams,
+                                VehicleParams,
+                                n_params,
+                                param_layout,
+                                state_names,
+                                to_gains,
+)
 from nniquad.sim.results import SimulationResult, Trajectory
-from nniquad.sim.runner import (PAPER_FIGURE_HORIZON_S, exogenous_inputs, initial_state, paper_figure_runs,
-                                run_batch, simulate)
+from nniquad.sim.runner import (
+                                PAPER_FIGURE_HORIZON_S,
+                                exogenous_inputs,
+                                initial_state,
+                                paper_figure_runs,
+                                run_batch,
+                                simulate,
+)
 
 __all__ = [
     "simulate",
@@ -44,9 +61,7 @@ __all__ = [
     "MODELS",
     "CONTROLLER_SAMPLING",
     "check_rate_hz",
-    "CONTROLLERS",
     "STATE_NAMES",
-    "CONTROLLER_STATES",
     "state_names",
     "OUTPUT_NAMES",
     "EXO_FIELDS",

@@ -66,7 +66,7 @@ DEFAULT_DIVERGENCE_FACTOR = DIVERGENCE_FACTOR
 # input checks
 
 
-def _time(t: ArrayLike) -> NDArray[np.float64]:
+def time_axis(t: ArrayLike) -> NDArray[np.float64]:
     ta = np.asarray(t, dtype=float)
     if ta.ndim != 1 or ta.size < 1:
         raise ValueError(f"time vector must be 1-D and non-empty, got shape {ta.shape}")
@@ -75,7 +75,7 @@ def _time(t: ArrayLike) -> NDArray[np.float64]:
     return ta
 
 
-def _xy_batch(t: NDArray[np.float64], xy: ArrayLike, *, batched: bool) -> NDArray[np.float64]:
+def points_batch(t: NDArray[np.float64], xy: ArrayLike, *, batched: bool) -> NDArray[np.float64]:
     a = np.asarray(xy, dtype=float)
     want = 3 if batched else 2
     if a.ndim != want or a.shape[-1] != 2:
@@ -123,8 +123,8 @@ def settling_time_batch(
     lies above the curve, so the interpolated time is late by at most
     ``h²/8 · max|d''| / min|d'|`` over the crossing interval of length ``h``.
     """
-    ta = _time(t)
-    a = _xy_batch(ta, xy_batch, batched=True)
+    ta = time_axis(t)
+    a = points_batch(ta, xy_batch, batched=True)
     d = np.hypot(a[..., 0], a[..., 1])  # (B, N)
     ref = d[:, 0] if reference_norm is None else np.broadcast_to(np.asarray(reference_norm, float), d[:, 0].shape)
     band = band_fraction * ref
@@ -173,8 +173,8 @@ def settling_time(
         Time [s] after which the distance stays inside the band (interpolated),
         ``0.0`` if it never leaves the band, ``None`` if the run ends outside it.
     """
-    ta = _time(t)
-    value = settling_time_batch(ta, _xy_batch(ta, xy, batched=False), band_fraction, reference_norm)[0]
+    ta = time_axis(t)
+    value = settling_time_batch(ta, points_batch(ta, xy, batched=False), band_fraction, reference_norm)[0]
     return None if math.isnan(value) else float(value)
 
 
@@ -183,8 +183,8 @@ def overshoot_pct_batch(t: ArrayLike, xy_batch: ArrayLike) -> NDArray[np.float64
 
     ``nan`` for runs with a non-finite sample or a zero initial distance.
     """
-    ta = _time(t)
-    a = _xy_batch(ta, xy_batch, batched=True)
+    ta = time_axis(t)
+    a = points_batch(ta, xy_batch, batched=True)
     d0 = np.hypot(a[:, 0, 0], a[:, 0, 1])
     with np.errstate(invalid="ignore", divide="ignore"):
         e0 = a[:, 0, :] / d0[:, None]
@@ -217,8 +217,8 @@ def overshoot_pct(t: ArrayLike, xy: ArrayLike) -> float:
     SimulationError
         If the run starts at the origin (no initial direction).
     """
-    ta = _time(t)
-    a = _xy_batch(ta, xy, batched=False)
+    ta = time_axis(t)
+    a = points_batch(ta, xy, batched=False)
     if not np.hypot(*a[0, 0]) > 0:
         raise SimulationError("overshoot is undefined for a run starting at the origin")
     return float(overshoot_pct_batch(ta, a)[0])
@@ -282,7 +282,7 @@ def time_on_limit_fraction(t: ArrayLike, value: ArrayLike, limit: float | ArrayL
         so non-uniform steps are weighted by their length); for a single sample
         or a zero-length run, the fraction of samples at the limit.
     """
-    ta = _time(t)
+    ta = time_axis(t)
     v = np.abs(np.asarray(value, dtype=float))
     if v.shape != ta.shape:
         raise ValueError(f"signal has shape {v.shape} but the time vector has {ta.shape}")
@@ -315,7 +315,7 @@ def rms_after(t: ArrayLike, signal: ArrayLike, t0: float | None, *, remove_mean:
     """
     if t0 is None:
         return None
-    ta = _time(t)
+    ta = time_axis(t)
     s = np.asarray(signal, dtype=float)
     if s.shape != ta.shape:
         raise ValueError(f"signal has shape {s.shape} but the time vector has {ta.shape}")

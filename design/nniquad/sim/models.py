@@ -23,29 +23,20 @@ In every model the true mass ``m`` may differ from the controller's nominal
 mass ``m̂``.  The command is an acceleration that the thrust vector realises with
 ``m̂``, so the plant sees ``ξ'' = (m̂/m) a_h + F_wind/m`` (``reduced``/``linear``;
 the ``full`` model produces the same factor through ``u1 = m̂ g_z / cos``).
-Note that :mod:`nniquad.analysis.linear` models a mass error differently (``k_p`` as an
+Note that :mod:`nniquad.analysis.reduced_loop` models a mass error differently (``k_p`` as an
 exact acceleration gain, only ``z`` divided by the true mass); with ``m = m̂``
 both agree.
 
 Horizontal controllers
 ----------------------
-The type of the gain block (its ``controller`` attribute,
-:mod:`nniquad.control.gains`) picks the law that produces the horizontal
-acceleration command ``a_h`` (before the tilt limit), in every model:
-
-``"nni"`` (default)
-    The paper's velocity-free controller above, gains :class:`nniquad.control.gains.Gains`.
-``"pd_velocity"``
-    A comparison PD law that uses the **true** horizontal velocity (a perfect
-    velocity sensor): ``a_h = -k_p ξ_m - k_d ξ'``; gains
-    :class:`nniquad.control.gains.PDGains`.
-``"pd_filtered"``
-    The same PD law with the velocity estimated from the measured position by a
-    first-order "dirty derivative" ``s/(τ_f s + 1)``, realised with one filter
-    state ``d`` per axis: ``d' = (ξ_m - d)/τ_f``, ``v̂ = (ξ_m - d)/τ_f``,
-    ``a_h = -k_p ξ_m - k_d v̂``.  The filter starts at ``d(0) = ξ_h(0)`` (the
-    vehicle starts at rest, so ``v̂(0) = 0``); gains
-    :class:`nniquad.control.gains.PDFilteredGains`.
+The type of the gain block picks the law (:mod:`nniquad.laws`: the registry
+maps its name to a :class:`~nniquad.laws.base.ControlLaw`), and the law writes
+the command ``a_h`` (before the tilt limit) and its state derivative once, in
+:meth:`~nniquad.laws.base.ControlLaw.sim_rates`, from its realisation; the same
+expressions serve every model.  The paper's law is ``a_h = -k_p ξ_m + z/m̂``,
+``z' = -Γδ z + Γ ξ_m``; the PD law with the true velocity reads the velocity;
+the others are velocity-free.  No horizontal velocity is used by a
+velocity-free law.
 
 Controller sampling
 -------------------
@@ -53,27 +44,16 @@ Controller sampling
 rate and held (``ξ_m`` above = the held value).  With ``run.discrete = 1`` the
 law also runs in discrete time at that rate (period ``run.sample_period``):
 its state is constant over a period and :func:`step_function` advances it at
-each later sample by the exact ZOH equivalent of the period that ends, before
-it latches the new measurement, so ``a_h`` is held over the period.  NNI:
-``z ← e^{-ΓδT} z + (1 - e^{-ΓδT})/δ ξ_m``
-(:class:`nniquad.control.discrete.DiscreteNNI`); ``pd_filtered``:
-``d ← e^{-T/τ_f} d + (1 - e^{-T/τ_f}) ξ_m``; ``pd_velocity``: the velocity is
-sampled with the position and held (stored in ``zc``).
+each later sample by the exact ZOH equivalent of the period that ends
+(:meth:`~nniquad.laws.base.ControlLaw.sim_sample`, the law's own closed form
+where it has one), before it latches the new measurement, so ``a_h`` is held
+over the period.
 
 Every law has its own parameter layout (:func:`nniquad.sim.params.param_layout`,
 the gain entries named after the block's fields), its own state layout
-(:func:`nniquad.sim.params.state_names`: ``zc_x, zc_y`` hold the NNI state z, the
-``pd_filtered`` filter state d, or zeros for ``pd_velocity``; ``sni2`` adds
-``zcd_x, zcd_y``) and its own compiled function.  With ``pd_filtered`` the RK4
-step must satisfy ``dt/τ_f ≤ 2.5`` (filter pole), checked before every run.
-
-``"sni2"``
-    The NNI structure with a second-order strictly negative-imaginary controller
-    (:mod:`nniquad.control.sni`): ``a_h = -k_p ξ_m + z/m̂``,
-    ``z'' + 2ζω z' + ω² z = k ξ_m``, state ``(z, z')`` per axis; gains
-    :class:`nniquad.control.gains.SNI2Gains`.  Discrete variant: ``(z, z')``
-    advanced by the exact ZOH of ``C(s)`` in closed form
-    (:func:`nniquad.control.sni.zoh_entries`).
+(:func:`nniquad.sim.params.state_names`) and its own compiled function.  Before
+every run the RK4 step is checked against the law's fastest pole
+(:mod:`nniquad.sim.step_check`).
 
 Integration
 -----------
@@ -97,11 +77,18 @@ import casadi as ca
 
 from nniquad.codecache import cached_casadi_function
 from nniquad.control import inner_loops as IL
-from nniquad.control import sni as SNI
-from nniquad.model.numeric import PARAM_NAMES, mixer_function, reaction_torque_function, rotation_function
+from nniquad.laws.base import ControlLaw
+from nniquad.laws.registry import law_named
+from nniquad.model.numeric import (
+    PARAM_NAMES,
+    casadi_function,
+    mixer_function,
+    reaction_torque_function,
+    rotation_function,
+)
 from nniquad.sim.codegen import compile_function
 from nniquad.sim.options import check_model
-from nniquad.sim.params import CONTROLLER_STATES, EXO_FIELDS, check_controller, param_layout, state_names
+from nniquad.sim.params import EXO_FIELDS, check_controller, param_layout, state_names
 
 __all__ = ["vehicle_dynamics", "rhs_function", "output_function", "step_function", "chunk_function"]
 
@@ -120,9 +107,8 @@ def vehicle_dynamics() -> ca.Function:
     to round-off.
     """
     import sympy as sp
+    from nniquad.model import symbolic as S  # lazily: sympy costs 0.3 s, and a cached build needs none
 
-    from nniquad.model import symbolic as S
-    from nniquad.model.numeric import casadi_function
 
     s = S.symbols()
     W = S.euler_rate_matrix()
@@ -139,49 +125,34 @@ def vehicle_dynamics() -> ca.Function:
     return ca.Function("quadrotor_exact_factored", [x, u, om, p], [xdot], ["x", "u", "Omega_r", "p"], ["xdot"])
 
 
+def _law_parameters(law: ControlLaw, P: dict) -> dict:
+    """The entries the law's expressions read (its gains by field name and ``m_hat``) from the parameter dict."""
+    return {**{name: P[f"gains.{name}"] for name in law.gain_names}, "m_hat": P["nominal.m"]}
+
+
 def _closed_loop(model: str, X: ca.SX, e: ca.SX, p: ca.SX, controller: str = "nni") -> tuple[ca.SX, ca.SX]:
     """Continuous closed-loop right-hand side and the output vector of one model and controller (SX)."""
     P = {f.name: p[i] for i, f in enumerate(param_layout(controller))}
+    law = law_named(check_controller(controller))
     noise, gust = e[0:2], e[3:5]
     wind = ca.vertcat(P["run.wind_x"], P["run.wind_y"]) + gust
     ix = _index(model, controller)
     pos, vel = X[[ix["x"], ix["y"]]], X[[ix["x_dot"], ix["y_dot"]]]
-    zc, held = X[[ix["zc_x"], ix["zc_y"]]], X[[ix["held_x"], ix["held_y"]]]
-    zc_dot_extra = []  # derivatives of the controller states after zc_x, zc_y (sni2: z')
+    held = X[[ix["held_x"], ix["held_y"]]]
+    xc = [X[ix[n]] for n in law.sim_state_names]
     meas = ca.if_else(P["run.sample_hold"] > 0.5, held, pos + noise)
-    if controller == "sni2":
-        # a_h = -kp xi + z/m, z'' + 2 zeta omega z' + omega^2 z = k xi (nniquad.control.sni, written once there)
-        zd = X[[ix["zcd_x"], ix["zcd_y"]]]
-        A_c, B_c, _ = SNI.realisation(P["gains.k"], P["gains.omega"], P["gains.zeta"])
-        a_h = -P["gains.kp"] * meas + zc / P["nominal.m"]
-        still = ca.SX.zeros(2)
-        # discrete variant: (z, z') constant over the period and advanced by step_function at the samples
-        discrete = P["run.discrete"] > 0.5
-        zc_dot = ca.if_else(discrete, still, A_c[0][0] * zc + A_c[0][1] * zd + B_c[0][0] * meas)
-        zc_dot_extra = [ca.if_else(discrete, still, A_c[1][0] * zc + A_c[1][1] * zd + B_c[1][0] * meas)]
-    elif controller == "nni":
-        kp = ca.vertcat(P["gains.kp"], P["gains.kpy"])
-        a_h = -kp * meas + zc / P["nominal.m"]
-        # discrete variant: z is constant over the period and advanced by step_function at the samples
-        zc_dot = ca.if_else(P["run.discrete"] > 0.5, ca.SX.zeros(2),
-                            -P["gains.Gamma"] * P["gains.delta"] * zc + P["gains.Gamma"] * meas)
-    elif controller == "pd_velocity":
-        # discrete variant: the velocity sampled with the position (latched into zc by step_function)
-        v_meas = ca.if_else(P["run.discrete"] > 0.5, zc, vel)
-        a_h = -P["gains.kp"] * meas - P["gains.kd"] * v_meas
-        zc_dot = ca.SX.zeros(2)
-    else:  # pd_filtered; zc = filter state d
-        v_hat = (meas - zc) / P["gains.tau_f"]
-        a_h = -P["gains.kp"] * meas - P["gains.kd"] * v_hat
-        # discrete variant: d is constant over the period and advanced by step_function at the samples
-        zc_dot = ca.if_else(P["run.discrete"] > 0.5, ca.SX.zeros(2), v_hat)
+    discrete = P["run.discrete"] > 0.5
+    a_list, xc_rates = law.sim_rates(_law_parameters(law, P), [meas[0], meas[1]], [vel[0], vel[1]], xc, discrete, ca)
+    a_h = ca.vertcat(*a_list)
+    # discrete variant: the controller states are constant over the period and advanced by step_function
+    zc_dot = ca.if_else(discrete, ca.SX.zeros(len(xc)), ca.vertcat(*xc_rates)) if xc else ca.SX.zeros(0)
     if model in ("linear", "reduced"):
         g = P["nominal.g"]
         if model == "reduced":
             a_h = IL.limit_norm(a_h, g * ca.tan(P["run.tilt_limit"]))
         acc = (P["nominal.m"] / P["plant.m"]) * a_h + wind / P["plant.m"]
         phi_d, theta_d, tilt = IL.tilt_setpoints(a_h, g, 0)
-        Xdot = ca.vertcat(vel[0], acc[0], vel[1], acc[1], zc_dot, *zc_dot_extra, ca.SX.zeros(2))
+        Xdot = ca.vertcat(vel[0], acc[0], vel[1], acc[1], zc_dot, ca.SX.zeros(2))
         return Xdot, ca.vertcat(a_h, tilt, phi_d, theta_d)
 
     # ---- full vehicle
@@ -212,7 +183,7 @@ def _closed_loop(model: str, X: ca.SX, e: ca.SX, p: ca.SX, controller: str = "nn
     sdot = vehicle_dynamics()(s, u, omega_r, p_true)
     sdot[1] += wind[0] / P["plant.m"]
     sdot[3] += wind[1] / P["plant.m"]
-    Xdot = ca.vertcat(sdot, zc_dot, *zc_dot_extra, ca.SX.zeros(2), z, w_dot)
+    Xdot = ca.vertcat(sdot, zc_dot, ca.SX.zeros(2), z, w_dot)
     return Xdot, ca.vertcat(a_h, tilt, w_act, u[0])
 
 
@@ -228,8 +199,8 @@ def _symbols(model: str, controller: str) -> tuple[ca.SX, ca.SX, ca.SX]:
 
 
 def _suffix(controller: str) -> str:
-    """Function-name suffix: none for the NNI controller, ``_<law>`` for the others."""
-    return "" if check_controller(controller) == "nni" else f"_{controller}"
+    """Function-name suffix: ``_<law>``."""
+    return f"_{check_controller(controller)}"
 
 
 @cached_casadi_function
@@ -264,40 +235,29 @@ def step_function(model: str, controller: str = "nni") -> ca.Function:
     With the discrete controller (``run.discrete = 1``) a later sample
     (``e[2] = 2``) first advances the controller state by one period on the
     value held over the period that ends, and then latches ``ξ_{k+1}``; the
-    first sample (``e[2] = 1``, ``t = 0``) only latches.  The advance is the exact
-    ZOH equivalent of the law's continuous state equation: NNI
-    ``z_{k+1} = e^{-ΓδT} z_k + (1 - e^{-ΓδT})/δ ξ_k``
-    (:class:`nniquad.control.discrete.DiscreteNNI`); ``pd_filtered``
-    ``d_{k+1} = e^{-T/τ_f} d_k + (1 - e^{-T/τ_f}) ξ_k``.  ``pd_velocity`` has no
-    controller state: every sample latches the true velocity into ``zc`` with the
-    position (a sampled velocity sensor).
+    first sample (``e[2] = 1``, ``t = 0``) only latches.  The advance is the law's
+    :meth:`~nniquad.laws.base.ControlLaw.sim_sample`: the exact ZOH equivalent of its
+    continuous state equation (NNI ``z_{k+1} = e^{-ΓδT} z_k + (1 - e^{-ΓδT})/δ ξ_k``,
+    what :class:`nniquad.control.discrete.DiscreteLaw` runs); the PD law with the
+    true velocity latches the velocity with the position instead (a sampled
+    velocity sensor).
     """
     X, e, p = _symbols(model, controller)
     ix = _index(model, controller)
     hs = [ix["held_x"], ix["held_y"]]
-    zs = [ix[n] for n in CONTROLLER_STATES[controller]]
+    law = law_named(check_controller(controller))
+    zs = [ix[n] for n in law.sim_state_names]
     pos = X[[ix["x"], ix["y"]]]
     P = {f.name: p[i] for i, f in enumerate(param_layout(check_controller(controller)))}
     discrete = P["run.discrete"] > 0.5
     advance = ca.logic_and(e[2] > 1.5, discrete)  # a later sample: the period that ends is integrated first
-    if controller == "sni2":
-        # exact ZOH of (z, z') over the period on the value held over it (nniquad.control.sni.zoh_entries)
-        Ad, Bd = SNI.zoh_entries(P["gains.k"], P["gains.omega"], P["gains.zeta"], P["run.sample_period"], ca)
-        z, zd, h = X[zs[0:2]], X[zs[2:4]], X[hs]
-        zc = ca.if_else(advance, ca.vertcat(Ad[0][0] * z + Ad[0][1] * zd + Bd[0][0] * h,
-                                            Ad[1][0] * z + Ad[1][1] * zd + Bd[1][0] * h), X[zs])
-    elif controller == "nni":
-        gd_T = P["gains.Gamma"] * P["gains.delta"] * P["run.sample_period"]
-        a, b = ca.exp(-gd_T), -ca.expm1(-gd_T) / P["gains.delta"]
-        zc = ca.if_else(advance, a * X[zs] + b * X[hs], X[zs])
-    elif controller == "pd_filtered":
-        # exact ZOH of d' = (xi - d)/tau_f over the period, on the value held over it
-        a = ca.exp(-P["run.sample_period"] / P["gains.tau_f"])
-        zc = ca.if_else(advance, a * X[zs] + (1 - a) * X[hs], X[zs])
-    else:  # pd_velocity: every sample (the first too) latches the true velocity with the position
-        zc = ca.if_else(ca.logic_and(e[2] > 0.5, discrete), X[[ix["x_dot"], ix["y_dot"]]], X[zs])
-    # the controller states and the held measurement are contiguous runs of the state (state_names)
-    Xa = ca.vertcat(X[: zs[0]], zc, X[zs[-1] + 1 :])
+    sample = ca.logic_and(e[2] > 0.5, discrete)
+    Xa = X
+    if zs:
+        zc = ca.vertcat(*law.sim_sample(_law_parameters(law, P), [X[i] for i in zs], [X[hs[0]], X[hs[1]]],
+                                        [X[ix["x_dot"]], X[ix["y_dot"]]], P["run.sample_period"], sample, advance, ca))
+        # the controller states and the held measurement are contiguous runs of the state (state_names)
+        Xa = ca.vertcat(X[: zs[0]], zc, X[zs[-1] + 1 :])
     Xs = ca.vertcat(Xa[: hs[0]], ca.if_else(e[2] > 0.5, pos + e[0:2], Xa[hs]), Xa[hs[-1] + 1 :])
     f = rhs_function(model, controller)
     h = p[[entry.name for entry in param_layout(controller)].index("run.dt")]

@@ -1,7 +1,7 @@
 """Options of a simulation run (:class:`SimOptions`), validated on construction.
 
 The controller law is not an option: it is the type of the gain block given to
-:func:`nniquad.sim.simulate` (:mod:`nniquad.control.gains`).
+:func:`nniquad.sim.simulate` (:mod:`nniquad.laws`).
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from nniquad.config import DT_S, OUTPUT_DT_S, TILT_LIMIT_DEG, XI0_M
-from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, InnerLoopGains
+from nniquad.control.inner_gains import DEFAULT_INNER_LOOP_GAINS, InnerLoopGains
 from nniquad.errors import SimulationError
 from nniquad.validate import finite_number
 
@@ -107,8 +107,9 @@ class SimOptions:
         Initial horizontal position [m] (vehicle at rest, level, ψ = 0, z = 0; default
         :data:`nniquad.config.XI0_M`).
     zc0
-        Initial NNI controller state (default 0; the PD laws and ``sni2`` ignore it: they start at
-        the measured position, :func:`nniquad.sim.runner.initial_state`).
+        Added to the first controller state of each axis at the start (default 0).  The NNI law starts at
+        zero, so this is its initial state ``z(0)``; the other laws start at their take-over state for the
+        measured position (:func:`nniquad.sim.runner.initial_state`).
     noise_sigma_m
         Standard deviation of the position noise [m] (≥ 0).
     noise_rate_hz

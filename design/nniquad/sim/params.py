@@ -5,21 +5,22 @@ vector ``p``), so one compiled function serves many gain sets, perturbed
 vehicles and scenarios.  Its layout is not kept by hand: :func:`param_layout`
 reads it from the fields of five typed blocks, in this order,
 
-============  ===================================================  =====================
+============  ====================================================  ===============================
 group         block                                                 what it is
-============  ===================================================  =====================
-``gains``     the controller's gain block (:data:`CONTROLLER_GAINS`)  horizontal controller
+============  ====================================================  ===============================
+``gains``     the law's gain block (:attr:`ControlLaw.gains_type`)  horizontal controller
 ``nominal``   :class:`VehicleParams` (the :class:`Vehicle` fields)  what the controller assumes
-``inner``     :class:`nniquad.control.gains.InnerLoopGains`         inner loops (``full``)
+``inner``     :class:`nniquad.control.inner_gains.InnerLoopGains`   inner loops (``full``)
 ``plant``     :class:`VehicleParams`                                the true vehicle
 ``run``       :class:`RunSettings`                                  tilt limit, motor lag, wind, ...
-============  ===================================================  =====================
+============  ====================================================  ===============================
 
 and the entries are named ``group.field`` (``"gains.kp"``, ``"plant.m"``,
 ``"inner.attitude_wn_rad_s"``, ``"run.dt"``), each with its unit.  The gain
-part differs per controller (NNI: ``kp, Gamma, delta, kpy``; PD with true
-velocity: ``kp, kd``; PD with filtered derivative: ``kp, kd, tau_f``), so each
-controller has its own layout and its own compiled function.
+part differs per law (NNI: ``kp, Gamma, delta, kpy``; PD with true
+velocity: ``kp, kd``; PD with filtered derivative: ``kp, kd, tau_f``; every
+registered law of :mod:`nniquad.laws` its own fields), so each law has its own
+layout and its own compiled function.
 
 :class:`SimParams` holds one such parameter set as typed blocks.
 :class:`VehicleParams` is not validated beyond finiteness: a Monte Carlo plant
@@ -35,17 +36,16 @@ from typing import Any, Mapping, NamedTuple, Sequence
 
 import numpy as np
 
-from nniquad.control.gains import (CONTROLLER_GAINS, ControllerGains, Gains, InnerLoopGains, PDFilteredGains,
-                                   PDGains, SNI2Gains, field_unit)
-from nniquad.errors import GainError, SimulationError
+from nniquad.control.inner_gains import InnerLoopGains
+from nniquad.errors import SimulationError
+from nniquad.laws.base import GainBlock, field_unit
+from nniquad.laws.registry import law_named, law_names, to_gains as _registry_gains
 from nniquad.model.layout import STATE_ORDER
 from nniquad.model.vehicle import DESCRIPTIONS, UNITS, Vehicle
 
 __all__ = [
-    "CONTROLLERS",
     "EXO_FIELDS",
     "STATE_NAMES",
-    "CONTROLLER_STATES",
     "state_names",
     "OUTPUT_NAMES",
     "ParamField",
@@ -58,28 +58,27 @@ __all__ = [
     "check_controller",
 ]
 
-#: Horizontal controllers: the paper's NNI law and two PD comparison laws (one gain block each).
-CONTROLLERS: tuple[str, ...] = tuple(CONTROLLER_GAINS)
-
 #: Per-step exogenous input ``e``: position noise [m], sample flag, gust force [N].  The sample flag is
 #: 0 between samples, 1 at the first sample of a run (the measurement is latched) and 2 at every later
 #: sample (the discrete controller first advances one period on the previous held value, then the
 #: measurement is latched); the continuous and held variants treat 1 and 2 alike.
 EXO_FIELDS: tuple[str, ...] = ("noise_x", "noise_y", "sample_flag", "gust_x", "gust_y")
 
-#: Controller states of each law, both axes: ``zc_x, zc_y`` is the state of a one-state law (NNI: z;
-#: ``pd_filtered``: the filter state d; ``pd_velocity``: unused, zero, or the sampled velocity of the
-#: discrete variant); ``sni2`` has ``z`` [N] in ``zc_*`` and ``z'`` [N/s] in ``zcd_*``.
-CONTROLLER_STATES: dict[str, tuple[str, ...]] = {
-    "nni": ("zc_x", "zc_y"), "pd_velocity": ("zc_x", "zc_y"), "pd_filtered": ("zc_x", "zc_y"),
-    "sni2": ("zc_x", "zc_y", "zcd_x", "zcd_y"),
-}
-
 
 def state_names(model: str, controller: str = "nni") -> tuple[str, ...]:
-    """State of a model with a controller law: the plant, the controller states (:data:`CONTROLLER_STATES`),
-    the sampled-and-held measurement ``held_*``, and on ``full`` the altitude integrator and the rotor speeds."""
-    ctrl = CONTROLLER_STATES[check_controller(controller)]
+    """State of a model with a controller law: the plant, the law's controller states
+    (:attr:`nniquad.laws.base.ControlLaw.sim_state_names`: ``zc_x, zc_y`` for a one-state law, ``sni2`` adds
+    ``zcd_x, zcd_y``), the sampled-and-held measurement ``held_*``, and on ``full`` the altitude integrator and
+    the rotor speeds.
+
+    Parameters
+    ----------
+    model
+        ``"linear"``, ``"reduced"`` or ``"full"``.
+    controller
+        A registered law's name.
+    """
+    ctrl = law_named(check_controller(controller)).sim_state_names
     if model in ("linear", "reduced"):
         return ("x", "x_dot", "y", "y_dot") + ctrl + ("held_x", "held_y")
     if model == "full":
@@ -87,7 +86,7 @@ def state_names(model: str, controller: str = "nni") -> tuple[str, ...]:
     raise SimulationError(f"unknown model {model!r} (choose one of linear, reduced, full)")
 
 
-#: State of each model with a one-state controller law (every law but ``sni2``: :func:`state_names`).
+#: State of each model with a one-state controller law (:func:`state_names` of the NNI law).
 STATE_NAMES: dict[str, tuple[str, ...]] = {
     "linear": ("x", "x_dot", "y", "y_dot", "zc_x", "zc_y", "held_x", "held_y"),
     "full": STATE_ORDER + ("zc_x", "zc_y", "held_x", "held_y", "z_int", "w1", "w2", "w3", "w4"),
@@ -103,9 +102,15 @@ OUTPUT_NAMES["reduced"] = OUTPUT_NAMES["linear"]
 
 
 def check_controller(controller: str) -> str:
-    """``controller`` if it is one of :data:`CONTROLLERS`, else :class:`SimulationError`."""
-    if not isinstance(controller, str) or controller not in CONTROLLERS:
-        raise SimulationError(f"unknown controller {controller!r} (choose one of {', '.join(CONTROLLERS)})")
+    """``controller`` if it names a registered law (:mod:`nniquad.laws`), else :class:`SimulationError`.
+
+    Parameters
+    ----------
+    controller
+        The law's name.
+    """
+    if not isinstance(controller, str) or controller not in law_names():
+        raise SimulationError(f"unknown controller {controller!r} (choose one of {', '.join(law_names())})")
     return controller
 
 
@@ -193,8 +198,9 @@ _GROUPS: tuple[tuple[str, str], ...] = (("gains", ""), ("nominal", "assumed by t
 
 
 def _block_type(group: str, controller: str) -> type:
-    return {"gains": CONTROLLER_GAINS[controller], "nominal": VehicleParams, "inner": InnerLoopGains,
-            "plant": VehicleParams, "run": RunSettings}[group]
+    if group == "gains":
+        return law_named(controller).gains_type
+    return {"nominal": VehicleParams, "inner": InnerLoopGains, "plant": VehicleParams, "run": RunSettings}[group]
 
 
 @lru_cache(maxsize=None)
@@ -204,7 +210,7 @@ def param_layout(controller: str = "nni") -> tuple[ParamField, ...]:
     Parameters
     ----------
     controller
-        One of :data:`CONTROLLERS`.
+        A registered law's name.
 
     Returns
     -------
@@ -227,53 +233,27 @@ def n_params(controller: str = "nni") -> int:
 # =============================================================================== gains
 
 
-def _gain_values(cls: type, values: Sequence[Any] | Mapping[str, Any]) -> ControllerGains:
-    names = [f.name for f in fields(cls)]
-    required = [f.name for f in fields(cls) if f.default is MISSING and f.default_factory is MISSING]
-    label = "a gain set" if cls is Gains else f"a {cls.controller} gain set"
-    if isinstance(values, Mapping):
-        unknown = [k for k in values if k not in names]
-        if unknown:
-            raise GainError(f"{label} has no gain '{unknown[0]}' (gains: {', '.join(names)})")
-        missing = [k for k in required if k not in values]
-        if missing:
-            raise GainError(f"{label} lacks '{missing[0]}'")
-        return cls(**values)
-    try:
-        vals = list(values)
-    except TypeError:
-        raise GainError(f"cannot read {label} from {values!r}") from None
-    if not len(required) <= len(vals) <= len(names):
-        raise GainError(f"{label} tuple is ({', '.join(names)}) with {len(required)} to {len(names)} values, "
-                        f"got {len(vals)}")
-    return cls(*vals)
-
-
-def to_gains(gains: Any, controller: str | None = None) -> ControllerGains:
-    """A typed gain block from a block, a mapping or a tuple.
+def to_gains(gains: Any, controller: str | None = None) -> GainBlock:
+    """A typed gain block from a block, a mapping or a tuple (:func:`nniquad.laws.registry.to_gains`).
 
     Parameters
     ----------
     gains
-        A :class:`Gains`, :class:`PDGains` or :class:`PDFilteredGains` (returned
-        as it is), or a mapping / tuple of the fields of the ``controller``'s
-        block (``(kp, Gamma, delta[, kpy])``, ``(kp, kd)``, ``(kp, kd[, tau_f])``).
+        A gain block (returned as it is), or a mapping / tuple of the fields of the ``controller``'s block
+        (``(kp, Gamma, delta[, kpy])``, ``(kp, kd)``, ``(kp, kd[, tau_f])``, ...).
     controller
-        The law the gains must be for; ``None`` accepts any block and reads a
-        mapping or tuple as NNI gains.
+        The law the gains must be for; ``None`` accepts any block and reads a mapping or tuple as NNI gains.
 
     Raises
     ------
     GainError
         Missing, unknown, non-finite or non-positive gains, or a block of another law.
+    SimulationError
+        An unknown law.
     """
-    want = None if controller is None else check_controller(controller)
-    if isinstance(gains, (Gains, PDGains, PDFilteredGains, SNI2Gains)):
-        if want is not None and gains.controller != want:
-            raise GainError(f"{type(gains).__name__} ({gains.controller}) given where {want} gains are needed "
-                            f"(use {CONTROLLER_GAINS[want].__name__})")
-        return gains
-    return _gain_values(CONTROLLER_GAINS[want or "nni"], gains)
+    if controller is not None:
+        check_controller(controller)
+    return _registry_gains(gains, controller)
 
 
 # =============================================================================== parameter set
@@ -296,12 +276,14 @@ class SimParams:
     run
         Tilt limit, motor lag, wind, sampling and step (:class:`RunSettings`).
 
+    Notes
+    -----
     Build one with :meth:`from_options`; perturb it with :meth:`with_`, e.g.
     ``p.with_(plant={"m": 0.6}, inner={"attitude_gain_scale": 1.2})``; pass it
     (or a list) to :func:`nniquad.sim.simulate` as ``params``.
     """
 
-    gains: ControllerGains
+    gains: GainBlock
     nominal: Any  # VehicleParams
     inner: InnerLoopGains
     plant: Any  # VehicleParams

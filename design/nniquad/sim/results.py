@@ -6,7 +6,7 @@ time vector, the states and outputs as arrays with a leading run axis, named
 signal accessors (``xy``, ``phi``, ``theta``, ``tilt_deg``, ``z_ned``,
 :meth:`SimulationResult.state`, :meth:`SimulationResult.output`), the metrics
 of every run (one definition, :mod:`nniquad.sim.metrics`) and ``plot()``
-(drawn by :mod:`nniquad.reporting.plots`).  ``result[i]`` is a
+(drawn by :mod:`nniquad.sim.plots`).  ``result[i]`` is a
 :class:`Trajectory`, the view of run ``i``.
 """
 
@@ -19,15 +19,15 @@ from typing import Any, Iterator
 
 import numpy as np
 
-from nniquad.sim.metrics import settling_time_batch, tilt_deg
-
-from nniquad.sim.verdicts import Metrics, altitude_lost_batch, compute_metrics, diverged_batch
-from nniquad.control.gains import ControllerGains
 from nniquad.errors import SimulationError
 from nniquad.io import atomic_write_with
+from nniquad.laws.base import GainBlock
 from nniquad.model.vehicle import Vehicle
+from nniquad.sim.metrics import settling_time_batch, tilt_deg
 from nniquad.sim.options import SimOptions
 from nniquad.sim.params import SimParams
+from nniquad.sim.plots import runs_plot
+from nniquad.sim.verdicts import Metrics, altitude_lost_batch, compute_metrics, diverged_batch
 
 __all__ = ["Trajectory", "SimulationResult"]
 
@@ -56,7 +56,7 @@ class Trajectory:
 
     model: str
     options: SimOptions
-    gains: ControllerGains
+    gains: GainBlock
     vehicle: Vehicle | None
     t: np.ndarray
     state: np.ndarray
@@ -210,7 +210,7 @@ class SimulationResult:
     outputs: np.ndarray
     state_names: tuple[str, ...]
     output_names: tuple[str, ...]
-    gains: tuple[ControllerGains, ...]
+    gains: tuple[GainBlock, ...]
     options: tuple[SimOptions, ...]
     params: tuple[SimParams, ...]
     vehicle: Vehicle | None = None
@@ -337,19 +337,17 @@ class SimulationResult:
     # ---------------------------------------------------------------- plot
 
     def plot(self, path: str | os.PathLike[str] | None = None, **kwargs: Any):
-        """Distance and tilt of every run (:func:`nniquad.reporting.plots.runs_plot`).
+        """Distance and tilt of every run (:func:`nniquad.sim.plots.runs_plot`).
 
         Parameters
         ----------
         path
             PNG file to write; ``None`` only returns the figure.
         **kwargs
-            Passed to :func:`nniquad.reporting.plots.runs_plot` (``labels``, ``title``).
+            Passed to :func:`nniquad.sim.plots.runs_plot` (``labels``, ``title``).
 
         Returns
         -------
         matplotlib.figure.Figure
         """
-        from nniquad.reporting.plots import runs_plot
-
         return runs_plot(self, path, **kwargs)

@@ -40,13 +40,14 @@ import casadi as ca
 import numpy as np
 
 from nniquad.config import XI0_M
-from nniquad.control.gains import PAPER_GAINS, ControllerGains, Gains, PDFilteredGains, PDGains, SNI2Gains
 from nniquad.errors import GainError, SimulationError
+from nniquad.laws.base import GainBlock
+from nniquad.laws.nni import PAPER_GAINS
 from nniquad.model.vehicle import PAPER_VEHICLE, Vehicle
+from nniquad.resources import usable_cpu_count
 from nniquad.sim.models import chunk_function, output_function
 from nniquad.sim.options import MODELS, SimOptions, check_model
-from nniquad.sim.params import (EXO_FIELDS, OUTPUT_NAMES, SimParams, check_controller, n_params, state_names,
-                                to_gains)
+from nniquad.sim.params import EXO_FIELDS, OUTPUT_NAMES, SimParams, check_controller, n_params, state_names, to_gains
 from nniquad.sim.results import SimulationResult, Trajectory
 from nniquad.sim.step_check import check_step
 
@@ -84,7 +85,6 @@ def batch_threads(runs: int) -> int:
     runs
         Number of runs in the batch.
     """
-    from nniquad.resources import usable_cpu_count
 
     cap = usable_cpu_count() if _BATCH_THREADS is None else _BATCH_THREADS
     return max(1, min(int(runs), cap))
@@ -98,7 +98,7 @@ def _segment_function(model: str, K: int, M: int, B: int, shared_exo: bool, cont
     The runs of a batch are spread over threads by :func:`run_batch`, one such function
     per thread, not by CasADi's ``"thread"`` map: CasADi's Python binding releases the GIL
     during the call, so the threads run at once.  Why the ``"thread"`` map is slower was not
-    isolated (FINDINGS §27); measured on 2 cores, 40 full-model runs of 20 s: 0.38 s this way against 0.43-0.47 s
+    isolated (docs/notes/speed.md); measured on 2 cores, 40 full-model runs of 20 s: 0.38 s this way against 0.43-0.47 s
     with the ``"thread"`` map, and 0.76 s one by one (``benchmarks/bench_simulate.py``).
     """
     chunk = chunk_function(model, K, controller)
@@ -109,7 +109,7 @@ def _segment_function(model: str, K: int, M: int, B: int, shared_exo: bool, cont
     p = ca.MX.sym("p", n_params(controller))
     # p is the same for every sample of a run: repeat it explicitly (mapaccum maps every non-accumulated input)
     Xs, Ys = acc(x, E, ca.repmat(p, 1, M))
-    sfx = "" if controller == "nni" else f"_{controller}"
+    sfx = f"_{controller}"
     seg = ca.Function(f"seg_{model}{sfx}_{K}_{M}", [x, E, p], [Xs, Ys], ["x0", "E", "p"], ["X", "Y"])
     if B == 1:
         return seg
@@ -174,10 +174,9 @@ def initial_state(model: str, params: SimParams, xi0: Sequence[float] = XI0_M,
                   zc0: Sequence[float] = (0.0, 0.0)) -> np.ndarray:
     """Initial state: at ``xi0``, at rest, level, ψ = 0, z = 0; motors at the nominal hover speed.
 
-    Controller states: ``zc0`` for ``"nni"``; for ``"sni2"`` at rest at its DC value for the position,
-    ``z = C(0) xi0``, ``z' = 0`` (:func:`nniquad.control.sni.start_state`); the filter at ``d = xi0``
-    (velocity estimate 0) for ``"pd_filtered"``; zero (unused) for ``"pd_velocity"``.  ``zc0`` is read
-    by the NNI law only.
+    Controller states: the law's start at the measured position
+    (:meth:`nniquad.laws.base.ControlLaw.sim_start_state`: the NNI law at zero, the ``sni2`` law at rest at its DC
+    value ``z = C(0) xi0``, the filtered PD's filter at ``d = xi0``), plus ``zc0`` on each axis's first state.
     """
     check_model(model)
     controller = params.controller
@@ -185,16 +184,14 @@ def initial_state(model: str, params: SimParams, xi0: Sequence[float] = XI0_M,
     x0 = np.zeros(len(names))
     ix = {n: i for i, n in enumerate(names)}
     x0[ix["x"]], x0[ix["y"]] = xi0
-    if controller == "nni":
-        x0[ix["zc_x"]], x0[ix["zc_y"]] = zc0
-    elif controller == "sni2":
-        from nniquad.control.sni import start_state
-
-        g = params.gains
-        for name, v in zip(("zc_x", "zc_y", "zcd_x", "zcd_y"), start_state(g.k, g.omega, xi0)):
+    law = params.gains.law
+    sim_names = law.sim_state_names
+    if sim_names:
+        start = law.sim_start_state(params.gains, float(params.nominal.m), xi0)
+        for name, v in zip(sim_names, start):
             x0[ix[name]] = v
-    elif controller == "pd_filtered":
-        x0[ix["zc_x"]], x0[ix["zc_y"]] = xi0
+        x0[ix[sim_names[0]]] += zc0[0]
+        x0[ix[sim_names[1]]] += zc0[1]
     x0[ix["held_x"]], x0[ix["held_y"]] = xi0
     if model == "full":
         nom = params.nominal
@@ -339,7 +336,7 @@ def run_batch(
 
 # =============================================================================== the entry point
 
-GainsLike = ControllerGains | Mapping[str, Any] | Sequence[float]
+GainsLike = GainBlock | Mapping[str, Any] | Sequence[float]
 
 
 def _as_list(value: Any, kind: type, what: str) -> list:
@@ -355,11 +352,11 @@ def _as_list(value: Any, kind: type, what: str) -> list:
     return items
 
 
-def _gain_list(gains: Any) -> list[ControllerGains]:
+def _gain_list(gains: Any) -> list[GainBlock]:
     """One gain set (a block, a mapping, a tuple of numbers) or a sequence of gain sets."""
     if gains is None:
         return [PAPER_GAINS]
-    if isinstance(gains, (Gains, PDGains, PDFilteredGains, SNI2Gains, Mapping, str, bytes)):
+    if isinstance(gains, (GainBlock, Mapping, str, bytes)):
         return [to_gains(gains)]
     try:
         items = list(gains)
@@ -400,8 +397,8 @@ def simulate(
         only labels the result (default ``None`` there).
     gains
         One gain set or a sequence of them (one run each): a
-        :class:`nniquad.control.gains.Gains` (NNI), :class:`PDGains` or
-        :class:`PDFilteredGains` -- the block's type is the controller law --
+        gain block of a registered law (:mod:`nniquad.laws`: :class:`~nniquad.laws.nni.Gains`,
+        :class:`~nniquad.laws.sni2.SNI2Gains`, ...) -- the block's type is the controller law --
         or a mapping / ``(kp, Gamma, delta[, kpy])`` tuple of NNI gains.
         Default the paper's gains.  All runs must use one law.
     options

@@ -7,8 +7,9 @@ their other checks and estimates), with ``hint`` naming their own options; a
 Monte Carlo study checks the fastest plant its ranges can draw
 (:func:`nniquad.study.check_study_step`).
 
-The poles of a run (:func:`run_poles`): the controller's own pole (NNI:
-``-Γδ``; PD with a filtered derivative: ``-1/τ_f``; ``sni2``: the faster pole of ``C(s)``), the motor pole ``-1/τ_m``
+The poles of a run (:func:`run_poles`): the controller's fastest pole
+(:meth:`nniquad.laws.base.ControlLaw.fastest_pole`; NNI: ``-Γδ``, PD with a filtered
+derivative: ``-1/τ_f``, ``sni2``: the faster pole of ``C(s)``), the motor pole ``-1/τ_m``
 when motor lag is on, and on the ``full`` model the inner loops near hover
 (:func:`nniquad.validate.inner_loop_poles`: attitude, yaw, altitude).  The
 limit, ``|λ| dt <= RK4_STEP_LIMIT``, is :func:`nniquad.validate.check_rk4_step`.
@@ -18,18 +19,16 @@ from __future__ import annotations
 
 from typing import Mapping, Sequence
 
-from nniquad.control.gains import Gains, PDFilteredGains, SNI2Gains
 from nniquad.errors import NniquadError, SimulationError
+from nniquad.laws.registry import LAWS
 from nniquad.sim.params import SimParams
 from nniquad.validate import check_rk4_step, inner_loop_poles
 
-__all__ = ["run_poles", "check_step", "API_HINTS"]
+__all__ = ["run_poles", "check_step", "API_HINTS", "law_hints"]
 
-#: What to change, by pole, in the terms of the Python API (the commands pass their option names).
+#: What to change, by pole, in the terms of the Python API (the commands pass their option names); each law's
+#: controller pole is named and hinted by the law (:attr:`nniquad.laws.base.ControlLaw.pole_label`).
 API_HINTS: dict[str, str] = {
-    "NNI controller (Gamma*delta)": "Gamma or delta, or SimOptions.dt_s",
-    "derivative filter (1/tau_f)": "tau_f or SimOptions.dt_s",
-    "SNI controller (omega, zeta)": "omega or zeta, or SimOptions.dt_s",
     "attitude": "InnerLoopGains attitude_wn_rad_s, attitude_zeta or attitude_gain_scale, or SimOptions.dt_s",
     "yaw": "InnerLoopGains yaw_wn_rad_s or yaw_zeta, or SimOptions.dt_s",
     "altitude": "InnerLoopGains altitude_wn_rad_s, or SimOptions.dt_s",
@@ -54,14 +53,9 @@ def run_poles(params: SimParams, model: str) -> dict[str, float]:
     """
     g = params.gains
     poles: dict[str, float] = {}
-    if isinstance(g, Gains):
-        poles["NNI controller (Gamma*delta)"] = float(g.Gamma * g.delta)
-    elif isinstance(g, PDFilteredGains):
-        poles["derivative filter (1/tau_f)"] = 1.0 / float(g.tau_f)
-    elif isinstance(g, SNI2Gains):
-        from nniquad.control.sni import controller_poles
-
-        poles["SNI controller (omega, zeta)"] = max(abs(pole) for pole in controller_poles(g.omega, g.zeta))
+    fastest = g.law.fastest_pole(g, float(params.nominal.m))
+    if fastest is not None:
+        poles[g.law.pole_label] = float(fastest)
     lag = params.run.motor_lag > 0.5
     if model == "full":
         poles.update(inner_loop_poles(params.inner, tau_motor_s=float(params.plant.tau_motor) if lag else None))
@@ -91,4 +85,10 @@ def check_step(params: SimParams | Sequence[SimParams], model: str, *, hint: Map
         (or ``error``) naming the pole, its ``|λ|``, the largest step it allows and what to change.
     """
     for p in [params] if isinstance(params, SimParams) else params:
-        check_rk4_step(run_poles(p, model), float(p.run.dt), error=error, hint=API_HINTS if hint is None else hint)
+        hints = {**law_hints(), **(API_HINTS if hint is None else hint)}
+        check_rk4_step(run_poles(p, model), float(p.run.dt), error=error, hint=hints)
+
+
+def law_hints() -> dict[str, str]:
+    """What to change for each registered law's controller pole, by its label (the Python API's names)."""
+    return {law.pole_label: law.pole_hint for law in LAWS.values()}

@@ -28,10 +28,20 @@ from typing import Any, Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from nniquad.sim.metrics import (DEFAULT_BAND_FRACTION, DEFAULT_DIVERGENCE_FACTOR, _time, _xy_batch, overshoot_pct,
-                                      peak_abs, rms_after, settling_time, tilt_deg, time_on_limit_fraction)
 from nniquad.config import ALTITUDE_LIMIT_M, TILT_LIMIT_DEG
 from nniquad.errors import SimulationError
+from nniquad.sim.metrics import (
+    DEFAULT_BAND_FRACTION,
+    DEFAULT_DIVERGENCE_FACTOR,
+    overshoot_pct,
+    peak_abs,
+    points_batch,
+    rms_after,
+    settling_time,
+    tilt_deg,
+    time_axis,
+    time_on_limit_fraction,
+)
 
 __all__ = ["diverged", "diverged_batch", "blew_up_batch", "altitude_lost_batch", "failure_reason", "Metrics",
            "compute_metrics"]
@@ -319,9 +329,9 @@ def compute_metrics(
         Fields whose signals were not given are ``None``; for a lost run
         (``diverged``: blown up or altitude lost) settling and overshoot are ``None``.
     """
-    ta = _time(t)
+    ta = time_axis(t)
     a = np.asarray(xy, dtype=float)
-    _xy_batch(ta, a, batched=False)
+    points_batch(ta, a, batched=False)
     div = diverged(a, z=z, altitude_limit_m=altitude_limit_m, z_ref=z_ref)
     settling = None if div else settling_time(ta, a, band_fraction)
     over = None if div else _opt(overshoot_pct(ta, a))

@@ -5,23 +5,23 @@ package asks what happens to the ``full`` closed loop (:mod:`nniquad.sim`:
 12-state vehicle, inner loops, rotor saturation) when the things the model
 leaves out are drawn at random:
 
-=====================  =====================================  ==========================
-perturbation           default range (:class:`ScenarioRanges`)  where it enters
-=====================  =====================================  ==========================
-mass                   nominal × U[0.8, 1.2]                   true plant ``m``; the
-                                                               controller keeps ``m̂``
-inertia                each axis × U[0.8, 1.2]                 true ``Jx, Jy, Jz``
+=====================  =========================================  ==========================
+perturbation           default range (:class:`ScenarioRanges`)    where it enters
+=====================  =========================================  ==========================
+mass                   nominal × U[0.8, 1.2]                       true plant ``m``; the
+                                                                   controller keeps ``m̂``
+inertia                each axis × U[0.8, 1.2]                     true ``Jx, Jy, Jz``
                        (``Jz`` capped at ``Jx + Jy``)
-attitude-loop gain     × U[0.7, 1.3]                           ``att_scale`` (torques)
-motor time constant    nominal × U[0.5, 2], lag on             ``tau_motor``
-position noise σ       U[0, 2] cm, sampled and held at 100 Hz  exogenous input
+attitude-loop gain     × U[0.7, 1.3]                               ``att_scale`` (torques)
+motor time constant    nominal × U[0.5, 2], lag on                 ``tau_motor``
+position noise σ       U[0, 2] cm, sampled and held at 100 Hz      exogenous input
                        (the law runs in discrete time at
                        that rate)
-wind force             magnitude U[0, 0.3] N,                  ``wind_x, wind_y``
+wind force             magnitude U[0, 0.3] N,                      ``wind_x, wind_y``
                        direction U[0°, 360°)
-initial displacement   uniform over the disk of radius         ``xi0``, at rest
+initial displacement   uniform over the disk of radius             ``xi0``, at rest
                        ``min(certified region, 5 m)``
-=====================  =====================================  ==========================
+=====================  =========================================  ==========================
 
 Why these ranges: a battery swap or a camera changes a 0.5 kg vehicle's mass
 by 10-20 %; inertias measured by a pendulum test or taken from CAD are good to
@@ -92,14 +92,35 @@ Modules
 """
 
 from nniquad.errors import MonteCarloError, StudyFailedError
-from nniquad.study.executors import (CONNECT_TIMEOUT_S, STOP_SIGNALS, StopRequest, StudyRun, auto_batch_size,
-                                     catch_interrupts, close_client, cluster_threads, connect_scheduler, make_batches,
-                                     run_study)
+from nniquad.scenarios.draws import (
+                                     BOX_KEYS,
+                                     DEFAULT_HORIZON_S,
+                                     DEFAULT_RANGES,
+                                     Scenario,
+                                     ScenarioRanges,
+                                     StudySetup,
+                                     certificate_rate_hz,
+                                     draw_scenario,
+                                     draw_scenarios,
+                                     study_setup_from,
+                                     within_certificate_ranges,
+)
 from nniquad.scenarios.setup import check_study_step
+from nniquad.study.certificate_setup import study_setup
+from nniquad.study.executors import (
+                                     CONNECT_TIMEOUT_S,
+                                     STOP_SIGNALS,
+                                     StopRequest,
+                                     StudyRun,
+                                     auto_batch_size,
+                                     catch_interrupts,
+                                     close_client,
+                                     cluster_threads,
+                                     connect_scheduler,
+                                     make_batches,
+                                     run_study,
+)
 from nniquad.study.runs import ScenarioResult, run_scenarios
-from nniquad.scenarios.draws import (BOX_KEYS, DEFAULT_HORIZON_S, DEFAULT_RANGES, Scenario, ScenarioRanges,
-                                     StudySetup, certificate_rate_hz, draw_scenario, draw_scenarios, study_setup,
-                                     study_setup_from, within_certificate_ranges)
 from nniquad.study.statistics import Summary, pareto_front, quantile_ci, summarize, wilson_interval
 
 __all__ = [

@@ -17,8 +17,8 @@ import time
 from typing import Any, Callable, Mapping
 
 from nniquad.errors import MonteCarloError, StudyFailedError
-from nniquad.study.runs import ScenarioResult, run_scenarios
 from nniquad.scenarios.draws import Scenario
+from nniquad.study.runs import ScenarioResult, run_scenarios
 from nniquad.study.watch import POLL_S, StopRequest, first_line, stall_limit, stopping_note
 
 __all__ = ["connect_scheduler", "close_client", "cluster_threads", "run_dask", "CONNECT_TIMEOUT_S",

@@ -37,12 +37,20 @@ import numpy as np
 
 from nniquad.errors import MonteCarloError, StudyFailedError
 from nniquad.resources import usable_cpu_count
-from nniquad.study.dask_cluster import (CONNECT_TIMEOUT_S, close_client, cluster_threads, connect_scheduler,
-                                        run_dask)
-from nniquad.study.runs import ScenarioResult, run_scenarios
 from nniquad.scenarios.draws import Scenario
-from nniquad.study.watch import (POLL_S, STOP_SIGNALS, StopRequest, catch_interrupts, check_stall_timeout,
-                                 first_line, stall_limit, stopping_note)
+from nniquad.sim.runner import set_batch_threads
+from nniquad.study.dask_cluster import CONNECT_TIMEOUT_S, close_client, cluster_threads, connect_scheduler, run_dask
+from nniquad.study.runs import ScenarioResult, run_scenarios
+from nniquad.study.watch import (
+    POLL_S,
+    STOP_SIGNALS,
+    StopRequest,
+    catch_interrupts,
+    check_stall_timeout,
+    first_line,
+    stall_limit,
+    stopping_note,
+)
 
 __all__ = [
     "StudyRun",
@@ -128,7 +136,6 @@ def _ignore_sigint(batch_threads: int | None = None) -> None:
     """Pool initializer: Ctrl-C is the parent's business; the worker's share of the CPUs for its batches."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     if batch_threads is not None:
-        from nniquad.sim.runner import set_batch_threads
 
         set_batch_threads(batch_threads)
 

@@ -17,12 +17,11 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from nniquad.sim.metrics import DEFAULT_BAND_FRACTION, settling_time_batch, tilt_deg
-
-from nniquad.sim.verdicts import altitude_lost_batch, blew_up_batch, failure_reason
 from nniquad.errors import NniquadError
-from nniquad.sim import SimOptions, simulate
 from nniquad.scenarios.draws import Scenario
+from nniquad.sim import SimOptions, simulate
+from nniquad.sim.metrics import DEFAULT_BAND_FRACTION, settling_time_batch, tilt_deg
+from nniquad.sim.verdicts import altitude_lost_batch, blew_up_batch, failure_reason
 
 __all__ = ["ScenarioResult", "run_scenarios"]
 

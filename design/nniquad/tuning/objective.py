@@ -8,14 +8,27 @@ from dataclasses import replace
 import numpy as np
 
 from nniquad import config
-from nniquad.sim.verdicts import Metrics
-from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, InnerLoopGains
+from nniquad.analysis.fast_margins import design_margins, margin_shortfall
+from nniquad.config import BAND_FRACTION, XI0_NORM_M
+from nniquad.control.inner_gains import DEFAULT_INNER_LOOP_GAINS, InnerLoopGains
+from nniquad.errors import CascadeError
 from nniquad.model.vehicle import Vehicle
-from nniquad.tuning.coordinates import attitude_accel_headroom, decode
-from nniquad.tuning.tune_options import (ALTITUDE_CAP_M, MARGIN_NOISE_M, MARGIN_TAU_FACTOR, ROBUST_QUANTILE, ROBUST_TILT_SLACK_DEG,
-                                    TILT_SLACK_DEG,
-                                    TuneOptions)
-
+from nniquad.scenarios.ranges import DEFAULT_RANGES
+from nniquad.sim import SimOptions, simulate
+from nniquad.sim.metrics import settling_time_batch
+from nniquad.sim.verdicts import Metrics, compute_metrics
+from nniquad.tuning.coordinates import decode, tunable_law
+from nniquad.tuning.robust_scenarios import tuning_scenarios
+from nniquad.tuning.tune_options import (
+    ALTITUDE_CAP_M,
+    MARGIN_NOISE_M,
+    MARGIN_TAU_FACTOR,
+    ROBUST_QUANTILE,
+    ROBUST_TILT_SLACK_DEG,
+    TILT_SLACK_DEG,
+    TuneOptions,
+)
+from nniquad.tuning.vehicle_limits import attitude_accel_headroom, gain_limits
 
 # ----------------------------------------------------------------------------- evaluation
 
@@ -27,7 +40,6 @@ def simulation_options(options: TuneOptions, horizon_s: float, inner: InnerLoopG
     discrete time (the certificate's ``full`` reference run and ``nniquad export``);
     ``reduced``: the paper's continuous loop.
     """
-    from nniquad.sim import SimOptions
 
     opts = SimOptions(model=options.model, horizon_s=horizon_s, output_dt_s=0.005,
                       tilt_limit_deg=options.tilt_limit_deg, noise_sigma_m=options.noise_sigma_m,
@@ -37,7 +49,7 @@ def simulation_options(options: TuneOptions, horizon_s: float, inner: InnerLoopG
     return opts
 
 
-def _scenario_options(options: TuneOptions, base, vehicle: Vehicle) -> list:
+def scenario_options(options: TuneOptions, base, vehicle: Vehicle) -> list:
     """Nominal, the mass-range ends when asked for, and the ``full`` margin scenario (cost: the worst)."""
     out = [base]
     if options.mass_range is not None:
@@ -130,7 +142,7 @@ def _cost(metrics: Metrics, xy_end: np.ndarray, xi0_norm: float, horizon: float,
     return cost
 
 
-def _tau_cap(vehicle: Vehicle, options: TuneOptions) -> float | None:
+def tau_cap(vehicle: Vehicle, options: TuneOptions) -> float | None:
     """Nominal motor time constant that caps ω_a (``full`` with motor lag), else ``None``."""
     return vehicle.tau_motor if (options.model == "full" and options.motor_lag) else None
 
@@ -165,7 +177,7 @@ def evaluate(vehicle: Vehicle, points: np.ndarray, options: TuneOptions, horizon
 
 def _decode_all(vehicle: Vehicle, pts: np.ndarray, options: TuneOptions, inner: InnerLoopGains) -> list:
     alpha = attitude_accel_headroom(vehicle, options.tilt_limit_deg)
-    return [decode(q, vehicle.m, options.gamma_max, inner, alpha, _tau_cap(vehicle, options), options.controller,
+    return [decode(q, vehicle.m, options.gamma_max, inner, alpha, tau_cap(vehicle, options), options.controller,
                    options.law_class) for q in pts]
 
 
@@ -175,27 +187,41 @@ CLASS_PENALTY_HORIZONS = 12.0
 
 
 def class_violations(vehicle: Vehicle, decoded: list, options: TuneOptions) -> np.ndarray:
-    """How far each candidate's NNI image lies outside the law class's box (0 inside; :mod:`nniquad.tuning.laws`).
+    """How far each candidate's NNI image lies outside the law class's box (0 inside;
+    :meth:`nniquad.tuning.coordinates.TunableLaw.image_violation`).
 
-    Zero for every candidate unless a filtered PD is tuned in a class.
+    Zero for every candidate unless a law is tuned in a class through its image (a filtered PD).
+
+    Parameters
+    ----------
+    vehicle
+        The vehicle.
+    decoded
+        ``(gains, inner loops)`` of each candidate.
+    options
+        The tuning options.
     """
-    from nniquad.tuning.coordinates import gain_limits
-    from nniquad.tuning.laws import law_of
-
-    law = law_of(options.controller, options.law_class)
-    if law.controller != "pd_filtered" or law.law_class is None:
-        return np.zeros(len(decoded))
+    law = tunable_law(options.controller, options.law_class)
     lim = gain_limits(vehicle, options.tilt_limit_deg)
     return np.array([law.image_violation(g, vehicle.m, options.gamma_max, lim["kp_max"], lim["gamma_delta_max"])
                      for g, _ in decoded])
 
 
 def nni_design(vehicle: Vehicle, gains, options: TuneOptions):
-    """The NNI gains a candidate is certified as: the NNI gains themselves, or a filtered PD's image."""
-    from nniquad.control.gains import PDFilteredGains
-    from nniquad.control.pd_equivalence import nni_from_filtered_pd
+    """The gains of the NI structure a candidate is certified as: its law's image (the gains themselves for a law of
+    the structure, a filtered PD's NNI image), or the gains where the law has none.
 
-    return nni_from_filtered_pd(gains, vehicle.m) if isinstance(gains, PDFilteredGains) else gains
+    Parameters
+    ----------
+    vehicle
+        The vehicle (its mass).
+    gains
+        A candidate's gains.
+    options
+        The tuning options.
+    """
+    image = gains.law.ni_image(gains, vehicle.m)
+    return gains if image is None else image
 
 
 def evaluate_details(vehicle: Vehicle, points: np.ndarray, options: TuneOptions, horizon_s: float,
@@ -218,7 +244,6 @@ def evaluate_details(vehicle: Vehicle, points: np.ndarray, options: TuneOptions,
     corners are the slowest).  It cannot become the incumbent either way, and the
     incumbent is always fully evaluated.
     """
-    from nniquad.sim import simulate
 
     pts = np.atleast_2d(points)
     decoded = _decode_all(vehicle, pts, options, inner)
@@ -238,7 +263,7 @@ def evaluate_details(vehicle: Vehicle, points: np.ndarray, options: TuneOptions,
     xi0_norm = math.hypot(*base.xi0)
     worst = np.full(len(pts), -np.inf)
     nominal: list[Metrics] = []
-    for k, scen in enumerate(_scenario_options(options, base, vehicle)):
+    for k, scen in enumerate(scenario_options(options, base, vehicle)):
         res = simulate(vehicle, [g for g, _ in decoded], [scen.with_(inner=inn) for _, inn in decoded])
         _RUNS[0] += len(decoded)
         xy_end = res.xy[:, -1]
@@ -306,8 +331,6 @@ def robust_scenarios(vehicle: Vehicle, options: TuneOptions) -> list:
     same plants, noise sequences, winds and start points, is used for every
     candidate (common random numbers).
     """
-    from nniquad.scenarios.ranges import DEFAULT_RANGES
-    from nniquad.tuning.robust_scenarios import tuning_scenarios
 
     key = (vehicle, options.scenario_seed, options.roa_radius_m, options.noise_sigma_m, options.robust_noise_range_m)
     if key not in _SCENARIO_CACHE:
@@ -335,7 +358,7 @@ def robust_costs(vehicle: Vehicle, designs: list, options: TuneOptions, horizon_
     run: by ``TILT_SLACK_DEG``, 1°).  The issue's requirement on every scenario is
     to settle without altitude loss or divergence; the tilt overshoot of a
     perturbed attitude loop is not a failure of the flight, and capping it at 1°
-    in the slow-motor corners made every design slow (FINDINGS.md §10).  All designs × scenarios run in as few batched
+    in the slow-motor corners made every design slow (docs/notes/tuning.md).  All designs × scenarios run in as few batched
     :func:`nniquad.sim.simulate` calls as memory allows (:data:`ROBUST_BATCH_RUNS`).
 
     Parameters
@@ -343,6 +366,8 @@ def robust_costs(vehicle: Vehicle, designs: list, options: TuneOptions, horizon_
     designs
         ``(Gains, InnerLoopGains)`` pairs.
 
+    Notes
+    -----
     The corners run first; the other scenarios only for designs that pass every
     corner (a design that fails one pays the penalty whatever the rest give), so
     their entries stay ``nan`` otherwise.  With ``prune_above`` (and the designs'
@@ -377,10 +402,6 @@ def robust_costs(vehicle: Vehicle, designs: list, options: TuneOptions, horizon_
 def _simulate_scenarios(vehicle: Vehicle, designs: list, options: TuneOptions, horizon_s: float, scen: list,
                         jobs: list[tuple[int, int]], out: np.ndarray) -> None:
     """Fill ``out[d, s]`` with :func:`_cost` for the ``(design, scenario)`` jobs, in batched calls."""
-    from nniquad.sim.metrics import settling_time_batch
-    from nniquad.sim.verdicts import compute_metrics
-    from nniquad.config import BAND_FRACTION, XI0_NORM_M
-    from nniquad.sim import simulate
 
     # the nominal run keeps limit + 1 deg; a perturbed plant (slow motor, low attitude gain) may overshoot its
     # tilt command, which the Monte Carlo verdict does not count: guarded only against a flip-like excursion
@@ -456,8 +477,6 @@ def margin_penalty(vehicle: Vehicle, gains, inner: InnerLoopGains, options: Tune
     that settles.  The returned penalty is that cost minus ``s``; an unstable or
     non-linearisable cascade costs ``12 horizon``.
     """
-    from nniquad.analysis.fast_margins import design_margins, margin_shortfall
-    from nniquad.errors import CascadeError
 
     try:
         margins = design_margins(vehicle, gains, inner, tilt_limit_deg=options.tilt_limit_deg, rate_hz=options.rate_hz)

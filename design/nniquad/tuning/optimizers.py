@@ -54,7 +54,7 @@ from nniquad.errors import NniquadError
 from nniquad.tuning.tune_options import OPTIMIZERS
 
 if TYPE_CHECKING:  # pragma: no cover
-    from nniquad.tuning.search import Candidate, _Search
+    from nniquad.tuning.search import Candidate, SearchState
 
 __all__ = ["minimise", "OPTIMIZERS", "CMA_SIGMA0", "MIN_STEP", "CMA_FIRST_RUN_SHARE", "CMA_FIRST_RUN_MIN_GENERATIONS",
            "default_population", "first_run_evaluations", "learned_frame", "SMALL_RUNS_IN_LEARNED_FRAME"]
@@ -75,33 +75,33 @@ COST_TOL_S = 1e-4
 #: Share of the evaluations the first (large-population) CMA run may spend; BIPOP's local runs from the
 #: incumbent then get the rest.  Without a cap the first run spent the whole robust-default budget (400
 #: evaluations in 6 coordinates) before its step size converged, no local run ever started, and five seeds on
-#: the paper's vehicle ended 11.2 % apart (3.10-3.45 s); with half of it, 3.7 % (3.11-3.22 s) (FINDINGS §20).
+#: the paper's vehicle ended 11.2 % apart (3.10-3.45 s); with half of it, 3.7 % (3.11-3.22 s) (docs/notes/tuning.md).
 CMA_FIRST_RUN_SHARE = 0.5
 
 #: ... but never fewer generations of the default population than this: on a small budget (``quick``, 60
 #: robust evaluations) a first run cut to half (three generations) could not leave the sweep's start, and
 #: Crazyflie 2's quick certificate found no gain set that settles; such a budget stays with the first run, as
 #: before.  20 generations also held the reduced model's quick tune (200 evaluations in 3 coordinates) at 140
-#: instead of 100 for its first run, and five seeds spread 2.37 % instead of 0.86 % (FINDINGS §20).
+#: instead of 100 for its first run, and five seeds spread 2.37 % instead of 0.86 % (docs/notes/tuning.md).
 CMA_FIRST_RUN_MIN_GENERATIONS = 10
 
 #: BIPOP's small runs start in the coordinates ``x = x_inc + F y`` of :func:`learned_frame` (``F`` from the latest
 #: large run), with the identity covariance in ``y``.  Restarted in the unit box's axes instead, they lost the
 #: orientation of the robust objective's narrow valley, and five seeds of the robust default on the paper's
-#: vehicle ended 3.7 % apart (3.11-3.22 s); in the learned frame, 0.62 % (3.113-3.132 s) (FINDINGS §21).
+#: vehicle ended 3.7 % apart (3.11-3.22 s); in the learned frame, 0.62 % (3.113-3.132 s) (docs/notes/tuning.md).
 SMALL_RUNS_IN_LEARNED_FRAME = True
 
 
 class _Tracker:
     """The shared bookkeeping: unit-box maps, the lazy reach check, the incumbent, the evaluation count."""
 
-    def __init__(self, search: "_Search", starts: list["Candidate"], max_evals: int) -> None:
+    def __init__(self, search: "SearchState", starts: list["Candidate"], max_evals: int) -> None:
         self.search = search
         self.lo, self.width = np.asarray(search.lo, float), np.asarray(search.hi, float) - np.asarray(search.lo, float)
         self.max_evals = int(max_evals)
         self.evals = 0
         self.best: "Candidate | None" = None
-        for c in starts:  # the starts are admissible (``_starts`` checked them)
+        for c in starts:  # the starts are admissible (``optimiser_starts`` checked them)
             if self.best is None or c.cost < self.best.cost:
                 self.best = c
         self.run_bests: list["Candidate"] = []
@@ -147,7 +147,7 @@ class _Tracker:
             self.run_bests.append(self.best)
 
 
-def minimise(search: "_Search", starts: list["Candidate"], *, method: str, max_evals: int,
+def minimise(search: "SearchState", starts: list["Candidate"], *, method: str, max_evals: int,
              seed: int) -> list["Candidate"]:
     """Minimise ``search``'s cost from the sweep's starts with one of :data:`OPTIMIZERS`.
 

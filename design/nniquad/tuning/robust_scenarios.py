@@ -15,7 +15,7 @@ What is in it
 -------------
 * the nominal run (paper start, no wind, no noise unless the options ask for
   it): the scenario of the nominal objective, reported as ``nominal_settling_s``;
-* the corners of the box of the parameters that drive failures (FINDINGS.md):
+* the corners of the box of the parameters that drive failures (docs/notes/robustness.md):
   mass factor lo/hi × motor time-constant factor lo/hi × attitude-gain factor
   lo/hi, each with the noise σ at its maximum, the wind at its maximum pushing
   along the start displacement (against the return), the start at the
@@ -40,8 +40,12 @@ from typing import Any
 import numpy as np
 
 from nniquad.config import CONTROL_RATE_HZ, XI0_M
-from nniquad.control.gains import Gains, InnerLoopGains, wind_equilibrium_m
+from nniquad.control.inner_gains import InnerLoopGains
+from nniquad.laws.base import GainBlock, wind_equilibrium_m
+from nniquad.laws.nni import PAPER_GAINS
 from nniquad.model.vehicle import Vehicle
+from nniquad.scenarios.draws import DEFAULT_RANGES, draw_scenario, study_setup_from
+from nniquad.sim import SimOptions, SimParams
 
 __all__ = ["N_RANDOM", "TuningScenario", "tuning_scenarios", "displacement_radius_m"]
 
@@ -88,14 +92,13 @@ class TuningScenario:
         What flies: the position (with this scenario's noise) sampled at ``rate_hz`` and the
         law in discrete time at that rate (``controller_sampling="discrete"``).
         """
-        from nniquad.sim import SimOptions
 
         return SimOptions(model="full", horizon_s=horizon_s, output_dt_s=output_dt_s, tilt_limit_deg=tilt_limit_deg,
                           xi0=self.xi0_m, noise_sigma_m=self.noise_sigma_m, noise_rate_hz=float(rate_hz),
                           controller_sampling="discrete", seed=self.noise_seed,
                           wind_N=self.wind_N, motor_lag=motor_lag, tau_motor_s=self.tau_motor_s, inner=inner)
 
-    def params(self, vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, horizon_s: float,
+    def params(self, vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, horizon_s: float,
                tilt_limit_deg: float, *, motor_lag: bool = True, rate_hz: float = CONTROL_RATE_HZ):
         """``(SimOptions, SimParams)`` of a candidate: its gains and inner loops on this perturbed plant.
 
@@ -104,7 +107,6 @@ class TuningScenario:
         ``attitude_gain_scale``) are the scenario's, as in
         :func:`nniquad.scenarios.draws.draw_scenario`.
         """
-        from nniquad.sim import SimParams
 
         opts = self.options(horizon_s, tilt_limit_deg, inner, motor_lag=motor_lag, rate_hz=rate_hz)
         base = SimParams.from_options(vehicle, gains, opts)
@@ -117,9 +119,9 @@ class TuningScenario:
                        inner={"attitude_gain_scale": base.inner.attitude_gain_scale * self.attitude_gain_factor})
         return opts, p
 
-    def equilibrium_m(self, vehicle: Vehicle, gains: Gains) -> tuple[float, float]:
+    def equilibrium_m(self, vehicle: Vehicle, gains: GainBlock) -> tuple[float, float]:
         """Static equilibrium under the wind, as in the Monte Carlo study
-        (:func:`nniquad.control.gains.wind_equilibrium_m`)."""
+        (:func:`nniquad.laws.base.wind_equilibrium_m`)."""
         return wind_equilibrium_m(gains, vehicle.m, self.wind_N)
 
     def to_json(self) -> dict[str, Any]:
@@ -161,7 +163,6 @@ def tuning_scenarios(vehicle: Vehicle, *, seed: int, roa_radius_m: float, ranges
     -------
     list of TuningScenario
     """
-    from nniquad.scenarios.draws import DEFAULT_RANGES, draw_scenario, study_setup_from
 
     r = DEFAULT_RANGES if ranges is None else ranges
     radius = displacement_radius_m(roa_radius_m, r.max_displacement_m)
@@ -182,7 +183,6 @@ def tuning_scenarios(vehicle: Vehicle, *, seed: int, roa_radius_m: float, ranges
                                           float(tau), float(r.noise_sigma_m[1]), int(rng.integers(0, 2**63 - 1)),
                                           wind, start))
     # random interior draws: the Monte Carlo generator itself, on a setup with the nominal gains
-    from nniquad.control.gains import PAPER_GAINS
 
     setup = study_setup_from(vehicle, PAPER_GAINS, region_m=radius, ranges=r)
     for i in range(int(n_random)):

@@ -11,15 +11,13 @@ from typing import Callable
 
 import numpy as np
 
-from nniquad.analysis.sni_loop import reduced_loop
 from nniquad.analysis.lmi.reduced_region import certified_reach
-from nniquad.sim.verdicts import Metrics
+from nniquad.analysis.reduced_loop import reduced_loop
 from nniquad.model.vehicle import Vehicle
-from nniquad.tuning.coordinates import decode, search_box
-from nniquad.tuning.laws import law_of
-from nniquad.tuning.objective import _scenario_options, evaluate, nni_design, simulation_options
+from nniquad.sim.verdicts import Metrics
+from nniquad.tuning.coordinates import decode, search_box, tunable_law
+from nniquad.tuning.objective import evaluate, nni_design, scenario_options, simulation_options
 from nniquad.tuning.tune_options import SECTOR_FACE_SHARE, TuneOptions
-
 
 # ----------------------------------------------------------------------------- search
 
@@ -34,7 +32,7 @@ class Candidate:
     reach_m: float | None = None
 
 
-class _Search:
+class SearchState:
     """Bookkeeping shared by the stages: evaluation counts, the reach cache, progress."""
 
     def __init__(self, vehicle: Vehicle, options: TuneOptions, horizon_s: float,
@@ -64,7 +62,7 @@ class _Search:
             options = replace(options, objective="nominal", require_margins=False, require_pm=False)
         cost, mets = evaluate(self.vehicle, pts, options, self.horizon_s,
                               prune_above=None if screen else self.prune_above)
-        self.n_sim += len(pts) * len(_scenario_options(self.options, simulation_options(self.options, 1.0),
+        self.n_sim += len(pts) * len(scenario_options(self.options, simulation_options(self.options, 1.0),
                                                         self.vehicle))
         return [Candidate(q.copy(), float(c), m) for q, c, m in zip(pts, cost, mets)]
 
@@ -72,7 +70,7 @@ class _Search:
         """Certified reach check (cached); always true with ``roa_radius_m = 0``."""
         if self.options.roa_radius_m <= 0:
             return True
-        law = law_of(self.options.controller, self.options.law_class)
+        law = tunable_law(self.options.controller, self.options.law_class)
         key = tuple(np.round(cand.q[:law.dims], 9))
         if key not in self._reach:
             gains, _ = decode(cand.q, self.vehicle.m, self.options.gamma_max, controller=self.options.controller,
@@ -113,7 +111,7 @@ def initial_design(n: int, lo: np.ndarray, hi: np.ndarray, seed: int, sector_fac
         Seed of the scrambling (the face set uses an independent stream of it).
     sector_face
         Place the share on the face (the NNI law's ``paper`` class,
-        :attr:`nniquad.tuning.laws.Law.sector_face`); ``False`` for a law
+        :attr:`nniquad.tuning.coordinates.TunableLaw.sector_face`); ``False`` for a law
         without a sector bound (PD, the ``cascade`` class): all points are one
         Sobol set in the box.
 
@@ -129,8 +127,8 @@ def initial_design(n: int, lo: np.ndarray, hi: np.ndarray, seed: int, sector_fac
     return np.vstack([box, face])
 
 
-def _global(search: _Search, n: int, seed: int, batch: int = 256) -> list[Candidate]:
-    law = law_of(search.options.controller, search.options.law_class)
+def global_sweep(search: SearchState, n: int, seed: int, batch: int = 256) -> list[Candidate]:
+    law = tunable_law(search.options.controller, search.options.law_class)
     pts = initial_design(n, search.lo, search.hi, seed, sector_face=law.sector_face)
     out: list[Candidate] = []
     for i in range(0, len(pts), batch):
@@ -140,7 +138,7 @@ def _global(search: _Search, n: int, seed: int, batch: int = 256) -> list[Candid
     return out
 
 
-def _starts(search: _Search, ranked: list[Candidate], k: int, max_checks: int = 60) -> list[Candidate]:
+def optimiser_starts(search: SearchState, ranked: list[Candidate], k: int, max_checks: int = 60) -> list[Candidate]:
     """The best ``k`` admissible sweep points that are not near each other (10 % of the box apart)."""
     chosen: list[Candidate] = []
     for cand in ranked[:max_checks]:

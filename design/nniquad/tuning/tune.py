@@ -8,7 +8,7 @@ subject to
 
 * the sector bound ``δ >= 1/(γ_max m kp)`` (the paper's condition, γ_max = 0.8
   by default); because ``γ_max < 1`` it implies the exact stability condition
-  ``m kp δ > 1`` of the reduced loop (:mod:`nniquad.analysis.linear`);
+  ``m kp δ > 1`` of the reduced loop (:mod:`nniquad.analysis.reduced_loop`);
 * the tilt limit (built into both models as a limit on the commanded tilt; for
   ``full`` the **actual** tilt must also stay within the limit plus 1°) and the
   rotor-speed limits (modelled as saturation in ``full``);
@@ -42,7 +42,7 @@ simple bound::
 ``Γδ`` is the controller pole (1/s), at most min(π f_s, 2.5/dt): below the
 Nyquist frequency of the 100 Hz position samples and inside the RK4 step's
 stability region; kp is bounded by what the vehicle's attitude loop and tilt
-limit realise (:func:`nniquad.tuning.coordinates.gain_limits`).  The PD laws
+limit realise (:func:`nniquad.tuning.vehicle_limits.gain_limits`).  The PD laws
 (``TuneOptions.controller``) search ``ln kp``, the damping ratio
 ``k_d/(2√k_p)`` and, filtered, ``ln τ_f`` instead.  For ``full`` the attitude loop is
 tuned as well (q3..q5: natural frequency, damping, and the deceleration of the
@@ -91,10 +91,10 @@ useless and a single local search stalls in a false minimum.  Two stages:
    from the band moves.  At the robust default (``normal``, paper class) five
    seeds ended 11.2 % apart while the first CMA run spent the whole budget,
    3.7 % apart once it could spend only half of it
-   (:data:`nniquad.tuning.optimizers.CMA_FIRST_RUN_SHARE`; FINDINGS §20), and
+   (:data:`nniquad.tuning.optimizers.CMA_FIRST_RUN_SHARE`; docs/notes/tuning.md), and
    0.62 % apart since BIPOP's small runs search in the frame the large run
    learned (:data:`nniquad.tuning.optimizers.SMALL_RUNS_IN_LEARNED_FRAME`;
-   FINDINGS §21); ``benchmarks/bench_optimizers.py`` measures it.
+   docs/notes/tuning.md); ``benchmarks/bench_optimizers.py`` measures it.
 
 :func:`tune` reruns everything from other seeds (``TuneOptions.reruns``),
 keeps the best, and reports the per-seed optima and their spread, so an
@@ -113,23 +113,50 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from nniquad import config
-
 from nniquad.analysis.bound import BoundResult, time_optimal_bound
-from nniquad.analysis.linear import ReducedLoop
 from nniquad.analysis.lmi.reduced_region import certified_reach
-from nniquad.sim.verdicts import Metrics
-from nniquad.analysis.sni_loop import reduced_loop
-from nniquad.control.gains import NI_LAWS, ControllerGains, Gains, InnerLoopGains
+from nniquad.analysis.reduced_loop import ReducedLoop, reduced_loop
 from nniquad.config import BAND_FRACTION, XI0_NORM_M
+from nniquad.control.inner_gains import InnerLoopGains
 from nniquad.errors import NniquadError
+from nniquad.laws.base import GainBlock
+from nniquad.laws.classes import LAW_CLASSES
 from nniquad.model.vehicle import PAPER_VEHICLE, Vehicle
-from nniquad.tuning.coordinates import (attitude_accel_headroom, attitude_wn_cap, decode, encode, search_box,
-                                        warm_start_coordinates)
-from nniquad.tuning.objective import (MARGIN_PENALTY_WIDTH_S, _tau_cap, evaluate, evaluate_details, honest_horizon_s, required_hold_s, robust_scenarios,
-                                      settling_shown, simulation_options, simulations_run)
-from nniquad.tuning.tune_options import (ROBUST_RETRY_BANDS, SCREEN_KEEP_PER_START, budget_of, ROBUST_QUANTILE, ALTITUDE_CAP_M, BUDGETS, DEFAULT_OPTIMIZER, DEFAULT_ROA_RADIUS_M, OPTIMIZERS, LONGEST_SETTLING_BANDS, SECTOR_FACE_SHARE, TILT_SLACK_DEG, TuneOptions)
+from nniquad.scenarios.draws import DEFAULT_RANGES
+from nniquad.sim.options import check_rate_hz
+from nniquad.sim.verdicts import Metrics
+from nniquad.tuning.coordinates import decode, encode, search_box, tunable_law, warm_start_coordinates
+from nniquad.tuning.objective import (
+    MARGIN_PENALTY_WIDTH_S,
+    evaluate,
+    evaluate_details,
+    honest_horizon_s,
+    required_hold_s,
+    robust_scenarios,
+    settling_shown,
+    simulation_options,
+    simulations_run,
+    tau_cap,
+)
 from nniquad.tuning.optimizers import minimise
-from nniquad.tuning.search import Candidate, _global, _Search, _starts, initial_design
+from nniquad.tuning.robust_scenarios import displacement_radius_m
+from nniquad.tuning.search import Candidate, SearchState, global_sweep, initial_design, optimiser_starts
+from nniquad.tuning.tune_options import (
+    ALTITUDE_CAP_M,
+    BUDGETS,
+    DEFAULT_OPTIMIZER,
+    DEFAULT_ROA_RADIUS_M,
+    LONGEST_SETTLING_BANDS,
+    OPTIMIZERS,
+    ROBUST_QUANTILE,
+    ROBUST_RETRY_BANDS,
+    SCREEN_KEEP_PER_START,
+    SECTOR_FACE_SHARE,
+    TILT_SLACK_DEG,
+    TuneOptions,
+    budget_of,
+)
+from nniquad.tuning.vehicle_limits import attitude_accel_headroom, attitude_wn_cap, gain_limits
 
 __all__ = [
     "TuneOptions",
@@ -213,7 +240,7 @@ class TuneResult:
 
     vehicle: Vehicle
     options: TuneOptions
-    gains: ControllerGains
+    gains: GainBlock
     inner: InnerLoopGains
     settling_s: float
     metrics: Metrics
@@ -250,34 +277,25 @@ class TuneResult:
 
     @property
     def gamma(self) -> float:
-        """Smallest γ the gains satisfy the sector bound with: the DC loop gain (``nan`` for a PD law: no sector
-        bound)."""
-        from nniquad.control.gains import SNI2Gains
-
-        if isinstance(self.gains, SNI2Gains):
-            return self.gains.dc_loop_gain(self.vehicle.m)
-        if not isinstance(self.gains, Gains):
+        """Smallest γ the gains satisfy the sector bound with: the DC loop gain (``nan`` for a law outside the NI
+        structure: no sector bound)."""
+        if not self.gains.law.ni_structure:
             return math.nan
         return ReducedLoop.from_vehicle(self.vehicle, self.gains).smallest_gamma
 
     def nni_image(self) -> dict[str, Any] | None:
-        """A filtered PD's NNI image (:func:`nniquad.control.pd_equivalence.nni_from_filtered_pd`) and its sector
-        constant, with the classes it lies in (:mod:`nniquad.tuning.laws`); ``None`` for the other laws."""
-        from nniquad.control.gains import PDFilteredGains
-        from nniquad.control.law_classes import LAW_CLASSES
-        from nniquad.control.pd_equivalence import filtered_pd_gamma, nni_from_filtered_pd
-        from nniquad.tuning.coordinates import gain_limits
-        from nniquad.tuning.laws import law_of
-
-        if not isinstance(self.gains, PDFilteredGains):
+        """The NNI image of a design outside the NI structure that has one (a filtered PD's,
+        :meth:`nniquad.laws.base.ControlLaw.ni_image`), its sector constant and the classes it lies in
+        (:meth:`nniquad.tuning.coordinates.TunableLaw.image_violation`); ``None`` for every other design."""
+        law, m = self.gains.law, self.vehicle.m
+        image = None if law.ni_structure else law.ni_image(self.gains, m)
+        if image is None:
             return None
-        g = nni_from_filtered_pd(self.gains, self.vehicle.m)
         lim = gain_limits(self.vehicle, self.options.tilt_limit_deg)
-        inside = {c: law_of("pd_filtered", c).image_violation(self.gains, self.vehicle.m, self.options.gamma_max,
-                                                               lim["kp_max"], lim["gamma_delta_max"]) == 0
-                  for c in LAW_CLASSES}
-        return {"kp": g.kp, "Gamma": g.Gamma, "delta": g.delta, "gamma": filtered_pd_gamma(self.gains),
-                "in_class": inside}
+        inside = {c: tunable_law(law.name, c).image_violation(self.gains, m, self.options.gamma_max, lim["kp_max"],
+                                                              lim["gamma_delta_max"]) == 0
+                  for c in LAW_CLASSES if c in law.law_classes}
+        return {**image.law.gains_json(image), "gamma": image.law.sector_constant(image, m), "in_class": inside}
 
     def rerun_spread_s(self) -> float:
         """Largest minus smallest best settling time over the seeds [s]."""
@@ -323,7 +341,7 @@ class TuneResult:
         }
 
 
-def _one_seed(search: _Search, seed: int, extra: list[Candidate]) -> tuple[Candidate, list[Candidate]]:
+def _one_seed(search: SearchState, seed: int, extra: list[Candidate]) -> tuple[Candidate, list[Candidate]]:
     """Sweep and optimise with one seed: its optimum, and the optimiser's incumbents (best first).
 
     ``extra`` (evaluated warm starts) compete with the sweep's points for the starts.
@@ -332,11 +350,11 @@ def _one_seed(search: _Search, seed: int, extra: list[Candidate]) -> tuple[Candi
     n_global, k, n_evals, _ = budget_of(options)
     # the attitude coordinates double the dimension: sample twice as densely, search twice as long
     scale = 2 if len(search.lo) > 3 else 1
-    ranked = sorted(_global(search, n_global * scale, seed), key=lambda c: c.cost)
+    ranked = sorted(global_sweep(search, n_global * scale, seed), key=lambda c: c.cost)
     if options.robust or options.require_margins:  # the sweep screened on the nominal run: rank again in full
         ranked = search.evaluate(np.array([c.q for c in ranked[:SCREEN_KEEP_PER_START * k]]))
     ranked = sorted(ranked + extra, key=lambda c: c.cost)
-    starts = _starts(search, ranked, k)
+    starts = optimiser_starts(search, ranked, k)
     if not starts:
         raise NniquadError(
             f"no gain set among the best of the sweep certifies a reach of "
@@ -350,7 +368,7 @@ def _one_seed(search: _Search, seed: int, extra: list[Candidate]) -> tuple[Candi
 
 def tune(vehicle: Vehicle = PAPER_VEHICLE, options: TuneOptions | None = None,
          progress: Callable[[str], None] | None = None,
-         warm_starts: Sequence[tuple[ControllerGains, InnerLoopGains]] = ()) -> TuneResult:
+         warm_starts: Sequence[tuple[GainBlock, InnerLoopGains]] = ()) -> TuneResult:
     """Fastest admissible gain set (module docstring).
 
     Parameters
@@ -379,7 +397,6 @@ def tune(vehicle: Vehicle = PAPER_VEHICLE, options: TuneOptions | None = None,
         Bad options, or no admissible gain set found.
     """
     options = TuneOptions() if options is None else options
-    from nniquad.sim.options import check_rate_hz
 
     check_rate_hz(options.rate_hz, option="rate", error=NniquadError)  # a period of whole RK4 steps
     t0 = time.perf_counter()
@@ -395,7 +412,7 @@ def tune(vehicle: Vehicle = PAPER_VEHICLE, options: TuneOptions | None = None,
         # search again, once, on a horizon that shows ROBUST_RETRY_BANDS x enter_band_s
         horizons.append(max(horizon, honest_horizon_s(ROBUST_RETRY_BANDS * bound.enter_band_s)))
     for attempt, horizon in enumerate(horizons):
-        search = _Search(vehicle, options, horizon, lambda msg: say(f"seed {seed}: {msg}"))
+        search = SearchState(vehicle, options, horizon, lambda msg: say(f"seed {seed}: {msg}"))
         extra: list[Candidate] = []
         if warm_starts:
             qs = warm_start_coordinates(vehicle, options, warm_starts, alpha)
@@ -415,7 +432,7 @@ def tune(vehicle: Vehicle = PAPER_VEHICLE, options: TuneOptions | None = None,
         say(f"no gain set passed every robust scenario within the {horizon:g} s horizon; searching again "
             f"on {horizons[attempt + 1]:g} s")
     gains, inner = decode(best.q, vehicle.m, options.gamma_max, alpha_avail=alpha,
-                          tau_motor_s=_tau_cap(vehicle, options), controller=options.controller,
+                          tau_motor_s=tau_cap(vehicle, options), controller=options.controller,
                           law_class=options.law_class)
     details = evaluate_details(vehicle, best.q[None], options, horizon, full_report=True)[0]
     margins_met: bool | None = None
@@ -444,7 +461,7 @@ def tune(vehicle: Vehicle = PAPER_VEHICLE, options: TuneOptions | None = None,
         say(f"the design misses GM >= 6 dB / PM >= 45 deg at a break point (PM {pms} deg; "
             + ("smallest shortfall kept)" if options.require_pm else "gain margins enforced, PM reported)"))
     robust_info = _robust_summary(vehicle, options, details)
-    if options.controller not in NI_LAWS:
+    if not options.law.ni_structure:
         reach = math.nan  # not a design of the NI structure: no certified region
     elif best.reach_m is not None:
         reach = best.reach_m
@@ -452,7 +469,7 @@ def tune(vehicle: Vehicle = PAPER_VEHICLE, options: TuneOptions | None = None,
         reach = certified_reach(reduced_loop(vehicle, gains), options.tilt_limit_deg)
     reruns = []
     for seed, cand in results:
-        g, inn = decode(cand.q, vehicle.m, options.gamma_max, alpha_avail=alpha, tau_motor_s=_tau_cap(vehicle, options),
+        g, inn = decode(cand.q, vehicle.m, options.gamma_max, alpha_avail=alpha, tau_motor_s=tau_cap(vehicle, options),
                         controller=options.controller, law_class=options.law_class)
         reruns.append({"seed": seed, "settling_s": cand.cost, "gains": g.as_dict(), "inner_loop": inn.as_dict()})
     settling = details["cost_without_margins"]
@@ -475,8 +492,6 @@ def default_horizon_s(vehicle: Vehicle, options: TuneOptions, bound: BoundResult
     farthest start then sets the horizon, so that the longest settling time that
     can count is as long for every scenario.
     """
-    from nniquad.scenarios.draws import DEFAULT_RANGES
-    from nniquad.tuning.robust_scenarios import displacement_radius_m
 
     bound = time_optimal_bound(vehicle, tilt_limit_deg=options.tilt_limit_deg) if bound is None else bound
     enter = bound.enter_band_s

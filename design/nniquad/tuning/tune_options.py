@@ -5,12 +5,13 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 from typing import Any, Callable
 
-
 from nniquad.config import CONTROL_RATE_HZ, GAMMA_MAX, TILT_LIMIT_DEG, TUNING_SCENARIO_SEED, XI0_NORM_M
-from nniquad.control.gains import NI_LAWS
 from nniquad.errors import GainError, NniquadError, VehicleError
+from nniquad.laws.base import ControlLaw
+from nniquad.laws.classes import LAW_CLASSES
+from nniquad.laws.registry import law_named, law_names
+from nniquad.scenarios.ranges import DEFAULT_RANGES
 from nniquad.validate import finite_number
-
 
 #: ‖ξ_h(0)‖ of the paper's run [m]: the default certified reach.
 DEFAULT_ROA_RADIUS_M = XI0_NORM_M
@@ -42,21 +43,33 @@ ROBUST_RETRY_BANDS = 6.0
 SCREEN_KEEP_PER_START = 8
 
 
-#: The robust objective's effort for the ``sni2`` law (4 gain coordinates and the attitude loop's 3).  Its
-#: ``normal`` is the ``thorough`` search without the extra seeds: on the paper's vehicle (FINDINGS.md §28)
-#: five seeds of the robust ``normal`` budget spread 27.7 % (1.846-2.358 s p95), five of this one 1.1 %
-#: (1.815-1.835 s), at about 100 s a seed (``certify`` stays under its 3 minutes).
-SNI2_ROBUST_BUDGETS: dict[str, tuple[int, int, int, int]] = {
-    "quick": ROBUST_BUDGETS["quick"],
-    "normal": ROBUST_BUDGETS["thorough"][:3] + (0,),
-    "thorough": ROBUST_BUDGETS["thorough"],
-}
+def robust_budgets(law: ControlLaw) -> dict[str, tuple[int, int, int, int]]:
+    """The robust objective's effort per budget for ``law``: :data:`ROBUST_BUDGETS`, with the law's
+    :attr:`~nniquad.laws.base.ControlLaw.robust_budget_overrides` applied (the ``sni2`` law's ``normal`` is the
+    ``thorough`` search without its extra seeds).
+
+    Parameters
+    ----------
+    law
+        The tuned law.
+    """
+    out = dict(ROBUST_BUDGETS)
+    for budget, (other, seeds) in law.robust_budget_overrides.items():
+        base = ROBUST_BUDGETS[other]
+        out[budget] = base if seeds is None else base[:3] + (int(seeds),)
+    return out
 
 
 def budget_of(options: "TuneOptions") -> tuple[int, int, int, int]:
-    """The (Sobol points, starts, optimiser evaluations, extra seeds) of ``options``' budget, objective and law."""
+    """The (Sobol points, starts, optimiser evaluations, extra seeds) of ``options``' budget, objective and law.
+
+    Parameters
+    ----------
+    options
+        The tuning options.
+    """
     if options.robust:
-        return (SNI2_ROBUST_BUDGETS if options.controller == "sni2" else ROBUST_BUDGETS)[options.budget]
+        return robust_budgets(options.law)[options.budget]
     return BUDGETS[options.budget]
 
 
@@ -66,7 +79,7 @@ OPTIMIZERS = ("cma", "nomad")
 #: The default optimiser: the better one of ``benchmarks/bench_optimizers.py`` (same budget, five seeds).
 DEFAULT_OPTIMIZER = "cma"
 
-#: Actual tilt may exceed the tilt limit by this much (issue 7) [deg].
+#: Actual tilt may exceed the tilt limit by this much [deg].
 TILT_SLACK_DEG = 1.0
 
 #: In the robust objective's perturbed scenarios the actual tilt may exceed the limit by this much [deg]:
@@ -91,8 +104,6 @@ ALTITUDE_CAP_M = 0.5
 #: The robust objective minimises this quantile of the settling times over the tuning scenarios.
 ROBUST_QUANTILE = 0.95
 
-#: The laws :func:`nniquad.tuning.tune` tunes (:attr:`TuneOptions.controller`).
-TUNABLE_CONTROLLERS: tuple[str, ...] = ("nni", "pd_velocity", "pd_filtered", "sni2")
 
 #: The objectives (:attr:`TuneOptions.objective`).
 OBJECTIVES = ("robust", "nominal")
@@ -134,19 +145,18 @@ class TuneOptions:
     reruns
         Extra seeds for the artefact check; ``None`` takes the budget's.
     controller
-        Horizontal law to tune: ``"nni"`` (the paper's, default), ``"sni2"`` (the NNI
-        structure with a second-order SNI controller, :mod:`nniquad.control.sni`; the same
-        law classes, its DC condition in place of the sector bound), or one of the
-        PD comparison laws ``"pd_velocity"`` (true velocity) and ``"pd_filtered"``
-        (filtered derivative of the measurement), tuned on the same inner loops,
-        scenarios and rules; the PD laws have no sector bound and no certified
-        reach (``roa_radius_m`` is set to 0 for them).
+        Horizontal law to tune, a registered law's name (:mod:`nniquad.laws`): ``"nni"`` (the paper's,
+        default), ``"sni2"`` (the NNI structure with a second-order SNI controller; the same law classes, its
+        DC condition in place of the sector bound), or one of the PD comparison laws ``"pd_velocity"`` (true
+        velocity) and ``"pd_filtered"`` (filtered derivative of the measurement), tuned on the same inner loops,
+        scenarios and rules; a law outside the NI structure has no sector bound and no certified reach
+        (``roa_radius_m`` is set to 0 for it).
     law_class
-        The class of certified NNI designs searched (:mod:`nniquad.control.law_classes`):
+        The class of certified NNI designs searched (:mod:`nniquad.laws.classes`):
         ``"paper"`` (the sector bound holds; the default of the NNI law) or ``"cascade"``
         (the sector bound dropped; the proof is the sampled-data cascade certificate).
         For ``"pd_filtered"``, a class restricts the search to the filtered PDs whose
-        NNI image lies in that class's box (:mod:`nniquad.tuning.laws`; ``None``, the
+        NNI image lies in that class's box (:mod:`nniquad.tuning.coordinates`; ``None``, the
         default, searches them all); ``"pd_velocity"`` takes no class.
     rate_hz
         Control rate [Hz] of the ``full`` model's candidates: the position is sampled at
@@ -180,7 +190,7 @@ class TuneOptions:
         :attr:`robust_noise_range_m`; unused by the nominal objective.  Set it to
         the sensor's noise: a velocity-free law differentiates the measured
         position, so the noise it must tolerate limits how fast it can be
-        (FINDINGS.md §25).
+        (docs/notes/robustness.md).
     require_margins
         ``full`` only: demand gain margin >= ``config.REQUIRED_GM_DB`` both ways at both
         break points of the linearised cascade (:mod:`nniquad.analysis.fast_margins`),
@@ -195,7 +205,7 @@ class TuneOptions:
         :func:`nniquad.certificates.build.sector_pm_ceiling_deg`), so every candidate
         misses it and the search, ranking the shortfall first, trades settling time
         for a few degrees (paper's vehicle, quick budget: robust p95 3.21 s -> 4.53 s
-        for +2° horizontal and +6° attitude PM; FINDINGS.md §10).
+        for +2° horizontal and +6° attitude PM; docs/notes/tuning.md).
     optimizer
         The optimiser after the sweep, one of :data:`OPTIMIZERS` (default
         :data:`DEFAULT_OPTIMIZER`; :mod:`nniquad.tuning.optimizers`).
@@ -225,16 +235,14 @@ class TuneOptions:
     scenario_noise_range_m: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
-        from nniquad.control.law_classes import LAW_CLASSES
-
-        if self.controller not in TUNABLE_CONTROLLERS:
-            raise NniquadError(f"controller must be one of {', '.join(TUNABLE_CONTROLLERS)}, got {self.controller!r}")
-        if self.law_class is None and self.controller in NI_LAWS:
-            object.__setattr__(self, "law_class", "paper")
+        if self.controller not in law_names():
+            raise NniquadError(f"controller must be one of {', '.join(law_names())}, got {self.controller!r}")
         if self.law_class is not None and self.law_class not in LAW_CLASSES:
             raise NniquadError(f"law class must be one of {', '.join(LAW_CLASSES)}, got {self.law_class!r}")
-        if self.law_class is not None and self.controller == "pd_velocity":
-            raise NniquadError("the PD law with true velocity is no NNI law: it has no law class")
+        try:
+            object.__setattr__(self, "law_class", self.law.check_class(self.law_class))
+        except ValueError as exc:
+            raise NniquadError(str(exc)) from None
         # a positive number here; tune() checks it is a period of whole RK4 steps (nniquad.sim.options.check_rate_hz)
         object.__setattr__(self, "rate_hz", finite_number("rate", self.rate_hz, error=NniquadError, positive=True))
         if self.model not in ("reduced", "full"):
@@ -244,7 +252,7 @@ class TuneOptions:
             raise GainError(f"gamma_max must lie in (0, 1), got {self.gamma_max!r}")
         if self.roa_radius_m is None:  # the reduced loop's reach is the paper class's statement
             object.__setattr__(self, "roa_radius_m", DEFAULT_ROA_RADIUS_M if self.law_class == "paper"
-                               and self.controller in NI_LAWS else 0.0)
+                               and self.law.ni_structure else 0.0)
         r = _finite("roa radius", self.roa_radius_m)
         if r < 0:
             raise NniquadError(f"roa radius must not be negative, got {self.roa_radius_m!r}")
@@ -288,20 +296,23 @@ class TuneOptions:
         object.__setattr__(self, "require_margins", bool(self.require_margins))
         object.__setattr__(self, "gamma_max", g)
         # the PD laws have no sector bound, hence no certified region: the reach check does not apply
-        object.__setattr__(self, "roa_radius_m", r if self.controller in NI_LAWS else 0.0)
+        object.__setattr__(self, "roa_radius_m", r if self.law.ni_structure else 0.0)
+
+    @property
+    def law(self) -> ControlLaw:
+        """The tuned law (:mod:`nniquad.laws`)."""
+        return law_named(self.controller, error=NniquadError)
 
     @property
     def dims(self) -> int:
         """Number of search coordinates: the law's gains, plus 3 with the attitude loop (``full``)."""
-        from nniquad.tuning.coordinates import law_dims
-
-        return law_dims(self.controller) + (3 if (self.model == "full" and self.tune_attitude) else 0)
+        return self.law.dims(self.law_class) + (3 if (self.model == "full" and self.tune_attitude) else 0)
 
     @property
     def nni_image(self) -> bool:
         """Whether the candidates are designs of the NI structure in a class: the NNI or ``sni2`` law, or a filtered
         PD in a class (its NNI image)."""
-        return self.controller in NI_LAWS or (self.controller == "pd_filtered" and self.law_class is not None)
+        return self.law.in_class(self.law_class)
 
     @property
     def robust(self) -> bool:
@@ -314,8 +325,6 @@ class TuneOptions:
         Carlo default."""
         if self.scenario_noise_range_m is not None:
             return self.scenario_noise_range_m
-        from nniquad.scenarios.ranges import DEFAULT_RANGES
-
         return DEFAULT_RANGES.noise_sigma_m
 
     def to_json(self) -> dict[str, Any]:

@@ -13,5 +13,5 @@
 :mod:`~nniquad.analysis.cascade.recheck`
     Its re-check from the design alone (``verify``).
 
-:mod:`nniquad.analysis.cascade.certificate` gathers the public names and states what is certified.
+:mod:`nniquad.analysis.cascade.box_certificate` gathers the public names and states what is certified.
 """

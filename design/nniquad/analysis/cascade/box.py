@@ -3,7 +3,7 @@
 A point is six factors ``θ = (f_m, f_Jx, f_Jy, f_Jz, f_a, f_τ)`` (:data:`POINT_NAMES`): the true mass, the
 three inertias (independent inside ``inertia_factor``), the attitude-torque factor and the motor time constant.
 A subsystem's coordinates are the log factors of the coordinates it depends on, normalised to ``[-1, 1]`` on
-the box (:func:`box_coordinates`, :func:`_coords`).
+the box (:func:`box_coordinates`, :func:`normalised_coordinates`).
 """
 
 from __future__ import annotations
@@ -17,6 +17,7 @@ import numpy as np
 
 from nniquad.errors import CascadeError
 from nniquad.model.vehicle import Vehicle
+from nniquad.scenarios.draws import DEFAULT_RANGES
 
 __all__ = ["BOX_KEYS", "POINT_NAMES", "ParameterBox", "box_coordinates", "tilt_accel_limit"]
 
@@ -68,7 +69,6 @@ class ParameterBox:
     @classmethod
     def monte_carlo_default(cls) -> "ParameterBox":
         """The Monte Carlo default ranges (:data:`nniquad.scenarios.draws.DEFAULT_RANGES`)."""
-        from nniquad.scenarios.draws import DEFAULT_RANGES
 
         return cls(**{k: getattr(DEFAULT_RANGES, k) for k in BOX_KEYS})
 
@@ -125,14 +125,14 @@ def box_coordinates(box: ParameterBox, points: np.ndarray) -> np.ndarray:
     return (2.0 * np.log(np.atleast_2d(points)[:, keep]) - (llo + lhi)) / (lhi - llo)
 
 
-def _coords(box: ParameterBox, points: np.ndarray, dims: Sequence[int]) -> np.ndarray:
+def normalised_coordinates(box: ParameterBox, points: np.ndarray, dims: Sequence[int]) -> np.ndarray:
     lo, hi = box.bounds()
     d = list(dims)
     llo, lhi = np.log(lo[d]), np.log(hi[d])
     return (2.0 * np.log(np.atleast_2d(points)[:, d]) - (llo + lhi)) / (lhi - llo)
 
 
-def _subgrid(box: ParameterBox, dims: Sequence[int], n: int) -> np.ndarray:
+def grid_subset(box: ParameterBox, dims: Sequence[int], n: int) -> np.ndarray:
     """A grid of ``n`` points per coordinate over ``dims`` (log-spaced), the other coordinates nominal (1)."""
     lo, hi = box.bounds()
     axes = [np.geomspace(lo[j], hi[j], n) if j in dims else np.array([1.0]) for j in range(6)]

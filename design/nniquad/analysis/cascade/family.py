@@ -17,16 +17,17 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 import scipy.linalg as sla
 
-from nniquad.analysis.cascade.linearised import SPLIT_TOL, LinearCascade, _hover_params, allocation_jacobian
-from nniquad.analysis.cascade.hover_jacobian import EQUILIBRIUM_TOL, LINEARISATION_OFFSET_M, Linearisation, _jacobian_function
 from nniquad.analysis.batch_eval import evaluate_map
 from nniquad.analysis.cascade.box import POINT_NAMES, ParameterBox
-from nniquad.analysis.sampled import _period
+from nniquad.analysis.hover_jacobian import EQUILIBRIUM_TOL, LINEARISATION_OFFSET_M, Linearisation, jacobian_function
+from nniquad.analysis.linearised_cascade import LinearCascade, allocation_jacobian, hover_params, split_cascade
+from nniquad.analysis.sampled import control_period
 from nniquad.config import CONTROL_RATE_HZ, TILT_LIMIT_DEG
-from nniquad.control.gains import Gains, InnerLoopGains, SNI2Gains
+from nniquad.control.inner_gains import InnerLoopGains
 from nniquad.errors import CascadeError
+from nniquad.laws.base import GainBlock
 from nniquad.model.vehicle import Vehicle
-from nniquad.sim import CONTROLLER_STATES, initial_state, param_layout, state_names
+from nniquad.sim import initial_state, param_layout, state_names
 
 __all__ = ["CascadeFamily", "sampled_family", "SUBSYSTEMS", "subsystems", "COUPLING_TOL", "RELEVANCE_TOL",
            "RELEVANCE_BAND", "mode_transform", "coupling", "relevant_coordinates", "relevance_consistent"]
@@ -43,7 +44,7 @@ class CascadeFamily:
     points : ndarray (N, 6)
         The parameter points (:data:`POINT_NAMES`).
     state_names
-        Plant states then the controller states (``zc_x, zc_y``; ``sni2``: ``zc_x, zc_y, zcd_x, zcd_y``).
+        Plant states then the law's controller states (:attr:`nniquad.laws.base.ControlLaw.sim_state_names`).
     T
         Sample period [s].
     A_p, B_p : ndarray (N, n_p, n_p), (N, n_p, 2)
@@ -101,7 +102,7 @@ class CascadeFamily:
 
     @cached_property
     def spectral_radius(self) -> np.ndarray:
-        """Spectral radius of ``A_d`` at every point (computed once per family: :func:`_take` keeps it)."""
+        """Spectral radius of ``A_d`` at every point (computed once per family: :func:`take_points` keeps it)."""
         return np.max(np.abs(np.linalg.eigvals(self.A_d)), axis=-1)
 
     def cascade_at(self, i: int) -> LinearCascade:
@@ -120,14 +121,14 @@ def _batched_expm(M: np.ndarray) -> np.ndarray:
     return sla.expm(M)  # scipy >= 1.9 exponentiates a stack (..., n, n)
 
 
-def sampled_family(vehicle: Vehicle, gains: Gains | SNI2Gains, inner: InnerLoopGains, points: np.ndarray, *,
+def sampled_family(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, points: np.ndarray, *,
                    tilt_limit_deg: float = TILT_LIMIT_DEG, rate_hz: float = CONTROL_RATE_HZ) -> CascadeFamily:
     """Linearise and sample the cascade at many parameter points at once.
 
     One mapped CasADi evaluation of the simulator's Jacobians (at ``±ε`` on the
-    held measurement, as :func:`nniquad.analysis.cascade.linearised.linearise` does) and
+    held measurement, as :func:`nniquad.analysis.linearised_cascade.linearise` does) and
     one stacked ``expm`` give every point's plant; the split into plant and
-    controller is that of :func:`nniquad.analysis.cascade.linearised.linearise_cascade`
+    controller is that of :func:`nniquad.analysis.linearised_cascade.linearise_cascade`
     (its exactness is checked at every point).
 
     Parameters
@@ -146,12 +147,12 @@ def sampled_family(vehicle: Vehicle, gains: Gains | SNI2Gains, inner: InnerLoopG
     CascadeError
         A point that is not an equilibrium, an inexact split, a bad point.
     """
-    T = _period(rate_hz)
+    T = control_period(rate_hz)
     pts = np.atleast_2d(np.asarray(points, float))
     if pts.shape[1] != len(POINT_NAMES) or not np.all(np.isfinite(pts)) or np.any(pts <= 0):
         raise CascadeError(f"parameter points must be positive factors of shape (N, {len(POINT_NAMES)})")
     N = pts.shape[0]
-    base = _hover_params(vehicle, gains, inner, tilt_limit_deg, None).with_(run={"sample_hold": 1.0})
+    base = hover_params(vehicle, gains, inner, tilt_limit_deg, None).with_(run={"sample_hold": 1.0})
     law = base.controller
     names = [f.name for f in param_layout(law)]
     col = {n: i for i, n in enumerate(names)}
@@ -175,7 +176,7 @@ def sampled_family(vehicle: Vehicle, gains: Gains | SNI2Gains, inner: InnerLoopG
     w_hover = np.sqrt(m_true * nom.g / (4.0 * nom.b))
     for k in range(1, 5):
         x_eq[:, si[f"w{k}"]] = w_hover
-    jac = _jacobian_function("full", law)
+    jac = jacobian_function("full", law)
     d = np.zeros(len(snames))
     d[si["held_x"]] = LINEARISATION_OFFSET_M
     X = np.vstack([x_eq + d, x_eq - d]).T
@@ -191,31 +192,12 @@ def sampled_family(vehicle: Vehicle, gains: Gains | SNI2Gains, inner: InnerLoopG
     Y = 0.5 * (Ym[:N] + Ym[N:])
     if not (np.all(np.isfinite(J)) and np.all(np.isfinite(Y))):
         raise CascadeError("a Jacobian of the cascade is not finite")
-    ctrl, held, motors = CONTROLLER_STATES[law], ("held_x", "held_y"), ("w1", "w2", "w3", "w4")
-    rigid = tuple(n for n in snames if n not in ctrl + held + motors)
-    ik, ih = [si[n] for n in ctrl], [si[n] for n in held]
-    iw, ir = [si[n] for n in motors], [si[n] for n in rigid]
-    ip = ir + iw
-    A_k, B_k = J[0][np.ix_(ik, ik)], J[0][np.ix_(ik, ih)]
-    C_k, D_k = Y[0][:, ik], Y[0][:, ih]
-    # the controller is the flight code's: the same at every point, and it reads no plant state
-    for M, name in ((J[:, ik][:, :, ik] - A_k, "A_k"), (J[:, ik][:, :, ih] - B_k, "B_k"),
-                    (Y[:, :, ik] - C_k, "C_k"), (Y[:, :, ih] - D_k, "D_k"),
-                    (J[:, ik][:, :, ip], "z' from plant"), (Y[:, :, ip], "a_h from plant")):
-        if np.max(np.abs(M)) > SPLIT_TOL * max(1.0, float(np.max(np.abs(J[0])))):
-            raise CascadeError(f"the horizontal law is not the same velocity-free law at every point ({name})")
-    G = np.hstack([C_k, D_k])
-    Jpc = J[:, ip][:, :, ik + ih]
-    B_full = Jpc @ np.linalg.pinv(G)
-    res = np.max(np.abs(Jpc - B_full @ G)) / max(1.0, float(np.max(np.abs(Jpc))))
-    if res > SPLIT_TOL:
-        raise CascadeError(f"the plant does not see the controller through a_h alone (relative {res:.3g})")
-    A_p = J[:, ip][:, :, ip]
+    split = split_cascade(J, Y, snames, gains.law.sim_state_names)
+    rigid, motors, ctrl = split.rigid, split.motors, split.controller
+    ir, iw = split.ir, split.iw
+    A_k, B_k, C_k, D_k, A_p, B_p = split.A_k, split.B_k, split.C_k, split.D_k, split.A_p, split.B_p
     nr = len(ir)
-    B_p = B_full
-    if np.max(np.abs(B_p[:, :nr])) > SPLIT_TOL * max(1.0, float(np.max(np.abs(B_p)))):
-        raise CascadeError("a_h reaches the rigid body other than through the rotors")
-    n_p, n_k = len(ip), len(ctrl)
+    n_p, n_k = len(ir) + len(iw), len(ctrl)
     C_p = np.zeros((2, n_p))
     C_p[0, rigid.index("x")] = C_p[1, rigid.index("y")] = 1.0
     # exact ZOH of the plant (stacked) and of the controller
@@ -248,7 +230,7 @@ def sampled_family(vehicle: Vehicle, gains: Gains | SNI2Gains, inner: InnerLoopG
                          context=ctx)
 
 
-def _take(fam: CascadeFamily, idx: np.ndarray) -> CascadeFamily:
+def take_points(fam: CascadeFamily, idx: np.ndarray) -> CascadeFamily:
     """The points ``idx`` of a family."""
     kw = {}
     for f in fields(fam):
@@ -310,7 +292,7 @@ def mode_transform(state_names: Sequence[str]) -> tuple[np.ndarray, tuple[str, .
     return R[order], tuple(mode_names[i] for i in order)
 
 
-def _blocks(state_names: Sequence[str] | None = None) -> dict[str, slice]:
+def subsystem_blocks(state_names: Sequence[str] | None = None) -> dict[str, slice]:
     """Each subsystem's slice of the mode coordinates (:func:`subsystems` of ``state_names``; NNI's without)."""
     out, k = {}, 0
     for name, sub in (SUBSYSTEMS if state_names is None else subsystems(state_names)).items():
@@ -324,22 +306,22 @@ def coupling(family: CascadeFamily) -> float:
 
     Zero in exact arithmetic at hover (the altitude, yaw and the two horizontal
     axes decouple at first order); what remains is the ``O(ε²)`` error of the
-    symmetric-mean Jacobian (:mod:`nniquad.analysis.cascade.linearised`), about ``1e-12``.
+    symmetric-mean Jacobian (:mod:`nniquad.analysis.linearised_cascade`), about ``1e-12``.
     """
     Tm, _ = mode_transform(family.state_names)
     Z = Tm @ family.A_d @ Tm.T
     _, (s, _) = sla.matrix_balance(Z[0], permute=False, separate=True)
     Zb = Z / s[None, :, None] * s[None, None, :]
     mask = np.ones(Z.shape[1:], bool)
-    for sl in _blocks(family.state_names).values():
+    for sl in subsystem_blocks(family.state_names).values():
         mask[sl, sl] = False
     return float(np.max(np.abs(Zb[:, mask])) / max(np.max(np.abs(Zb)), 1.0))
 
 
-def _subsystem(family: CascadeFamily, name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def subsystem_of(family: CascadeFamily, name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``(A_d, A0, B, K)`` of one subsystem at every point (B and K: the axis's own input/command; else None)."""
     Tm, _ = mode_transform(family.state_names)
-    sl = _blocks(family.state_names)[name]
+    sl = subsystem_blocks(family.state_names)[name]
     R = Tm[sl]
     A_d = R @ family.A_d @ R.T
     A0 = R @ family.A0 @ R.T
@@ -355,7 +337,7 @@ def _subsystem(family: CascadeFamily, name: str) -> tuple[np.ndarray, np.ndarray
 COUPLING_TOL = 1e-7
 
 
-def _relevance_points(box: ParameterBox) -> np.ndarray:
+def relevance_points(box: ParameterBox) -> np.ndarray:
     """Nominal, then each coordinate moved alone to its low and high end: ``(13, 6)``."""
     lo, hi = box.bounds()
     pts = [np.ones(6)]
@@ -380,7 +362,7 @@ def _relevance_changes(fam: CascadeFamily, box: ParameterBox) -> dict[str, np.nd
     lo, hi = box.bounds()
     out = {}
     for name in SUBSYSTEMS:
-        A = _subsystem(fam, name)[0]
+        A = subsystem_of(fam, name)[0]
         scale = max(float(np.max(np.abs(A[0]))), 1.0)
         out[name] = np.array([max(np.max(np.abs(A[1 + 2 * j] - A[0])), np.max(np.abs(A[2 + 2 * j] - A[0]))) / scale
                               if hi[j] > lo[j] else 0.0 for j in range(6)])
@@ -405,7 +387,7 @@ def relevance_consistent(fam: CascadeFamily, box: ParameterBox, dims: Mapping[st
     return True
 
 
-def relevant_coordinates(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, box: ParameterBox, *,
+def relevant_coordinates(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, box: ParameterBox, *,
                          tilt_limit_deg: float, rate_hz: float, tol: float = RELEVANCE_TOL) -> dict[str, tuple[int, ...]]:
     """Which point coordinates change each subsystem's ``A_d`` (moving one coordinate to each end of the box).
 
@@ -413,7 +395,7 @@ def relevant_coordinates(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, 
     left out of that subsystem's LMI; the grid check on the full 19-state loop
     (:func:`grid_check`) is done with all six.
     """
-    fam = sampled_family(vehicle, gains, inner, _relevance_points(box), tilt_limit_deg=tilt_limit_deg,
+    fam = sampled_family(vehicle, gains, inner, relevance_points(box), tilt_limit_deg=tilt_limit_deg,
                          rate_hz=rate_hz)
     return _relevance_from(fam, box, tol)
 
@@ -424,7 +406,7 @@ def relevant_coordinates(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, 
 _FAMILIES: dict[tuple, "CascadeFamily"] = {}
 
 
-def family_cached(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, points: np.ndarray, tilt_limit_deg: float,
+def family_cached(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, points: np.ndarray, tilt_limit_deg: float,
                    rate_hz: float) -> "CascadeFamily":
     pts = np.ascontiguousarray(points, dtype=float)
     key = (vehicle, gains, inner, float(tilt_limit_deg), float(rate_hz), pts.shape, pts.tobytes())

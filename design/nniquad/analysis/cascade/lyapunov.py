@@ -16,11 +16,11 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 import scipy.linalg as sla
 
-from nniquad.analysis.lmi import checks as lmi_checks
-from nniquad.analysis.cascade.box import POINT_NAMES, ParameterBox, _coords
-from nniquad.analysis.cascade.family import SUBSYSTEMS, CascadeFamily, _blocks, _subsystem, mode_transform
+from nniquad.analysis.cascade.box import POINT_NAMES, ParameterBox, normalised_coordinates
 from nniquad.analysis.cascade.conic import ConicProblem, sym_basis
-from nniquad.analysis.sampled import _conditioning_transform, best_decay
+from nniquad.analysis.cascade.family import SUBSYSTEMS, CascadeFamily, mode_transform, subsystem_blocks, subsystem_of
+from nniquad.analysis.lmi import checks as lmi_checks
+from nniquad.analysis.sampled import best_decay, conditioning_transform
 from nniquad.config import CASCADE_GRID_MAX_POINTS_PER_AXIS, CASCADE_LYAPUNOV_RTOL
 from nniquad.errors import CascadeError, SolverError
 
@@ -96,7 +96,7 @@ def robust_lyapunov(A_v: np.ndarray, T: float, *, S: np.ndarray | None = None, t
     """Common ``P`` with ``A_vᵀ P A_v ⪯ ρ² P`` at every vertex, smallest ``ρ`` by :func:`best_decay` (Clarabel).
 
     Posed for ``P̃ = Sᵀ P S`` (``S`` the well-scaled coordinates of the nominal
-    loop, :func:`nniquad.analysis.sampled._conditioning_transform`), with
+    loop, :func:`nniquad.analysis.sampled.conditioning_transform`), with
     ``I ⪯ P̃ ⪯ t I`` and ``t`` minimised; the answer is re-checked with numpy
     in the original coordinates, and the stated ``ρ`` is the largest numpy
     contraction over the points (:func:`nniquad.analysis.sampled.best_decay`:
@@ -121,7 +121,7 @@ def robust_lyapunov(A_v: np.ndarray, T: float, *, S: np.ndarray | None = None, t
     rho_spec = float(np.max(np.abs(np.linalg.eigvals(A_v))))
     if not rho_spec < 1.0:
         raise SolverError(f"robust cascade LMI: a vertex of the box is unstable (spectral radius {rho_spec:.6g})")
-    S = _conditioning_transform(A_v[0]) if S is None else S
+    S = conditioning_transform(A_v[0]) if S is None else S
     Sinv = np.linalg.inv(S)
     Ab = Sinv @ A_v @ S
     th = np.zeros((nv, 0)) if theta is None else np.asarray(theta, float).reshape(nv, -1)
@@ -210,7 +210,7 @@ def _solved_affine(prob: ConicProblem, it: np.ndarray, iP: np.ndarray, E: np.nda
     Pt = np.einsum("ke,eij->kij", z[iP].reshape(-1, E.shape[0]), E)
     Po = np.stack([_sym(Sinv.T @ _sym(V) @ Sinv) for V in Pt])
     try:
-        return Po, contraction_batch(A_v, _affine(Po, theta)), status
+        return Po, contraction_batch(A_v, affine_in(Po, theta)), status
     except np.linalg.LinAlgError:  # P(θ) not positive definite at a point
         return None
 
@@ -287,7 +287,7 @@ def reach_lyapunov(A_v: np.ndarray, T: float, K: np.ndarray, L: float, rho: floa
                           decay_rate_1_s=-math.log(wm.rho) / T, min_eig_P=wm.min_eig_ratio, status=status, ok=True)
 
 
-def _affine(Pk: np.ndarray, theta: np.ndarray) -> np.ndarray:
+def affine_in(Pk: np.ndarray, theta: np.ndarray) -> np.ndarray:
     """``P(θ) = P_0 + Σ θ_j P_j`` for every row of ``theta`` (``Pk`` stacked ``(q + 1, n, n)``)."""
     theta = np.atleast_2d(theta)
     return Pk[0][None] + np.einsum("ij,jkl->ikl", theta, Pk[1:]) if Pk.shape[0] > 1 else \
@@ -336,11 +336,11 @@ def witness_margins(Pk: np.ndarray, A_v: np.ndarray, theta: np.ndarray) -> Witne
     th = np.atleast_2d(np.asarray(theta, float)).reshape(A_v.shape[0], -1)
     q = th.shape[1]
     corners = np.array(list(itertools.product((-1.0, 1.0), repeat=q)), float).reshape(-1, q)
-    Pc = _affine(Pk, corners)
+    Pc = affine_in(Pk, corners)
     lam, lam_bound = lmi_checks.definite_margin(Pc)
     ev = np.linalg.eigvalsh(_sym(Pc))
     ratio = float(np.min(ev[:, 0] / ev[:, -1]))
-    P = _affine(Pk, th)
+    P = affine_in(Pk, th)
     try:
         rv = contraction_batch(A_v, P)
     except np.linalg.LinAlgError:  # P(θ) not positive definite at a point
@@ -451,24 +451,24 @@ def point_index(points: np.ndarray, point: Sequence[float], rtol: float = 1e-9) 
     return int(hit[0]) if hit.size else None
 
 
-def _assemble_P(lyap: Mapping[str, RobustLyapunov], dims: Mapping[str, Sequence[int]], box: ParameterBox,
+def assemble_P(lyap: Mapping[str, RobustLyapunov], dims: Mapping[str, Sequence[int]], box: ParameterBox,
                 points: np.ndarray, state_names: Sequence[str]) -> np.ndarray:
     """The full Lyapunov matrix ``T_mᵀ diag(P_x, P_y, P_alt, P_yaw)(θ) T_m`` at every point."""
     Tm, _ = mode_transform(state_names)
     n = Tm.shape[0]
     Pz = np.zeros((points.shape[0], n, n))
-    for name, sl in _blocks(state_names).items():
-        Pz[:, sl, sl] = _affine(lyap[name].P, _coords(box, points, dims[name]))
+    for name, sl in subsystem_blocks(state_names).items():
+        Pz[:, sl, sl] = affine_in(lyap[name].P, normalised_coordinates(box, points, dims[name]))
     return Tm.T @ Pz @ Tm
 
 
-def _mirror(x: tuple, y: tuple, rtol: float = 1e-6) -> np.ndarray | None:
+def mirror_blocks(x: tuple, y: tuple, rtol: float = 1e-6) -> np.ndarray | None:
     """Signs ``d`` with ``A_y ≈ D A_x D`` and ``K_y ≈ K_x D`` (``D = diag(d)``) at every LMI point, or ``None``.
 
     A vehicle with equal roll and pitch data has mirrored x and y blocks (roll and
     pitch move the position with opposite signs; the linearisation leaves
     differences of about 1e-10); then ``D P_x D`` is a candidate Lyapunov matrix
-    of y, which :func:`_mirrored` re-checks with numpy on y's own loops, so
+    of y, which :func:`mirrored_blocks` re-checks with numpy on y's own loops, so
     ``rtol`` only decides whether the candidate is tried.
     """
     (Ax, Kx, thx), (Ay, Ky, thy) = x, y
@@ -482,7 +482,7 @@ def _mirror(x: tuple, y: tuple, rtol: float = 1e-6) -> np.ndarray | None:
     return None
 
 
-def _mirrored(lx: RobustLyapunov, d: np.ndarray, A_v: np.ndarray, theta: np.ndarray) -> RobustLyapunov | None:
+def mirrored_blocks(lx: RobustLyapunov, d: np.ndarray, A_v: np.ndarray, theta: np.ndarray) -> RobustLyapunov | None:
     """``D P_x(θ) D`` as y's Lyapunov matrix, its contraction re-checked with numpy on y's loops (``None``: it fails)."""
     P = d[None, :, None] * lx.P * d[None, None, :]
     wm = witness_margins(P, A_v, theta)
@@ -494,13 +494,13 @@ def _mirrored(lx: RobustLyapunov, d: np.ndarray, A_v: np.ndarray, theta: np.ndar
                    status=f"mirrored from x ({lx.status})")
 
 
-def _block_loops(fam: CascadeFamily, box: ParameterBox, pts: Mapping[str, np.ndarray],
+def block_loops(fam: CascadeFamily, box: ParameterBox, pts: Mapping[str, np.ndarray],
                  dims: Mapping[str, Sequence[int]]) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """Each subsystem's loops ``A`` at its LMI points and their θ coordinates, from a family stacked as
     ``[nominal, LMI points of each subsystem in SUBSYSTEMS order, ...]``."""
     out, k = {}, 1
     for name in SUBSYSTEMS:
         m = pts[name].shape[0]
-        out[name] = (_subsystem(fam, name)[0][k:k + m], _coords(box, pts[name], dims[name]))
+        out[name] = (subsystem_of(fam, name)[0][k:k + m], normalised_coordinates(box, pts[name], dims[name]))
         k += m
     return out

@@ -11,20 +11,45 @@ from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
-from nniquad.analysis.cascade.box import POINT_NAMES, ParameterBox, _subgrid, tilt_accel_limit
-from nniquad.analysis.cascade.family import (COUPLING_TOL, SUBSYSTEMS, _relevance_points, _take, coupling, subsystems,
-                                            family_cached, relevance_consistent)
-from nniquad.analysis.cascade.lyapunov import (GridCheck, RobustLyapunov, _assemble_P, _block_loops, checked_grid_size,
-                                              grid_check, point_index, witness_margins)
+from nniquad.analysis.cascade.box import POINT_NAMES, ParameterBox, grid_subset, tilt_accel_limit
+from nniquad.analysis.cascade.family import (
+    COUPLING_TOL,
+    SUBSYSTEMS,
+    coupling,
+    family_cached,
+    relevance_consistent,
+    relevance_points,
+    subsystems,
+    take_points,
+)
+from nniquad.analysis.cascade.lyapunov import (
+    GridCheck,
+    RobustLyapunov,
+    assemble_P,
+    block_loops,
+    checked_grid_size,
+    grid_check,
+    point_index,
+    witness_margins,
+)
 from nniquad.analysis.cascade.region import HORIZONTAL, check_lure_block, linear_zone_reach, roa_note
-from nniquad.analysis.cascade.section import (LMI_POINTS_PER_AXIS, _COVERAGE, _FORM, _MARGIN_MODEL, _MARGIN_POINTS,
-                                             _margin_fields, model_text)
-from nniquad.analysis.sampled import _period
+from nniquad.analysis.cascade.section import (
+    LMI_POINTS_PER_AXIS,
+    LYAPUNOV_COVERAGE,
+    LYAPUNOV_FORM,
+    MARGIN_MODEL,
+    MARGIN_POINTS,
+    margin_fields,
+    model_text,
+)
+from nniquad.analysis.fast_margins import fast_cascade_margins
+from nniquad.analysis.sampled import control_period
 from nniquad.config import CASCADE_GRID_POINTS_PER_AXIS, XI0_M
-from nniquad.control.gains import Gains, InnerLoopGains, SNI2Gains
-from nniquad.sim import CONTROLLER_STATES, state_names
+from nniquad.control.inner_gains import InnerLoopGains
 from nniquad.errors import CascadeError
+from nniquad.laws.base import GainBlock
 from nniquad.model.vehicle import Vehicle
+from nniquad.sim import state_names
 
 __all__ = ["check_cascade_section"]
 
@@ -66,7 +91,7 @@ SCALED_EIG_ATOL = 1e-9
 
 
 def _stated_margin_ok(key: str, stated: Any, computed: float) -> bool:
-    """A stated rounding margin (:func:`nniquad.analysis.cascade.section._margin_fields`) equals the recomputed one.
+    """A stated rounding margin (:func:`nniquad.analysis.cascade.section.margin_fields`) equals the recomputed one.
 
     Each against its own scale, with no absolute floor of 1 (``_close`` has one, for matrix entries rebuilt by
     finite differences; it would accept any stated bound below it).
@@ -82,10 +107,6 @@ def _is_number(v: Any) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
 
-#: States of the linearised cascade besides the controller's: rigid body (12), altitude integrator, four rotors.
-_N_RIGID_AND_INNER = 17
-
-
 class _FirstFailure(Exception):
     """Raised by a ``fail_fast`` re-check at its first failed row (the rows so far are the answer)."""
 
@@ -98,7 +119,7 @@ def _no_cache(kind: str, inputs: Any, compute: Callable[[], Any]) -> Any:
     return compute()
 
 
-def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: Gains | SNI2Gains,
+def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: GainBlock,
                           inner: InnerLoopGains, *, tilt_limit_deg: float, xi0_m: Sequence[float] = XI0_M,
                           fail_fast: bool = False, cache: Cache | None = None) -> list[tuple[str, bool, str]]:
     """Re-check a ``cascade`` section from the design alone (cheap checks first).
@@ -144,7 +165,7 @@ def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: G
     return out
 
 
-def _design_inputs(vehicle: Vehicle, gains: Gains | SNI2Gains, inner: InnerLoopGains, tilt_limit_deg: float,
+def _design_inputs(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, tilt_limit_deg: float,
                    rate: float, box: Any, grid_n: int) -> list[Any]:
     """What every rebuilt matrix of a section depends on, as JSON (the first inputs of each cached row)."""
     from dataclasses import asdict
@@ -153,7 +174,7 @@ def _design_inputs(vehicle: Vehicle, gains: Gains | SNI2Gains, inner: InnerLoopG
             float(rate), box, int(grid_n)]
 
 
-def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: Gains | SNI2Gains, inner: InnerLoopGains,
+def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains,
              tilt_limit_deg: float, xi0_m: Sequence[float], add: Callable[..., bool], cache: Cache) -> None:
     """The rows of :func:`check_cascade_section`, each handed to ``add(name, ok, detail)``."""
     expected = subsystems(state_names("full", gains.controller))
@@ -166,7 +187,7 @@ def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: Gains | SNI2Ga
         return
     try:
         rate = float(section["rate_hz"])
-        T = _period(rate)
+        T = control_period(rate)
         box = ParameterBox.from_json(section["box"])
         mc = ParameterBox.from_json(section["monte_carlo_default_box"])
         grid_n = checked_grid_size(section["grid"].get("points_per_axis", CASCADE_GRID_POINTS_PER_AXIS))
@@ -174,13 +195,13 @@ def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: Gains | SNI2Ga
         add("rate and box", False, str(exc))
         return
     add("controller variant", section["controller"] == "discrete" and section["attitude_loop"] == "continuous"
-        and section["model"] == model_text(_N_RIGID_AND_INNER + len(CONTROLLER_STATES[gains.controller])),
+        and section["model"] == model_text(gains.law),
         f"{section['controller']}, attitude {section['attitude_loop']}")
     add("Monte Carlo default box", mc == ParameterBox.monte_carlo_default(), str(mc.to_json()))
     try:
-        texts = (section["lyapunov"]["form"] == _FORM and section["lyapunov"]["coverage"] == _COVERAGE
-                 and section["region_of_attraction"]["note"] == roa_note(gains.controller)
-                 and section["margins"]["points"] == _MARGIN_POINTS and section["margins"]["model"] == _MARGIN_MODEL
+        texts = (section["lyapunov"]["form"] == LYAPUNOV_FORM and section["lyapunov"]["coverage"] == LYAPUNOV_COVERAGE
+                 and section["region_of_attraction"]["note"] == roa_note(gains.law)
+                 and section["margins"]["points"] == MARGIN_POINTS and section["margins"]["model"] == MARGIN_MODEL
                  and all(list(section["lyapunov"]["subsystems"][n]["states"]) == list(expected[n])
                          for n in SUBSYSTEMS))
     except (KeyError, TypeError):
@@ -202,8 +223,8 @@ def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: Gains | SNI2Ga
         add("lyapunov block", False, f"unreadable ({exc})")
         return
     # ---- rebuild every matrix in one batched call: nominal, relevance probes, LMI points, grid
-    probes = _relevance_points(box)
-    pts = {name: _subgrid(box, dims[name], LMI_POINTS_PER_AXIS) for name in SUBSYSTEMS}
+    probes = relevance_points(box)
+    pts = {name: grid_subset(box, dims[name], LMI_POINTS_PER_AXIS) for name in SUBSYSTEMS}
     allp = np.vstack([np.ones((1, 6))] + list(pts.values()) + [box.grid(grid_n), probes])
     try:
         big = family_cached(vehicle, gains, inner, allp, tilt_limit_deg, rate)
@@ -212,11 +233,11 @@ def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: Gains | SNI2Ga
         return
     n_cert = 1 + sum(p.shape[0] for p in pts.values()) + box.grid(grid_n).shape[0]
     big.spectral_radius  # noqa: B018  once per rebuilt family (it is cached): every check below shares it
-    fam = _take(big, np.arange(n_cert))
-    add("relevant coordinates", relevance_consistent(_take(big, np.arange(n_cert, len(big))), box, dims),
+    fam = take_points(big, np.arange(n_cert))
+    add("relevant coordinates", relevance_consistent(take_points(big, np.arange(n_cert, len(big))), box, dims),
         str({k: subs[k]["dims"] for k in SUBSYSTEMS}))
     mats = section["matrices"]
-    nom = _take(fam, np.arange(1))
+    nom = take_points(fam, np.arange(1))
     ok = (list(mats.get("state_names", [])) == list(fam.state_names) and _close(mats.get("A_d"), nom.A_d[0])
           and _close(mats.get("Phi"), nom.Phi[0]) and _close(mats.get("Gamma_d"), nom.Gam[0])
           and _close(mats.get("A_kd"), fam.A_kd) and _close(mats.get("B_kd"), fam.B_kd)
@@ -226,7 +247,7 @@ def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: Gains | SNI2Ga
     add("subsystems decoupled", cpl <= COUPLING_TOL and _close(lyap_s.get("coupling"), cpl, 1e-6),
         f"coupling {cpl:.3g} (stated {lyap_s.get('coupling')})")
     lyap: dict[str, RobustLyapunov] = {}
-    loops = _block_loops(fam, box, pts, dims)
+    loops = block_loops(fam, box, pts, dims)
     k = 1 + sum(p.shape[0] for p in pts.values())
     for name in SUBSYSTEMS:
         A, th = loops[name]
@@ -241,11 +262,11 @@ def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: Gains | SNI2Ga
             # reach_lyapunov), equal within its rounding bound: another witness P, even a valid one, is not the
             # one signed; rho < 1 and P > 0 each hold with a margin above rounding (WitnessMargins.ok)
             tol = max(1e-9, wm.rho_bound) if math.isfinite(wm.rho_bound) else 1e-9
-            stated_margins = {key: subs[name].get(key) for key in _margin_fields(wm)}
+            stated_margins = {key: subs[name].get(key) for key in margin_fields(wm)}
             good = (wm.ok and abs(wm.rho - rho) <= tol and m == subs[name]["lmi_points"]
                     and _close(subs[name]["spectral_radius"], sr)
                     and _close(subs[name]["decay_rate_1_s"], -math.log(rho) / T)
-                    and all(_stated_margin_ok(key, stated_margins[key], v) for key, v in _margin_fields(wm).items()))
+                    and all(_stated_margin_ok(key, stated_margins[key], v) for key, v in margin_fields(wm).items()))
             detail = (f"{m} points, contraction {wm.rho:.10f} = rho {rho:.10f} < 1 by {1 - wm.rho:.3g} "
                       f"(rounding bound {wm.rho_bound:.2g}); min eig scaled P {wm.definite:.3g} "
                       f"(bound {wm.definite_bound:.2g})")
@@ -258,12 +279,12 @@ def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: Gains | SNI2Ga
     add("rho and decay rate", _close(lyap_s.get("rho"), max(rhos.values())) and _close(lyap_s.get("period_s"), T)
         and _close(section["decay_rate_1_s"], min(l.decay_rate_1_s for l in lyap.values())),
         f"decay {min(l.decay_rate_1_s for l in lyap.values()):.6g} 1/s")
-    grid_fam = _take(fam, np.arange(k, n_cert))
+    grid_fam = take_points(fam, np.arange(k, n_cert))
     # the Lyapunov blocks above are functions of the design and the stated lyapunov section alone
     design = _design_inputs(vehicle, gains, inner, tilt_limit_deg, rate, section["box"], grid_n) + [lyap_s]
     try:
         gc = cache("cascade.grid_check", design, lambda: grid_check(
-            grid_fam, _assemble_P(lyap, dims, box, grid_fam.points, fam.state_names), grid_n))
+            grid_fam, assemble_P(lyap, dims, box, grid_fam.points, fam.state_names), grid_n))
         g = section["grid"]
         ok = (gc.ok and g.get("size") == gc.size and g.get("ok") is True
               and _same_worst(g, gc, grid_fam.points)
@@ -285,11 +306,11 @@ def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: Gains | SNI2Ga
         reach, detail = min(lz_lmi, lz_grid), f"linear zone {min(lz_lmi, lz_grid):.6g} m"
         if method == "linear_zone":
             ok = ok and _close(roa.get("max_displacement_m"), reach) and "lure" not in roa
-        elif method == "lure" and gains.controller != "sni2":  # solved for a start with the controller at 0
+        elif method == "lure" and gains.law.starts_at_zero(gains, vehicle.m):  # solved for a start with the controller at 0
             start, lmi = 1, {}
             for name in SUBSYSTEMS:  # each horizontal axis's LMI points, as the family is stacked above
                 if name in HORIZONTAL:
-                    lmi[name] = _take(fam, np.arange(start, start + pts[name].shape[0]))
+                    lmi[name] = take_points(fam, np.arange(start, start + pts[name].shape[0]))
                 start += pts[name].shape[0]
             lure_ok, lure_detail, lure_reach = cache("cascade.lure", design + [roa["lure"]],
                                                      lambda: check_lure_block(roa["lure"], dims, box, lmi, grid_fam,
@@ -309,7 +330,6 @@ def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: Gains | SNI2Ga
         add("region of attraction", False, f"unreadable ({exc})")
     # ---- margins at the stated worst points (the most expensive check: last)
     try:
-        from nniquad.analysis.fast_margins import fast_cascade_margins
 
         worst = section["margins"]["worst"]
         wpts = []

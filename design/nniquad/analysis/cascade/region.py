@@ -44,10 +44,18 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from nniquad.analysis.cascade.box import POINT_NAMES, ParameterBox, normalised_coordinates
+from nniquad.analysis.cascade.family import (
+    SUBSYSTEMS,
+    CascadeFamily,
+    mode_transform,
+    subsystem_blocks,
+    subsystem_of,
+    subsystems,
+)
+from nniquad.analysis.cascade.lyapunov import RobustLyapunov, affine_in, spectral_norms
 from nniquad.analysis.lmi import checks as lmi_checks
-from nniquad.analysis.cascade.box import POINT_NAMES, ParameterBox, _coords
-from nniquad.analysis.cascade.family import SUBSYSTEMS, CascadeFamily, _blocks, _subsystem, mode_transform
-from nniquad.analysis.cascade.lyapunov import RobustLyapunov, _affine, spectral_norms
+from nniquad.laws.base import ControlLaw
 
 __all__ = ["linear_zone_reach", "HORIZONTAL", "features", "LureRegion", "decrease_forms", "LureCheck",
            "lure_check", "coupled_decrease", "huber", "lure_block", "check_lure_block", "ROA_NOTE", "roa_note",
@@ -67,31 +75,42 @@ ROA_NOTE = ("lure: the region {V <= c} of V = x'P(θ)x + 2 μ(θ) Φ(K x / L(θ)
 LURE_FORM = ("P_a(θ) = Σ_f φ_f(θ_a) P_a,f, G_a(θ) likewise, μ(θ) = Σ_f φ_f(θ_m) μ_f; φ = 1, θ_j, θ_j θ_k (j < k), "
              "θ_j² of the axis's log factors normalised on the box (θ_m: those of both axes); the sector "
              "multiplier is 1; V(x⁺) - V(x) <= -(1 - rho²) x'Px")
-#: The end of the note for the ``sni2`` law, whose controller starts at its DC value (:func:`roa_note`).
-_SNI2_START = "controller state at rest at its DC value C(0) times the position (the sni2 law's take-over state)"
+def roa_note(law: ControlLaw) -> str:
+    """The stated region-of-attraction note: :data:`ROA_NOTE` with the law's start
+    (:attr:`~nniquad.laws.base.ControlLaw.start_description`; :func:`start_vector`) and the coupled loop's size.
 
-
-def roa_note(controller: str) -> str:
-    """The stated region-of-attraction note: :data:`ROA_NOTE`, and for ``sni2`` the start with its controller at its
-    DC value (:func:`nniquad.control.sni.start_state`; :func:`start_vector`)."""
-    if controller != "sni2":
-        return ROA_NOTE
-    return ROA_NOTE.replace("controller state 0", _SNI2_START).replace("19-state", "21-state")
+    Parameters
+    ----------
+    law
+        The certified law.
+    """
+    n = 17 + len(law.sim_state_names)
+    return ROA_NOTE.replace("controller state 0", law.start_description).replace("19-state", f"{n}-state")
 
 
 def start_vector(fam: CascadeFamily, axis: str) -> np.ndarray:
-    """The start state of an axis's subsystem per metre of displacement: the position 1, every other state 0 but
-    the ``sni2`` law's controller state ``z``, at its DC value ``C(0)`` (:func:`nniquad.control.sni.start_state`)."""
-    from nniquad.analysis.cascade.family import subsystems
-    from nniquad.control.gains import SNI2Gains
-    from nniquad.control.sni import dc_gain
+    """The start state of an axis's subsystem per metre of displacement: the position 1, the law's controller
+    states at their take-over values (:meth:`nniquad.laws.base.ControlLaw.start_map`), every other state 0.
 
+    Parameters
+    ----------
+    fam
+        The sampled family (its context holds the gains and the vehicle).
+    axis
+        ``"x"`` or ``"y"``.
+    """
     names = subsystems(fam.state_names)[axis]
     v = np.zeros(len(names))
     v[0] = 1.0
-    gains = fam.context["gains"] if isinstance(fam.context, Mapping) else None
-    if isinstance(gains, SNI2Gains):
-        v[names.index(f"zc_{axis}")] = dc_gain(gains.k, gains.omega)
+    ctx = fam.context if isinstance(fam.context, Mapping) else {}
+    gains, vehicle = ctx.get("gains"), ctx.get("vehicle")
+    if gains is not None:
+        law = gains.law
+        a = HORIZONTAL.index(axis)
+        S = law.start_map(gains, vehicle.m if vehicle is not None else 1.0)
+        for i, name in enumerate(law.sim_state_names):
+            if name.endswith(f"_{axis}") and name in names:
+                v[names.index(name)] = S[i, a]
     return v
 
 
@@ -108,8 +127,8 @@ def linear_zone_reach(lyap: Mapping[str, RobustLyapunov], dims, box: ParameterBo
     """
     kmax, pmax = None, None
     for a in HORIZONTAL:
-        _, _, _, K = _subsystem(fam, a)
-        P = _affine(lyap[a].P, _coords(box, fam.points, dims[a]))
+        _, _, _, K = subsystem_of(fam, a)
+        P = affine_in(lyap[a].P, normalised_coordinates(box, fam.points, dims[a]))
         W = np.linalg.inv(P)
         kw = (K @ W @ K.T)[..., 0, 0]
         v = start_vector(fam, a)
@@ -171,8 +190,8 @@ class LureRegion:
 
     def at(self, box: ParameterBox, points: np.ndarray, axis: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``P_a(θ), Ĝ_a(θ), μ(θ)`` at ``points`` (``(N, 6)`` factors)."""
-        fa = features(_coords(box, points, self.dims[axis]))
-        fm = features(_coords(box, points, self.mult_dims))
+        fa = features(normalised_coordinates(box, points, self.dims[axis]))
+        fm = features(normalised_coordinates(box, points, self.mult_dims))
         return (np.einsum("nf,fij->nij", fa, self.P[axis]), np.einsum("nf,fij->nij", fa, self.G[axis]),
                 fm @ np.asarray(self.mu, float))
 
@@ -308,7 +327,7 @@ def margin_scale(P: np.ndarray, m: int) -> np.ndarray:
 
 def axis_loops(fam: CascadeFamily, axis: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(A_d, B L, K / L)`` of a horizontal axis at every point of ``fam`` (unit saturation of ``ν``)."""
-    A, _, B, K = _subsystem(fam, axis)
+    A, _, B, K = subsystem_of(fam, axis)
     L = np.broadcast_to(np.asarray(fam.accel_limit, float), (A.shape[0],))
     return A, B * L[:, None, None], K[None] / L[:, None, None]
 
@@ -386,7 +405,7 @@ def lure_check(region: LureRegion, box: ParameterBox, fam: CascadeFamily,
     for a in HORIZONTAL:
         P, G, mu = region.at(box, fam.points, a)
         A, Bh, Kh = axis_loops(fam, a)
-        k_max = max(k_max, abs(float(_subsystem(fam, a)[3][0, 0])))
+        k_max = max(k_max, abs(float(subsystem_of(fam, a)[3][0, 0])))
         p00 = np.maximum(p00, P[:, 0, 0])
         try:
             W = np.linalg.inv(P)
@@ -430,13 +449,13 @@ def coupled_decrease(region: LureRegion, lyap: Mapping[str, RobustLyapunov], dim
     n, N = Tm.shape[0], len(fam)
     Pz, Gz = np.zeros((N, n, n)), np.zeros((N, 2, n))
     mu = None
-    for name, sl in _blocks(fam.state_names).items():
+    for name, sl in subsystem_blocks(fam.state_names).items():
         if name in HORIZONTAL:
             P, G, mu = region.at(box, fam.points, name)
             Pz[:, sl, sl] = P
             Gz[:, HORIZONTAL.index(name), sl] = G[:, 0]
         else:
-            Pz[:, sl, sl] = _affine(lyap[name].P, _coords(box, fam.points, dims[name]))
+            Pz[:, sl, sl] = affine_in(lyap[name].P, normalised_coordinates(box, fam.points, dims[name]))
     L = np.broadcast_to(np.asarray(fam.accel_limit, float), (N,))[:, None, None]
     A, B, K = Tm @ fam.A_d @ Tm.T, Tm @ fam.B * L, fam.K @ Tm.T / L
     F, F_abs = decrease_forms(A, B, K, Pz, Gz, mu, region.rho)
@@ -490,7 +509,7 @@ def check_lure_block(block: Mapping[str, Any], dims: Mapping[str, Sequence[int]]
     stated_coupled = block["coupled_grid"]
     ok = (block["form"] == LURE_FORM and all(c.ok for c in ck) and cg.ok and -dec > bound
           and {a: block["lmi_points"][a] for a in HORIZONTAL} == {a: len(lmi[a]) for a in HORIZONTAL}
-          and _same_check(block["check_lmi_points"], _merge_checks(ck)) and _same_check(block["check_grid"], cg)
+          and _same_check(block["check_lmi_points"], merge_checks(ck)) and _same_check(block["check_grid"], cg)
           and set(stated_coupled) == {"decrease", "decrease_bound"}
           and _same(stated_coupled["decrease"], dec, max(bound, 1e-12))
           and _same(stated_coupled["decrease_bound"], bound, 1e-6 * bound + 1e-300))
@@ -502,7 +521,7 @@ def check_lure_block(block: Mapping[str, Any], dims: Mapping[str, Sequence[int]]
     return bool(ok), detail, reach
 
 
-def _merge_checks(checks: Sequence[LureCheck]) -> LureCheck:
+def merge_checks(checks: Sequence[LureCheck]) -> LureCheck:
     """One :class:`LureCheck` of several: the worst of each number."""
     from dataclasses import replace
 

@@ -22,15 +22,31 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 import scipy.linalg as sla
 
-from nniquad.analysis.cascade.box import ParameterBox, _coords
+from nniquad.analysis.cascade.box import ParameterBox, normalised_coordinates
 from nniquad.analysis.cascade.conic import ConicProblem, sym_basis
-from nniquad.analysis.cascade.family import SUBSYSTEMS, CascadeFamily, _subsystem, _take
-from nniquad.analysis.cascade.lyapunov import RobustLyapunov, _affine, _block_loops, _mirror
-from nniquad.analysis.cascade.region import (HORIZONTAL, LureCheck, LureRegion, _merge_checks, axis_loops,
-                                         coupled_decrease, features, form_parts, huber, lure_block, lure_check,
-                                         n_features)
-from nniquad.config import (CASCADE_LURE_CUT_POINTS, CASCADE_LURE_CUT_ROUNDS, CASCADE_LURE_LEVELS,
-                            CASCADE_LURE_MARGIN, CASCADE_ROA_DECAY_FRACTION)
+from nniquad.analysis.cascade.family import SUBSYSTEMS, CascadeFamily, subsystem_of, take_points
+from nniquad.analysis.cascade.lyapunov import RobustLyapunov, affine_in, block_loops, mirror_blocks
+from nniquad.analysis.cascade.region import (
+    HORIZONTAL,
+    LureCheck,
+    LureRegion,
+    axis_loops,
+    coupled_decrease,
+    features,
+    form_parts,
+    huber,
+    lure_block,
+    lure_check,
+    merge_checks,
+    n_features,
+)
+from nniquad.config import (
+    CASCADE_LURE_CUT_POINTS,
+    CASCADE_LURE_CUT_ROUNDS,
+    CASCADE_LURE_LEVELS,
+    CASCADE_LURE_MARGIN,
+    CASCADE_ROA_DECAY_FRACTION,
+)
 
 __all__ = ["solve_lure", "lure_region", "LureSearch", "lure_section", "corner_points"]
 
@@ -100,9 +116,9 @@ def axis_data(fam: CascadeFamily, box: ParameterBox, axis: str, dims: Sequence[i
               mult_dims: Sequence[int]) -> AxisData:
     """:class:`AxisData` of ``axis`` at every point of ``fam``."""
     A, Bh, Kh = axis_loops(fam, axis)
-    return AxisData(A, Bh, Kh, _coords(box, fam.points, dims), _coords(box, fam.points, mult_dims),
+    return AxisData(A, Bh, Kh, normalised_coordinates(box, fam.points, dims), normalised_coordinates(box, fam.points, mult_dims),
                     np.broadcast_to(np.asarray(fam.accel_limit, float), (len(fam),)).copy(),
-                    abs(float(_subsystem(fam, axis)[3][0, 0])))
+                    abs(float(subsystem_of(fam, axis)[3][0, 0])))
 
 
 def solve_lure(axes: Mapping[str, AxisData], D: Mapping[str, np.ndarray], level: float, r0: float, rho: float,
@@ -252,7 +268,7 @@ def lure_region(lmi: Mapping[str, CascadeFamily], grid: CascadeFamily, box: Para
     lyap
         The axes' Lyapunov blocks (their ``P`` at the centre sets the solver's coordinates).
     mirror
-        Signs ``d`` when y mirrors x (:func:`nniquad.analysis.cascade.lyapunov._mirror`): only x is solved, and
+        Signs ``d`` when y mirrors x (:func:`nniquad.analysis.cascade.lyapunov.mirror_blocks`): only x is solved, and
         y's matrices are x's mirrored (checked on y's own loops like any other answer).
     levels
         The levels ``c`` tried at the centre point; the best one and its neighbours at half steps are then used.
@@ -270,7 +286,7 @@ def lure_region(lmi: Mapping[str, CascadeFamily], grid: CascadeFamily, box: Para
     solved = ("x",) if mirror is not None else HORIZONTAL
     centre = {a: int(np.argmin(np.sum(data[a].theta ** 2, axis=1))) for a in HORIZONTAL}
     choices = {a: coordinate_choices(data[a].A[centre[a]],
-                                     _affine(lyap[a].P, data[a].theta[centre[a]:centre[a] + 1])[0], data[a].k_pos,
+                                     affine_in(lyap[a].P, data[a].theta[centre[a]:centre[a] + 1])[0], data[a].k_pos,
                                      float(data[a].L[centre[a]])) for a in solved}
     D_all = [{a: choices[a][i] for a in solved} for i in range(2)]
     r_lin = float(min(np.min(d.L) for d in data.values())) / k_max  # where a position offset saturates
@@ -282,7 +298,7 @@ def lure_region(lmi: Mapping[str, CascadeFamily], grid: CascadeFamily, box: Para
 
     # ---- the level c, on the centre point alone (constant P, Ĝ, μ: one point fixes no dependence on θ)
     cdata = {a: data[a].take(np.array([centre[a]])).constant() for a in solved}
-    cfams = {a: _take(lmi[a], np.array([centre[a]])) for a in HORIZONTAL}
+    cfams = {a: take_points(lmi[a], np.array([centre[a]])) for a in HORIZONTAL}
 
     def centre_reach(level: float) -> float:
         for D in D_all:  # the next coordinates when the solver stalls or its answer fails the numpy check
@@ -390,7 +406,7 @@ def _solve_with_cuts(data, gdata, lmi, grid, solved, D_all, level, r0, rho, k_ma
         if check_grid is None:
             return None, status
         if check_grid.ok:
-            return LureSearch(region, _merge_checks(checks_lmi), check_grid, added, (), status), status
+            return LureSearch(region, merge_checks(checks_lmi), check_grid, added, (), status), status
         _cut(cur, check_grid, grid_data, solved, mirror, cut_points, added)
     return None, status + "; the grid still fails after the cutting planes"
 
@@ -407,10 +423,10 @@ def lure_section(fam: CascadeFamily, pts: Mapping[str, np.ndarray], lyap: Mappin
     start, lmi = 1, {}
     for name in SUBSYSTEMS:
         if name in HORIZONTAL:
-            lmi[name] = _take(fam, np.arange(start, start + pts[name].shape[0]))
+            lmi[name] = take_points(fam, np.arange(start, start + pts[name].shape[0]))
         start += pts[name].shape[0]
-    loops = _block_loops(fam, box, pts, dims)
-    mirror = _mirror(*((loops[a][0], _subsystem(fam, a)[3], loops[a][1]) for a in HORIZONTAL))
+    loops = block_loops(fam, box, pts, dims)
+    mirror = mirror_blocks(*((loops[a][0], subsystem_of(fam, a)[3], loops[a][1]) for a in HORIZONTAL))
     rho = math.exp(-CASCADE_ROA_DECAY_FRACTION * min(lyap[a].decay_rate_1_s for a in HORIZONTAL) * fam.T)
     search = lure_region(lmi, grid, box, dims, rho, lyap, mirror=mirror)
     record = {"levels_tried": [{"level": c, "centre_reach_m": r} for c, r in search.levels_tried],

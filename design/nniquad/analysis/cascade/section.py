@@ -15,18 +15,50 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from nniquad.analysis.cascade.box import POINT_NAMES, ParameterBox, _coords, _subgrid, tilt_accel_limit
-from nniquad.analysis.cascade.family import (SUBSYSTEMS, CascadeFamily, _subsystem, _take, coupling, subsystems,
-                                            relevant_coordinates, sampled_family)
-from nniquad.analysis.cascade.lyapunov import (WitnessMargins, checked_grid_size, _assemble_P, _block_loops, _mirror,
-                                              _mirrored, grid_check, reach_lyapunov, robust_lyapunov,
-                                              witness_margins)
+from nniquad.analysis.cascade.box import (
+    POINT_NAMES,
+    ParameterBox,
+    grid_subset,
+    normalised_coordinates,
+    tilt_accel_limit,
+)
+from nniquad.analysis.cascade.family import (
+    SUBSYSTEMS,
+    CascadeFamily,
+    coupling,
+    relevant_coordinates,
+    sampled_family,
+    subsystem_of,
+    subsystems,
+    take_points,
+)
+from nniquad.analysis.cascade.lyapunov import (
+    WitnessMargins,
+    assemble_P,
+    block_loops,
+    checked_grid_size,
+    grid_check,
+    mirror_blocks,
+    mirrored_blocks,
+    reach_lyapunov,
+    robust_lyapunov,
+    witness_margins,
+)
 from nniquad.analysis.cascade.region import linear_zone_reach, roa_note
 from nniquad.analysis.cascade.region_lmi import lure_section
-from nniquad.config import (CASCADE_GRID_POINTS_PER_AXIS, CASCADE_REACH_DECAY_FRACTION, CASCADE_SMALLEST_SCALE,
-                            CASCADE_WIDEST_SCALE_MAX, CASCADE_WIDEST_STEPS, CONTROL_RATE_HZ, XI0_M)
-from nniquad.control.gains import Gains, InnerLoopGains
+from nniquad.analysis.fast_margins import fast_cascade_margins
+from nniquad.config import (
+    CASCADE_GRID_POINTS_PER_AXIS,
+    CASCADE_REACH_DECAY_FRACTION,
+    CASCADE_SMALLEST_SCALE,
+    CASCADE_WIDEST_SCALE_MAX,
+    CASCADE_WIDEST_STEPS,
+    CONTROL_RATE_HZ,
+    XI0_M,
+)
+from nniquad.control.inner_gains import InnerLoopGains
 from nniquad.errors import CascadeError, SolverError
+from nniquad.laws.base import ControlLaw, GainBlock
 from nniquad.model.vehicle import Vehicle
 
 __all__ = ["LMI_POINTS_PER_AXIS", "BoxSearch", "widest_box", "cascade_section", "last_timings", "model_text"]
@@ -35,21 +67,26 @@ __all__ = ["LMI_POINTS_PER_AXIS", "BoxSearch", "widest_box", "cascade_section", 
 #: Points per coordinate of each subsystem's Lyapunov LMI (the vertices and the centre); the numpy grid
 #: check uses :data:`nniquad.config.CASCADE_GRID_POINTS_PER_AXIS` (other points than these, but the vertices).
 LMI_POINTS_PER_AXIS = 3
-_MODEL = "full (linearised at hover, 19 states: rigid body, altitude PID, yaw, attitude PD, motors, NNI)"
+#: States of the linearised cascade besides the law's: rigid body 12, altitude integrator 1, rotors 4.
+CASCADE_STATES_BESIDES_THE_LAW = 17
 
 
-def model_text(n_states: int) -> str:
-    """The section's stated model: :data:`_MODEL` for the NNI law's 19 states; the ``sni2`` law's two more
-    controller states give 21 (the text names the controller by its state count)."""
-    if n_states == 19:
-        return _MODEL
-    return (f"full (linearised at hover, {n_states} states: rigid body, altitude PID, yaw, attitude PD, motors, "
-            f"{'second-order SNI controller' if n_states == 21 else 'controller'})")
-_FORM = "P(θ) = P0 + Σ θ_j P_j per decoupled subsystem, θ ∈ [-1, 1] the log factors normalised on the box"
-_COVERAGE = ("the LMI holds at the LMI points (grid of 3 per coordinate: vertices, centre, mid-faces); "
+def model_text(law: ControlLaw) -> str:
+    """The section's stated model, naming the states and the law's controller (the NNI law: 19 states, "NNI").
+
+    Parameters
+    ----------
+    law
+        The certified law.
+    """
+    n = CASCADE_STATES_BESIDES_THE_LAW + len(law.sim_state_names)
+    return (f"full (linearised at hover, {n} states: rigid body, altitude PID, yaw, attitude PD, motors, "
+            f"{law.controller_label})")
+LYAPUNOV_FORM = "P(θ) = P0 + Σ θ_j P_j per decoupled subsystem, θ ∈ [-1, 1] the log factors normalised on the box"
+LYAPUNOV_COVERAGE = ("the LMI holds at the LMI points (grid of 3 per coordinate: vertices, centre, mid-faces); "
              "the interior is checked with numpy at the grid points only")
-_MARGIN_POINTS = "vertices of the box in the coordinates that reach the horizontal axes"
-_MARGIN_MODEL = "Padé (order 2) model of the sampling, continuous time (nniquad.analysis.fast_margins)"
+MARGIN_POINTS = "vertices of the box in the coordinates that reach the horizontal axes"
+MARGIN_MODEL = "Padé (order 2) model of the sampling, continuous time (nniquad.analysis.fast_margins)"
 #: Wall-clock seconds of the parts of the last :func:`cascade_section` (not stored in the section: not checkable).
 last_timings: dict[str, float] = {}
 
@@ -61,7 +98,7 @@ def _certify_box(vehicle, gains, inner, box, *, tilt_limit_deg, rate_hz, dims, g
     linear-zone reach at a slightly slower one (:func:`reach_lyapunov`); the widest that passes the grid
     check is kept.
     """
-    pts = {name: _subgrid(box, dims[name], LMI_POINTS_PER_AXIS) for name in SUBSYSTEMS}
+    pts = {name: grid_subset(box, dims[name], LMI_POINTS_PER_AXIS) for name in SUBSYSTEMS}
     allp = np.vstack([np.ones((1, 6))] + list(pts.values()) + [box.grid(grid_n)])
     fam = sampled_family(vehicle, gains, inner, allp, tilt_limit_deg=tilt_limit_deg, rate_hz=rate_hz)
     L = tilt_accel_limit(vehicle, box, tilt_limit_deg)
@@ -69,27 +106,27 @@ def _certify_box(vehicle, gains, inner, box, *, tilt_limit_deg, rate_hz, dims, g
     blocks: dict[str, tuple] = {}
     for name in SUBSYSTEMS:
         m = pts[name].shape[0]
-        A, _, _, K = _subsystem(fam, name)
-        A, th = A[k:k + m], _coords(box, pts[name], dims[name])
+        A, _, _, K = subsystem_of(fam, name)
+        A, th = A[k:k + m], normalised_coordinates(box, pts[name], dims[name])
         blocks[name] = (A, K, th)
-        d = _mirror(blocks["x"], blocks[name]) if name == "y" else None
+        d = mirror_blocks(blocks["x"], blocks[name]) if name == "y" else None
         # y is x in mirrored coordinates: the mirrored answers, re-checked on y's own loops, else solved
-        mirrored = _mirrored(lyap["x"], d, A, th) if d is not None else None
+        mirrored = mirrored_blocks(lyap["x"], d, A, th) if d is not None else None
         lyap[name] = mirrored or robust_lyapunov(A, fam.T, theta=th)
         if K is not None:  # a horizontal axis: also the widest reach at a slightly slower decay
             rho = math.exp(-CASCADE_REACH_DECAY_FRACTION * lyap[name].decay_rate_1_s * fam.T)
-            wide[name] = (_mirrored(wide["x"], d, A, th) if mirrored is not None and wide["x"] is not None
+            wide[name] = (mirrored_blocks(wide["x"], d, A, th) if mirrored is not None and wide["x"] is not None
                           else None) or reach_lyapunov(A, fam.T, K, L, rho, theta=th)
         k += m
-    grid_fam = _take(fam, np.arange(k, len(fam)))
-    lmi_fam = _take(fam, np.arange(1, k))
+    grid_fam = take_points(fam, np.arange(k, len(fam)))
+    lmi_fam = take_points(fam, np.arange(1, k))
     candidates = [lyap]
     if all(wide.get(a) is not None for a in ("x", "y")):
         widened = {**lyap, **wide}
         if linear_zone_reach(widened, dims, box, lmi_fam, L) > linear_zone_reach(lyap, dims, box, lmi_fam, L):
             candidates.insert(0, widened)
     for cand in candidates:  # the widest reach whose grid check passes, else the fastest decay
-        gc = grid_check(grid_fam, _assemble_P(cand, dims, box, grid_fam.points, fam.state_names), grid_n)
+        gc = grid_check(grid_fam, assemble_P(cand, dims, box, grid_fam.points, fam.state_names), grid_n)
         if gc.ok:
             return fam, pts, cand, grid_fam, gc
     raise SolverError(f"cascade grid check fails: contraction {gc.worst_rho:.6g} at {gc.worst_point}")
@@ -193,7 +230,6 @@ def widest_box(vehicle, gains, inner, base: ParameterBox, *, tilt_limit_deg, rat
 
 def _vertex_margins(fam: CascadeFamily, rate_hz: float) -> dict[str, Any]:
     """Worst fast margins (:mod:`nniquad.analysis.fast_margins`) over the points of ``fam``."""
-    from nniquad.analysis.fast_margins import fast_cascade_margins
 
     worst: dict[str, dict[str, Any]] = {}
     better = {"gm_db": lambda a, b: a < b, "gm_lower_db": lambda a, b: a > b, "pm_deg": lambda a, b: a < b}
@@ -210,13 +246,13 @@ def _vertex_margins(fam: CascadeFamily, rate_hz: float) -> dict[str, Any]:
         for k, v in list(w.items()):
             if isinstance(v, float) and not math.isfinite(v):
                 w[k] = str(v)
-    return {"points": _MARGIN_POINTS, "model": _MARGIN_MODEL, "worst": worst}
+    return {"points": MARGIN_POINTS, "model": MARGIN_MODEL, "worst": worst}
 
 
 _SECTIONS: dict[tuple, dict[str, Any]] = {}
 
 
-def cascade_section(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, tilt_limit_deg: float,
+def cascade_section(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, *, tilt_limit_deg: float,
                     rate_hz: float = CONTROL_RATE_HZ, box: ParameterBox | None = None,
                     widest: bool = False, grid_points_per_axis: int = CASCADE_GRID_POINTS_PER_AXIS,
                     xi0_m: Sequence[float] = XI0_M) -> dict[str, Any]:
@@ -239,7 +275,7 @@ def cascade_section(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, ti
     return copy.deepcopy(_SECTIONS[key])
 
 
-def _cascade_section(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, tilt_limit_deg: float,
+def _cascade_section(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, *, tilt_limit_deg: float,
                      rate_hz: float = CONTROL_RATE_HZ, box: ParameterBox | None = None,
                      widest: bool = False, grid_points_per_axis: int = CASCADE_GRID_POINTS_PER_AXIS,
                      xi0_m: Sequence[float] = XI0_M) -> dict[str, Any]:
@@ -298,8 +334,9 @@ def _cascade_section(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, t
     lz_lmi = linear_zone_reach(lyap, dims, box, fam, L)
     lz_grid = linear_zone_reach(lyap, dims, box, grid_fam, L)
     # the Lur'e-Postnikov region, kept when it passes every numpy check and reaches further than the linear zone;
-    # it is solved for a start with the controller state 0, so not for the sni2 law (which starts at its DC value)
-    lure, record = (lure_section(fam, pts, lyap, grid_fam, box, dims) if gains.controller != "sni2"
+    # it is solved for a start with the controller state 0, so not for a law that starts elsewhere (sni2: at its
+    # DC value)
+    lure, record = (lure_section(fam, pts, lyap, grid_fam, box, dims) if gains.law.starts_at_zero(gains, vehicle.m)
                     else (None, None))
     reach = min(lz_lmi, lz_grid)
     roa_block: dict[str, Any] = {"u0_m_s2": L, "tilt_limit_deg": float(tilt_limit_deg), "method": "linear_zone"}
@@ -308,18 +345,18 @@ def _cascade_section(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, t
         reach = min(lure["check_lmi_points"]["reach_m"], lure["check_grid"]["reach_m"]) * (1.0 - 1e-9)
         roa_block.update(method="lure", lure=lure)
     roa_block.update({"max_displacement_m": reach, "linear_zone_reach_lmi_points_m": lz_lmi,
-                      "linear_zone_reach_grid_m": lz_grid, "note": roa_note(gains.controller),
+                      "linear_zone_reach_grid_m": lz_grid, "note": roa_note(gains.law),
                       "lure_search": record})  # a record (nniquad.certificates.verify.RECORD_FIELDS)
     timings["roa_s"] = time.perf_counter() - t0 - sum(timings.values())
     mdims = tuple(sorted(set(dims["x"]) | set(dims["y"])))
-    margins = _vertex_margins(sampled_family(vehicle, gains, inner, _subgrid(box, mdims, 2),
+    margins = _vertex_margins(sampled_family(vehicle, gains, inner, grid_subset(box, mdims, 2),
                                              tilt_limit_deg=tilt_limit_deg, rate_hz=rate_hz), rate_hz)
-    nom = _take(fam, np.arange(1))
-    loops = _block_loops(fam, box, pts, dims)
+    nom = take_points(fam, np.arange(1))
+    loops = block_loops(fam, box, pts, dims)
     timings["margins_s"] = time.perf_counter() - t0 - sum(timings.values())
     section = {
         "rate_hz": float(rate_hz), "controller": "discrete", "attitude_loop": "continuous",
-        "model": model_text(len(fam.state_names)),
+        "model": model_text(gains.law),
         "box": box.to_json(), "monte_carlo_default_box": mc.to_json(),
         "covers_monte_carlo_default": bool(box.contains(mc)),
         # how the box was found: a record (nniquad.certificates.verify.RECORD_FIELDS), not a claim: verify
@@ -331,13 +368,13 @@ def _cascade_section(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, t
             "first_failed_scale": str(s_bad) if not math.isfinite(s_bad) else s_bad,
             "scales_tried": [{"scale": sc, "certified": ok} for sc, ok in search.steps]},
         "lyapunov": {
-            "form": _FORM, "coverage": _COVERAGE,
+            "form": LYAPUNOV_FORM, "coverage": LYAPUNOV_COVERAGE,
             "period_s": T, "rho": max(l.rho for l in lyap.values()), "coupling": coupling(nom),
             "subsystems": {name: {"states": list(subsystems(fam.state_names)[name]),
                                   "dims": [POINT_NAMES[j] for j in dims[name]],
                                   "lmi_points": int(pts[name].shape[0]), "rho": l.rho,
                                   "decay_rate_1_s": l.decay_rate_1_s, "spectral_radius": l.spectral_radius,
-                                  **_margin_fields(witness_margins(l.P, *loops[name])),
+                                  **margin_fields(witness_margins(l.P, *loops[name])),
                                   "P": l.P.tolist()} for name, l in lyap.items()},
         },
         "grid": gc.to_json(),
@@ -354,7 +391,7 @@ def _cascade_section(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, *, t
     return section
 
 
-def _margin_fields(wm: WitnessMargins) -> dict[str, float]:
+def margin_fields(wm: WitnessMargins) -> dict[str, float]:
     """A subsystem's stated rounding margins: ``1 - rho`` must exceed ``rho_rounding_bound``, and the smallest
     eigenvalue of the scaled ``P(θ)`` at the cube's corners must exceed ``min_eig_bound``."""
     return {"rho_rounding_bound": wm.rho_bound, "min_eig_scaled": wm.definite, "min_eig_bound": wm.definite_bound}

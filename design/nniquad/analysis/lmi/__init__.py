@@ -10,7 +10,7 @@ Layout
     NI / SNI lemmas on system matrices ``(A, B, C)`` (see its docstring for
     which lemma is which).
 :mod:`.decay`
-    Closed-loop and robust-mass decay rates of a :class:`~nniquad.analysis.linear.ReducedLoop`.
+    Closed-loop and robust-mass decay rates of a :class:`~nniquad.analysis.reduced_loop.ReducedLoop`.
 :mod:`.roa`
     Region of attraction under the tilt limit, and the certified reach.
 
@@ -33,15 +33,26 @@ an :class:`LMIResult`.
 
 from __future__ import annotations
 
-from nniquad.analysis.linear import ReducedLoop
 from nniquad.analysis.lmi import checks
 from nniquad.analysis.lmi.checks import RTOL, ni_dissipation_matrix
 from nniquad.analysis.lmi.decay import closed_loop_decay, robust_mass_decay
-from nniquad.analysis.lmi.ni import (ni_dissipation_strict, ni_lemma_dissipation, ni_lemma_lanzon_petersen,
-                                     ni_lemma_paper, sni_lemma)
-from nniquad.analysis.lmi.reduced_region import (axis_acceleration_limit, certified_reach, certified_region, reach_of,
-                                      region_of_attraction, start_certified)
+from nniquad.analysis.lmi.ni import (
+    ni_dissipation_strict,
+    ni_lemma_dissipation,
+    ni_lemma_lanzon_petersen,
+    ni_lemma_paper,
+    sni_lemma,
+)
+from nniquad.analysis.lmi.reduced_region import (
+    axis_acceleration_limit,
+    certified_reach,
+    certified_region,
+    reach_of,
+    region_of_attraction,
+    start_certified,
+)
 from nniquad.analysis.lmi.solver import LMIResult
+from nniquad.analysis.reduced_loop import ReducedLoop
 from nniquad.config import MASS_RANGE_FRACTION, TILT_LIMIT_DEG
 
 __all__ = [

@@ -4,9 +4,8 @@ The LMIs are posed in a diagonally scaled state ``x = T x~`` (the loop's ``axis_
 NNI law ``diag(1, sqrt(kp), Γ)``, the velocity in units of the inner loop's natural frequency and the
 controller state in units of Γ); without it the fast controller pole next to the slow, lightly
 damped pair makes Clarabel stall on infeasible instances.  A congruence, so it changes no answer:
-``P = T^{-T} P~ T^{-1}``.  Any reduced loop with the methods of
-:class:`nniquad.analysis.linear.ReducedLoop` used here is accepted (the ``sni2`` law's
-:class:`nniquad.analysis.sni_loop.SNI2Loop` too).
+``P = T^{-T} P~ T^{-1}``.  The loop is a :class:`nniquad.analysis.reduced_loop.ReducedLoop` of any law of
+the NI structure.
 
 ``P > 0``, ``A' P + P A <= -eps P`` with ``eps`` maximised by bisection; the
 robust versions use one common ``P`` or a parameter-dependent ``P(1/m)``.  Every
@@ -21,10 +20,10 @@ from typing import Sequence
 
 import numpy as np
 
-from nniquad.analysis.linear import ReducedLoop
 from nniquad.analysis.lmi import checks as K
 from nniquad.analysis.lmi.solver import LMIResult, cpsym, solve, solved
-from nniquad.errors import GainError, SolverError, VehicleError
+from nniquad.analysis.reduced_loop import ReducedLoop
+from nniquad.errors import SolverError, VehicleError
 
 __all__ = ["closed_loop_decay", "robust_mass_decay"]
 

@@ -76,8 +76,8 @@ def ni_lemma_paper(A, B, C, name: str = "ni_lemma_paper") -> LMIResult:
     -------
     LMIResult
         ``margin`` = the smallest eigenvalue of P achieved.  Residuals:
-        ``min_eig_P`` (relative to |P|), ``lyapunov_max_eig`` (max eig of
-        ``PA + A^TP`` relative to |P||A|), ``equality`` (``|PB - C^T| / |C|``)
+        ``min_eig_P`` (relative to ``|P|``), ``lyapunov_max_eig`` (max eig of
+        ``PA + A^TP`` relative to ``|P| |A|``), ``equality`` (``|PB - C^T| / |C|``)
         and ``ni_dissipation_max_eig``: whether the returned storage satisfies the
         NI inequality ``dV/dt <= ydot^T u`` (it need not: this is the passivity
         equality).

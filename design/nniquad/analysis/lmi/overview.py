@@ -15,12 +15,15 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from nniquad.analysis.linear import PolesDamping, ReducedLoop
+from nniquad.analysis.frequency import ni_interconnection_check
+from nniquad.analysis.lmi import run_all
 from nniquad.analysis.lmi.reduced_region import reach_of, start_certified
 from nniquad.analysis.lmi.solver import LMIResult
+from nniquad.analysis.reduced_loop import PolesDamping, ReducedLoop
 from nniquad.config import MASS_RANGE_FRACTION, TILT_LIMIT_DEG, XI0_M
-from nniquad.control.gains import PAPER_GAINS, Gains
 from nniquad.errors import GainError, VehicleError
+from nniquad.laws.base import GainBlock
+from nniquad.laws.nni import PAPER_GAINS
 from nniquad.model.vehicle import PAPER_VEHICLE, Vehicle
 from nniquad.validate import finite_number
 
@@ -98,7 +101,7 @@ class LMIReport:
     def __repr__(self) -> str:
         n_ok = sum(self.feasible.values())
         return (f"LMIReport({n_ok}/{len(self.results)} LMIs feasible, decay {self.poles.decay_rate:.4g} 1/s, "
-                f"certified reach {self.certified_reach_m:.4g} m, m kp delta = {self.loop.margin_product:.4g})")
+                f"certified reach {self.certified_reach_m:.4g} m, 1/gamma = {self.loop.margin_product:.4g})")
 
     def table(self) -> str:
         """The text ``nniquad lmi`` prints: one row per LMI, then the cross-checks."""
@@ -126,7 +129,7 @@ class LMIReport:
         pd = self.poles
         slow = pd.poles[0]
         lines += ["", "cross-checks",
-                  f"  Routh: m kp delta = {loop.margin_product:.4g} (stable iff > 1); smallest sector gamma = "
+                  f"  Routh: 1/gamma = {loop.margin_product:.4g} (m kp delta for the NNI law; stable iff > 1); smallest sector gamma = "
                   f"{loop.smallest_gamma:.4g} (paper needs < 1)",
                   f"  poles (python-control): max Re = {pd.max_real_part:.4g} 1/s, min damping = {pd.min_damping:.4g}, "
                   f"slowest pair {slow.real:.4g} +/- {abs(slow.imag):.4g}j; -2 max Re = {pd.decay_rate:.4g} 1/s"]
@@ -162,7 +165,6 @@ class LMIReport:
 
 
 def _frequency(loop: ReducedLoop) -> dict[str, dict[str, Any]]:
-    from nniquad.analysis.frequency import ni_interconnection_check
 
     out: dict[str, dict[str, Any]] = {}
     for label, _ in loop.axes:
@@ -176,7 +178,7 @@ def _frequency(loop: ReducedLoop) -> dict[str, dict[str, Any]]:
     return out
 
 
-def lmis(vehicle: Vehicle | None = None, gains: Gains = PAPER_GAINS, *,
+def lmis(vehicle: Vehicle | None = None, gains: GainBlock = PAPER_GAINS, *,
          mass_range: Sequence[float] | None = None, tilt_limit_deg: float = TILT_LIMIT_DEG) -> LMIReport:
     """Solve every LMI of the reduced loop of a vehicle and gain set, with the cross-checks.
 
@@ -202,7 +204,6 @@ def lmis(vehicle: Vehicle | None = None, gains: Gains = PAPER_GAINS, *,
     GainError
         Non-positive or non-finite data, or ``lo > hi``.
     """
-    from nniquad.analysis.lmi import run_all
 
     vehicle = PAPER_VEHICLE if vehicle is None else vehicle
     tilt = finite_number("tilt limit", tilt_limit_deg, error=GainError, positive=True)

@@ -14,9 +14,9 @@ from typing import Sequence
 
 import numpy as np
 
-from nniquad.analysis.linear import ReducedLoop
 from nniquad.analysis.lmi import checks as K
 from nniquad.analysis.lmi.solver import LMIResult, as_data, cpsym, result_fail, solve, solved
+from nniquad.analysis.reduced_loop import ReducedLoop
 from nniquad.config import TILT_LIMIT_DEG, XI0_M
 from nniquad.errors import GainError, SolverError
 
@@ -84,7 +84,7 @@ def roa_scalings(A_cl: np.ndarray, B: np.ndarray, K: np.ndarray,
     edge of the tuner's box (``kp = 2000``: the linear zone of the saturation is
     ``u0/kp = 3 mm``, the controller state is ``m kp = 1000`` times the position,
     the loop runs at ``sqrt(kp) = 45 rad/s``) has entries from 1e-3 to 1e7 and the
-    solver's "optimal" answer fails the numpy re-check by 3e-5 (issue 14, item 9a).
+    solver's "optimal" answer fails the numpy re-check by 3e-5 (docs/notes/tuning.md).
 
     * ``'balanced'``: ``d`` from :func:`scipy.linalg.matrix_balance` of ``A_cl``
       (rows and columns of equal norm), normalised so that ``d[0] = u0/|K[0]|``,
@@ -94,15 +94,15 @@ def roa_scalings(A_cl: np.ndarray, B: np.ndarray, K: np.ndarray,
     * ``'physical'``: the same position unit and time scale, the velocity in units
       of ``omega d[0]`` and the controller state in units of ``|K[0]/K[2]| d[0]``
       (``m kp`` times the position: the state whose term ``z/m`` balances ``kp xi``);
-      for the ``sni2`` law's fourth state ``z'``, that unit times the controller's
-      natural frequency ``sqrt(|A_cl[3, 2]|)``.
+      each further controller state (the ``sni2`` law's ``z'``) in the unit of the one before it times the
+      controller's natural frequency ``sqrt(|A_cl[3, 2]|)``.
     * ``'none'``: the original variables (``d = 1``, ``omega = 1``, ``psi = 1``).
 
     Parameters
     ----------
     A_cl, B, K
         The closed loop, the saturation input and the acceleration command row
-        (:meth:`nniquad.analysis.linear.ReducedLoop.saturation_split`).
+        (:meth:`nniquad.analysis.reduced_loop.ReducedLoop.saturation_split`).
     u0
         Acceleration limit [m/s^2].
 
@@ -121,14 +121,12 @@ def roa_scalings(A_cl: np.ndarray, B: np.ndarray, K: np.ndarray,
     omega = math.sqrt(k_pos * abs(float(B[1, 0])))
     _, (s, _) = matrix_balance(A_cl, permute=False, separate=True)
     balanced = np.asarray(s, dtype=float) / float(s[0]) * length
-    if A_cl.shape[0] == 3:
-        k_z = abs(float(K[0, 2]))
-        physical = length * np.array([1.0, omega, k_pos / k_z if k_z > 0 else 1.0])
-    else:  # the sni2 law's [xi, xi', z, z']: z balances kp xi, z' is z at the controller's own frequency
-        k_z = abs(float(K[0, 2]))
-        z_unit = k_pos / k_z if k_z > 0 else 1.0
-        w_c = math.sqrt(abs(float(A_cl[3, 2]))) if abs(float(A_cl[3, 2])) > 0 else omega
-        physical = length * np.array([1.0, omega, z_unit, z_unit * w_c])
+    # [xi, xi', z, z', ...]: z balances kp xi; each further controller state is the one before it at the
+    # controller's own frequency (the sni2 law's z', from its A_cl[3, 2] = -omega^2)
+    k_z = abs(float(K[0, 2]))
+    z_unit = k_pos / k_z if k_z > 0 else 1.0
+    w_c = math.sqrt(abs(float(A_cl[3, 2]))) if A_cl.shape[0] > 3 and abs(float(A_cl[3, 2])) > 0 else omega
+    physical = length * np.array([1.0, omega] + [z_unit * w_c**i for i in range(A_cl.shape[0] - 2)])
     return {"balanced": (balanced, omega, u0), "physical": (physical, omega, u0),
             "none": (np.ones(A_cl.shape[0]), 1.0, 1.0)}
 

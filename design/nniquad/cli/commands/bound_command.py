@@ -5,7 +5,14 @@ from __future__ import annotations
 import argparse
 
 from nniquad.analysis.bound import time_optimal_bound
-from nniquad.cli.commands.common import add_json_option, add_tilt_limit_option, add_xi0_option, add_vehicle_option, vehicle_from_args, write_json_if_asked
+from nniquad.cli.commands.common import (
+    add_json_option,
+    add_tilt_limit_option,
+    add_vehicle_option,
+    add_xi0_option,
+    vehicle_from_args,
+    write_json_if_asked,
+)
 
 __all__ = ["HELP", "DESCRIPTION", "add_arguments", "run"]
 

@@ -6,12 +6,25 @@ import argparse
 import math
 from pathlib import Path
 
-from nniquad.config import CONTROL_RATE_HZ
-from nniquad.control.law_classes import within_sector_bound
-from nniquad.errors import NniquadError
-from nniquad.format import fmt
-
+from nniquad.cli.commands.common import (
+    add_controller_option,
+    add_gain_options,
+    add_output_option,
+    finite_positive,
+    gain_option,
+    gains_from_args,
+    step_hints,
+    vehicle_from_args,
+)
 from nniquad.cli.commands.tune_command import add_tuning_options, print_tune_result, tune_options_from_args
+from nniquad.config import CONTROL_RATE_HZ, DT_S, XI0_M
+from nniquad.control.inner_gains import DEFAULT_INNER_LOOP_GAINS
+from nniquad.errors import CertificateError, NniquadError
+from nniquad.format import fmt
+from nniquad.laws.base import field_unit
+from nniquad.laws.classes import within_sector_bound
+from nniquad.laws.registry import law_named, ni_law_names
+from nniquad.progress import Progress
 
 __all__ = ["HELP", "DESCRIPTION", "add_arguments", "run"]
 
@@ -39,18 +52,9 @@ as well: no file is written.  Check a certificate with 'nniquad verify'."""
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_tuning_options(parser)
-    parser.add_argument("--controller", choices=("nni", "sni2"), default="nni",
-                        help="law to certify (default nni, the paper's; sni2: the NNI structure with a second-order "
-                             "strictly negative-imaginary controller, its DC loop gain k/(m kp omega^2) the sector "
-                             "constant)")
+    add_controller_option(parser, ni_law_names(), "nni", "law to certify (a law of the NI structure)")
     g = parser.add_argument_group("certify given gains instead of tuning")
-    g.add_argument("--kp", type=float, default=None, metavar="K", help="inner-loop gain kp [1/s^2]")
-    g.add_argument("--Gamma", type=float, default=None, metavar="G", help="controller gain Gamma")
-    g.add_argument("--delta", type=float, default=None, metavar="D", help="controller parameter delta")
-    g.add_argument("--k", type=float, default=None, metavar="K",
-                   help="sni2: gain k of C(s) = k/(s^2 + 2 zeta omega s + omega^2) [N/(m s^2)]")
-    g.add_argument("--omega", type=float, default=None, metavar="RAD_S", help="sni2: natural frequency omega of C(s)")
-    g.add_argument("--zeta", type=float, default=None, metavar="Z", help="sni2: damping ratio zeta of C(s) (> 0)")
+    add_gain_options(g, ni_law_names())
     g.add_argument("--attitude-wn", type=float, default=None, metavar="RAD_S", help="attitude natural frequency")
     g.add_argument("--attitude-zeta", type=float, default=None, metavar="Z", help="attitude damping ratio")
     g.add_argument("--attitude-accel", type=float, default=None, metavar="RAD_S2",
@@ -68,7 +72,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     b.add_argument("--widest-box", action="store_true",
                    help="search the widest scale of the Monte Carlo ranges that certifies (about a minute more) "
                         "and certify it")
-    from nniquad.cli.commands.common import add_output_option
 
     add_output_option(parser, "--out", required=True, metavar="FILE", help="certificate file to write (JSON)")
 
@@ -76,40 +79,34 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
+    # lazily: `nniquad --help` loads every command module, and its cold start stays under 0.5 s
     from nniquad.jobs.certify import certify
-    from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, SNI2Gains
-    from nniquad.progress import Progress
     from nniquad.tuning.tune import tune
-    from nniquad.cli.commands.common import finite_positive, vehicle_from_args
 
     out = Path(args.out)  # checked by main before this runs (nniquad.io.check_output_path)
-    from nniquad.config import DT_S
-    from nniquad.errors import CertificateError
     from nniquad.sim.options import check_rate_hz
 
     # before any tuning: a bad rate fails at once
     rate = check_rate_hz(CONTROL_RATE_HZ if args.rate is None else args.rate, DT_S, error=CertificateError)
-    if args.warm_start and (args.kp is not None or args.gains_from is not None):
-        raise NniquadError("--warm-start seeds the tuning: it cannot be given with --kp/--Gamma/--delta or --gains-from")
+    law = law_named(args.controller)
+    gains_given = any(getattr(args, n, None) is not None for n in law.gain_names)
+    if args.warm_start and (gains_given or args.gains_from is not None):
+        raise NniquadError("--warm-start seeds the tuning: it cannot be given with the gains "
+                           f"({', '.join(gain_option(n) for n in law.gain_names)}) or --gains-from")
     box = None
     if args.box_scale is not None:
-        from nniquad.analysis.cascade.certificate import ParameterBox
+        from nniquad.analysis.cascade.box_certificate import ParameterBox
 
         if args.widest_box:
             raise NniquadError("give --box-scale or --widest-box, not both")
         box = ParameterBox.monte_carlo_default().scaled(finite_positive("--box-scale", args.box_scale))
     vehicle = vehicle_from_args(args)
     options = tune_options_from_args(args)
-    law = options.controller
-    names = ("kp", "k", "omega", "zeta") if law == "sni2" else ("kp", "Gamma", "delta")
-    others = ("Gamma", "delta") if law == "sni2" else ("k", "omega", "zeta")
-    given = [getattr(args, n) for n in names]
     progress = Progress("certify")
-    if any(getattr(args, n) is not None for n in others):
-        raise NniquadError(f"--{' --'.join(others)} are not gains of the {law} law (--controller)")
-    if args.gains_from is not None and any(getattr(args, n) is not None for n in (*names, "attitude_wn",
-                                                                                 "attitude_zeta", "attitude_accel")):
+    if args.gains_from is not None and (gains_given or any(getattr(args, n) is not None for n in (
+            "attitude_wn", "attitude_zeta", "attitude_accel"))):
         raise NniquadError("give --gains-from or the gains (and the attitude options), not both")
+    given = gains_from_args(args, law)
     if args.gains_from is not None:
         from nniquad.cli.commands.tune_command import designs_from_files
 
@@ -117,24 +114,19 @@ def run(args: argparse.Namespace) -> int:
         (gains, inner), = designs_from_files([args.gains_from], "--gains-from", records)
         cert = certify(vehicle, gains, inner=inner, options=options, progress=progress.message, rate_hz=rate,
                        box=box, widest_box=args.widest_box, tuning_record=records[0])
-    elif any(v is not None for v in given):
-        if any(v is None for v in given):
-            raise NniquadError(f"give all of --{', --'.join(names)} to certify given gains")
-        block = SNI2Gains if law == "sni2" else Gains
-        gains = block(*(finite_positive(f"--{n}", v) for n, v in zip(names, given)))
+    elif given is not None:
+        gains = given
         changes = {k: v for k, v in (("attitude_wn_rad_s", args.attitude_wn), ("attitude_zeta", args.attitude_zeta),
                                      ("attitude_accel_limit_rad_s2", args.attitude_accel)) if v is not None}
         inner = replace(DEFAULT_INNER_LOOP_GAINS, **changes)
         from nniquad.certificates.certificate import reference_run_options
-        from nniquad.config import XI0_M
         from nniquad.sim import SimParams
         from nniquad.sim.step_check import check_step
 
         # the runner's step check on the certificate's full-model reference run, before any LMI is solved
         run = reference_run_options("full", inner, tilt_limit_deg=options.tilt_limit_deg, xi0=XI0_M)
         check_step(SimParams.from_options(vehicle, gains, run), "full",
-                   hint={"NNI controller (Gamma*delta)": "--Gamma or --delta", "SNI controller (omega, zeta)":
-                         "--omega or --zeta", "attitude": "--attitude-wn", "motor lag": "the vehicle's tau_motor"})
+                   hint=step_hints(attitude="--attitude-wn", motor_lag="the vehicle's tau_motor"))
         cert = certify(vehicle, gains, inner=inner, options=options, progress=progress.message, rate_hz=rate,
                        box=box, widest_box=args.widest_box)
     else:
@@ -151,7 +143,6 @@ def run(args: argparse.Namespace) -> int:
     gamma, gamma_max = cert.sector["gamma"], cert.sector["gamma_max"]
     from dataclasses import fields
 
-    from nniquad.control.gains import field_unit
 
     listed = ", ".join(f"{f.name} = {fmt(getattr(gains, f.name), digits=6)} {field_unit(f)[0]}".rstrip(" -")
                        for f in fields(gains) if getattr(gains, f.name) is not None)

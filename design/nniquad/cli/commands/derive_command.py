@@ -5,6 +5,9 @@ from __future__ import annotations
 import argparse
 import sys
 
+from nniquad.cli.commands.common import add_output_option
+from nniquad.io import atomic_write_text
+
 HELP = "print the symbolic vehicle model (LaTeX, Markdown or JSON)"
 DESCRIPTION = """Print the vehicle model derived with sympy from the Lagrangian.
 
@@ -24,18 +27,17 @@ Formats: markdown (default), latex, json (sympy srepr-free plain strings)."""
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--variant", choices=("exact", "paper"), default="exact", help="rotational kinetic energy used (default: exact)")
     parser.add_argument("--format", choices=("markdown", "latex", "json"), default="markdown", help="output format (default: markdown)")
-    from nniquad.cli.commands.common import add_output_option
 
     add_output_option(parser, "--out", metavar="FILE", default=None, help="write to FILE instead of standard output")
 
 
 def run(args: argparse.Namespace) -> int:
+    # lazily: `nniquad --help` loads every command module, and its cold start stays under 0.5 s
     from nniquad.model.derivation import derive
 
     print("deriving the model with sympy ...", file=sys.stderr, flush=True)
     text = derive(args.variant).render(args.format)
     if args.out:
-        from nniquad.io import atomic_write_text
 
         atomic_write_text(args.out, text + "\n")
         print(f"wrote {args.out}", file=sys.stderr)

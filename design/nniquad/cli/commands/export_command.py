@@ -4,6 +4,10 @@ from __future__ import annotations
 
 import argparse
 
+from nniquad.cli.commands.common import add_output_option
+from nniquad.config import CONTROL_RATE_HZ
+from nniquad.io import output_transaction
+
 __all__ = ["HELP", "DESCRIPTION", "add_arguments", "run"]
 
 HELP = "write the certified controller as state-space JSON or C99 code"
@@ -20,12 +24,11 @@ valid or the sampled cascade is unstable at the rate."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    # lazily: `nniquad --help` loads every command module, and its cold start stays under 0.5 s
     from nniquad.certificates.export import FORMATS
-    from nniquad.config import CONTROL_RATE_HZ
 
     parser.add_argument("certificate", metavar="CERT.json", help="certificate file written by 'nniquad certify'")
     parser.add_argument("--format", choices=FORMATS, default="json", help="output format (default json)")
-    from nniquad.cli.commands.common import add_output_option
 
     add_output_option(parser, "--out", kind="folder", metavar="DIR", required=True,
                       help="output folder (created if missing)")
@@ -35,11 +38,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from nniquad.config import CONTROL_RATE_HZ
+    # lazily: `nniquad --help` loads every command module, and its cold start stays under 0.5 s
     from nniquad.certificates.certificate import read_certificate
     from nniquad.certificates.export import certified_rate_hz, export_controller
 
-    from nniquad.io import output_transaction
 
     cert = read_certificate(args.certificate)
     with output_transaction():  # every file of the export, or none

@@ -3,7 +3,21 @@
 from __future__ import annotations
 
 import argparse
-from nniquad.cli.commands.common import add_json_option, add_tilt_limit_option, add_vehicle_option, finite_positive, vehicle_from_args, write_json_if_asked
+
+from nniquad.cli.commands.common import (
+    add_controller_option,
+    add_gain_options,
+    add_json_option,
+    add_tilt_limit_option,
+    add_vehicle_option,
+    finite_positive,
+    law_gains,
+    vehicle_from_args,
+    write_json_if_asked,
+)
+from nniquad.errors import VehicleError
+from nniquad.laws.registry import law_named, ni_law_names
+from nniquad.validate import finite_number
 
 HELP = "solve the NI, SNI, closed-loop and region-of-attraction LMIs"
 DESCRIPTION = """Solve every LMI of the reduced horizontal loop with Clarabel and re-check each
@@ -22,7 +36,8 @@ answer with numpy:
                             initial displacement from rest (m)
 
 The plant LMIs are applied to the reshaped plant m xi'' + m kp xi = F (per
-axis), the controller LMIs to C(s) = Gamma/(s + Gamma delta).  Next to the
+axis), the controller LMIs to the law's C(s) (the paper's: Gamma/(s + Gamma delta);
+--controller sni2: k/(s^2 + 2 zeta omega s + omega^2)).  Next to the
 LMIs the command prints the definition-level frequency-domain NI/SNI checks,
 the exact Routh condition m kp delta > 1, the smallest sector gamma and the
 closed-loop poles, as independent cross-checks.
@@ -34,10 +49,8 @@ the limit (conservative for the norm limit)."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--kp", default="5.0", metavar="K", help="inner-loop gain kp (x axis), 1/s^2 (default 5)")
-    parser.add_argument("--kpy", default=None, metavar="K", help="inner-loop gain of the y axis (default: = kp)")
-    parser.add_argument("--Gamma", default="160.0", metavar="G", help="controller gain Gamma (default 160)")
-    parser.add_argument("--delta", default="0.6", metavar="D", help="controller parameter delta (default 0.6)")
+    add_controller_option(parser, ni_law_names(), "nni", "law of the NI structure")
+    add_gain_options(parser.add_argument_group("gains (default: the paper's, for the nni law)"), ni_law_names())
     add_tilt_limit_option(parser)
     parser.add_argument(
         "--mass-range", nargs=2, default=None, metavar=("LO", "HI"),
@@ -47,24 +60,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_json_option(parser, "LMI results")
 
 
-def _gains(args: argparse.Namespace):
-    from nniquad.control.gains import Gains
-
-    kpy = None if args.kpy is None else finite_positive("kpy", args.kpy)
-    return Gains(
-        kp=finite_positive("kp", args.kp),
-        Gamma=finite_positive("Gamma", args.Gamma),
-        delta=finite_positive("delta", args.delta),
-        kpy=kpy,
-    )
-
-
 def run(args: argparse.Namespace) -> int:
+    # lazily: `nniquad --help` loads every command module, and its cold start stays under 0.5 s
     from nniquad.analysis.lmi.overview import lmis
-    from nniquad.errors import VehicleError
-    from nniquad.validate import finite_number
 
-    gains = _gains(args)
+    gains = law_gains(args, law_named(args.controller))
     mass_range = None
     if args.mass_range is not None:
         mass_range = tuple(finite_number("mass-range", v, error=VehicleError, positive=True) for v in args.mass_range)

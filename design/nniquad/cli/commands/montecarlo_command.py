@@ -9,11 +9,13 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from nniquad.cli.commands.common import add_output_option
 from nniquad.config import CONTROL_RATE_HZ, MC_STALL_TIMEOUT_S
-from nniquad.control.gains import gains_text
-from nniquad.errors import EXIT_INTERRUPTED, EXIT_TERMINATED
-from nniquad.io import atomic_write_json
-from nniquad.resources import usable_cpu_count
+from nniquad.errors import EXIT_INTERRUPTED, EXIT_TERMINATED, MonteCarloError
+from nniquad.io import atomic_write_json, check_output_paths
+from nniquad.laws.base import gains_text
+from nniquad.progress import Progress
+from nniquad.resources import check_estimate, montecarlo_estimate, usable_cpu_count
 
 __all__ = ["HELP", "DESCRIPTION", "add_arguments", "run", "partial_path"]
 
@@ -123,7 +125,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     r.add_argument("--altitude-limit", type=float, default=None, metavar="M",
                    help="altitude deviation counted as divergence, in m (default 2)")
     parser.add_argument("--worst", type=int, default=10, metavar="K", help="worst cases to list (default 10)")
-    from nniquad.cli.commands.common import add_output_option
 
     add_output_option(parser, "--json", metavar="FILE", default=None,
                         help="write the summary and every scenario's result as JSON to FILE")
@@ -145,6 +146,7 @@ _RANGE_OPTIONS = (
 
 def _ranges(args: argparse.Namespace, cert: Any = None):
     """The ranges of the study and, with --within-certificate, the certified region [m] (else ``None``)."""
+    # lazily: `nniquad --help` loads every command module, and its cold start stays under 0.5 s
     from nniquad.sim.options import check_rate_hz
     from nniquad.study import MonteCarloError, ScenarioRanges, certificate_rate_hz, within_certificate_ranges
 
@@ -197,7 +199,6 @@ def _worker_threads(client: Any) -> dict[str, int]:
 
 
 def _positive(name: str, value: Any) -> None:
-    from nniquad.errors import MonteCarloError
 
     if value is not None and value <= 0:
         raise MonteCarloError(f"{name} must be a positive integer, got {value}")
@@ -209,6 +210,7 @@ def _study_json(args, setup, ranges) -> dict[str, Any]:
 
 
 def _rerun(args: argparse.Namespace, setup, ranges) -> int:
+    # lazily: `nniquad --help` loads every command module, and its cold start stays under 0.5 s
     from nniquad.study import MonteCarloError, draw_scenario, run_scenarios
 
     try:
@@ -239,11 +241,16 @@ def _rerun(args: argparse.Namespace, setup, ranges) -> int:
 
 
 def run(args: argparse.Namespace) -> int:
+    # lazily: `nniquad --help` loads every command module, and its cold start stays under 0.5 s
     from nniquad.certificates.certificate import load_certificate
-    from nniquad.io import check_output_paths
-    from nniquad.resources import check_estimate, montecarlo_estimate
-    from nniquad.study import (MonteCarloError, check_study_step, close_client, cluster_threads, connect_scheduler,
-                               study_setup)
+    from nniquad.study import (
+        MonteCarloError,
+        check_study_step,
+        close_client,
+        cluster_threads,
+        connect_scheduler,
+        study_setup,
+    )
 
     if args.rerun is None:
         _positive("--samples", args.samples)
@@ -277,9 +284,8 @@ def run(args: argparse.Namespace) -> int:
                                    + ([f"--workers {args.workers}"] if args.workers is not None else [])),
                    error=MonteCarloError)
 
-    from nniquad.progress import Progress
-    from nniquad.study import STOP_SIGNALS, StudyFailedError, catch_interrupts
     from nniquad.jobs.montecarlo import montecarlo
+    from nniquad.study import STOP_SIGNALS, StudyFailedError, catch_interrupts
 
     client = None
     if args.scheduler:

@@ -6,6 +6,10 @@ import argparse
 import sys
 from pathlib import Path
 
+from nniquad.cli.commands.common import add_output_option
+from nniquad.errors import NniquadError
+from nniquad.io import atomic_write_json, atomic_write_text, output_transaction
+from nniquad.resources import usable_cpu_count
 
 HELP = "audit every claim of the paper: verdict, evidence, correction"
 DESCRIPTION = """Audit the claims of Ghallab & Petersen's paper, one check per claim.
@@ -29,7 +33,6 @@ any claim is not 'holds'; 2 on a usage error (e.g. an unknown claim id)."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from nniquad.cli.commands.common import add_output_option
 
     add_output_option(parser, "--json", metavar="FILE", default=None, help="write the audit as JSON to FILE")
     add_output_option(parser, "--markdown", metavar="FILE", default=None, help="write the Markdown report to FILE")
@@ -47,12 +50,10 @@ def _ids(text: str | None) -> list[str] | None:
 
 
 def run(args: argparse.Namespace) -> int:
+    # lazily: `nniquad --help` loads every command module, and its cold start stays under 0.5 s
     from nniquad.proofs.audit import audit
     from nniquad.proofs.claims import HOLDS, claim_ids
 
-    from nniquad.errors import NniquadError
-    from nniquad.io import atomic_write_json, atomic_write_text, output_transaction
-    from nniquad.resources import usable_cpu_count
 
     if args.list:
         print("\n".join(claim_ids()))

@@ -6,14 +6,29 @@ import argparse
 import sys
 from pathlib import Path
 
+from nniquad.cli.commands.common import (
+    add_controller_option,
+    add_gain_options,
+    add_json_option,
+    add_output_option,
+    add_tilt_limit_option,
+    add_vehicle_option,
+    add_xi0_option,
+    gain_option,
+    law_gains,
+    step_hints,
+    vehicle_from_args,
+)
 from nniquad.config import ALTITUDE_LIMIT_M, CONTROL_RATE_HZ, DIVERGENCE_FACTOR, XI0_M
-from nniquad.control.gains import gains_text
-from nniquad.errors import GainError, NniquadError
+from nniquad.control.inner_gains import DEFAULT_INNER_LOOP_GAINS
+from nniquad.errors import GainError, NniquadError, SimulationError
 from nniquad.format import fmt
+from nniquad.io import atomic_write_json, check_output_paths, output_transaction
+from nniquad.laws.base import gains_text
+from nniquad.laws.registry import LAWS, law_named, law_names
 from nniquad.progress import Progress
+from nniquad.resources import check_estimate, simulation_estimate
 from nniquad.sim.options import CONTROLLER_SAMPLING
-from nniquad.cli.commands.common import (add_json_option, add_output_option, add_tilt_limit_option, add_vehicle_option, add_xi0_option,
-                     vehicle_from_args)
 
 __all__ = ["HELP", "DESCRIPTION", "add_arguments", "run", "gains_from_certificate"]
 
@@ -27,15 +42,19 @@ Models:
   full     the 12-state vehicle (exact Euler-Lagrange model, rotor gyroscopic
            terms, rotor-speed saturation) with altitude hold, yaw hold, an
            attitude loop (gyro rates) tracking the tilt the horizontal loop
-           commands, and the tilt limit.  No horizontal velocity is used.
+           commands, and the tilt limit.  No horizontal velocity is used (but by the
+           pd_velocity law, the yardstick with a perfect velocity sensor).
 
-The horizontal command is the paper's: -kp xi + z/m, z the output of the NNI
-controller z' = -Gamma delta z + Gamma xi, in positive feedback.  With --rate HZ
-(or --noise) the position is sampled at HZ and the controller runs in discrete
-time at that rate, z[k+1] = exp(-Gamma delta T) z[k] + (1 - exp(-Gamma delta T))/delta
-xi[k], a[k] = -kp xi[k] + z[k]/m, T = 1/HZ, a[k] held over the period; the
-attitude loop, motors and altitude loop stay continuous.  Defaults are
-the paper's gains (kp = 5, Gamma = 160, delta = 0.6) and initial state.
+The horizontal command is the law's (--controller, default nni, the paper's:
+-kp xi + z/m, z the output of the NNI controller z' = -Gamma delta z + Gamma xi,
+in positive feedback).  With --rate HZ (or --noise) the position is sampled at
+HZ and the law runs in discrete time at that rate, the exact zero-order hold
+of its realisation (NNI: z[k+1] = exp(-Gamma delta T) z[k] + (1 - exp(-Gamma
+delta T))/delta xi[k], a[k] = -kp xi[k] + z[k]/m, T = 1/HZ), a[k] held over the
+period; the attitude loop, motors and altitude loop stay continuous.  Defaults
+are the paper's gains (kp = 5, Gamma = 160, delta = 0.6) and initial state;
+another law's gains are all given (--kp, --k, --omega, ...) or come from
+--certificate.
 
 Prints settling time (2 % band, last exit), overshoot, peak tilt, whether
 the vehicle was lost ("diverged": it blew up -- a non-finite state or a distance
@@ -49,11 +68,9 @@ more than a few seconds show progress on stderr."""
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--model", choices=("linear", "reduced", "full"), default="full",
                         help="model to simulate (default full)")
-    g = parser.add_argument_group("gains (default: the paper's)")
-    g.add_argument("--kp", type=float, default=None, metavar="K", help="inner-loop gain kp [1/s^2] (paper: 5)")
-    g.add_argument("--kpy", type=float, default=None, metavar="K", help="y-axis inner-loop gain (default kp)")
-    g.add_argument("--Gamma", type=float, default=None, metavar="G", help="controller gain Gamma (paper: 160)")
-    g.add_argument("--delta", type=float, default=None, metavar="D", help="controller parameter delta (paper: 0.6)")
+    g = parser.add_argument_group("law and gains (default: the paper's law and gains)")
+    add_controller_option(g, law_names(), "nni", "horizontal law to simulate")
+    add_gain_options(g)
     g.add_argument("--certificate", metavar="FILE", default=None,
                    help="take the gains and inner loops from a certificate (form and digest checked; "
                         "'nniquad verify' checks the rest)")
@@ -69,7 +86,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     d.add_argument("--noise", type=float, default=0.0, metavar="SIGMA",
                    help="position-noise standard deviation in m (default 0); the measurement is sampled and held")
     d.add_argument("--rate", type=float, default=None, metavar="HZ",
-                   help=f"control rate: the position is sampled at HZ and the NNI controller runs in discrete time "
+                   help=f"control rate: the position is sampled at HZ and the law runs in discrete time "
                         f"at HZ (exact ZOH, as 'nniquad export' writes it); default {CONTROL_RATE_HZ:g} with --noise, "
                         "else continuous measurement and controller (the paper's model)")
     d.add_argument("--sampling", choices=CONTROLLER_SAMPLING, default=None,
@@ -105,35 +122,32 @@ def gains_from_certificate(path: str | Path):
         Unreadable file, invalid JSON, wrong schema, digest mismatch, missing or
         malformed ``gains``.
     """
+    # lazily: `nniquad --help` loads every command module, and its cold start stays under 0.5 s
     from nniquad.certificates.certificate import certificate_gains, load_certificate
 
     return certificate_gains(load_certificate(path))
 
 
 def _gains(args: argparse.Namespace):
-    from nniquad.control.gains import PAPER_GAINS, Gains
-
-    explicit = {k: getattr(args, k) for k in ("kp", "kpy", "Gamma", "delta") if getattr(args, k) is not None}
+    """The gains: the certificate's, or the law's given on the command line (the paper's law: the paper's gains
+    fill what is not given)."""
+    law = law_named(args.controller)
+    explicit = [n for law_ in LAWS.values() for n in law_.gain_names if getattr(args, n, None) is not None]
     if args.certificate:
         if explicit:
-            raise GainError(f"give either --certificate or --{next(iter(explicit))}, not both")
+            raise GainError(f"give either --certificate or {gain_option(explicit[0])}, not both")
         return gains_from_certificate(args.certificate)
-    return Gains(
-        kp=explicit.get("kp", PAPER_GAINS.kp),
-        Gamma=explicit.get("Gamma", PAPER_GAINS.Gamma),
-        delta=explicit.get("delta", PAPER_GAINS.delta),
-        kpy=explicit.get("kpy"),
-    )
+    return law_gains(args, law)
 
 
 def _inner(args: argparse.Namespace):
     """Inner-loop gains: the certificate's (its ``inner_loop``) or the defaults, then the explicit options."""
     from dataclasses import replace
 
-    from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS
 
     inner = DEFAULT_INNER_LOOP_GAINS
     if args.certificate:
+        # lazily: `nniquad --help` loads every command module, and its cold start stays under 0.5 s
         from nniquad.certificates.certificate import certificate_inner_loop, load_certificate
 
         inner = certificate_inner_loop(load_certificate(args.certificate))
@@ -144,7 +158,7 @@ def _inner(args: argparse.Namespace):
 
 def _sampling(args: argparse.Namespace) -> tuple[float, str]:
     """The rate and the controller sampling of the run (see --rate and --sampling)."""
-    from nniquad.errors import SimulationError
+    # lazily: `nniquad --help` loads every command module, and its cold start stays under 0.5 s
     from nniquad.sim.options import check_rate_hz
 
     sampling = args.sampling
@@ -159,6 +173,7 @@ def _sampling(args: argparse.Namespace) -> tuple[float, str]:
 
 
 def run(args: argparse.Namespace) -> int:
+    # lazily: `nniquad --help` loads every command module, and its cold start stays under 0.5 s
     from nniquad.sim import SimOptions, simulate
 
     vehicle = vehicle_from_args(args)
@@ -183,9 +198,6 @@ def run(args: argparse.Namespace) -> int:
         true_mass_kg=args.true_mass,
         inner=_inner(args),
     )
-    from nniquad.errors import SimulationError
-    from nniquad.io import check_output_paths, output_transaction
-    from nniquad.resources import check_estimate, simulation_estimate
     from nniquad.sim import SimParams
     from nniquad.sim.step_check import check_step
 
@@ -198,10 +210,8 @@ def run(args: argparse.Namespace) -> int:
         raise NniquadError(f"--trajectory must end in .npz or .csv, got {traj_path}")
     # the runner's step check, before the estimate, naming this command's options
     check_step(SimParams.from_options(vehicle, gains, options), options.model,
-               hint={"NNI controller (Gamma*delta)": "--Gamma, --delta or --dt",
-                     "SNI controller (omega, zeta)": "the certificate's omega or zeta, or --dt",
-                     "attitude": "--attitude-wn or --dt",
-                     "yaw": "--dt", "altitude": "--dt", "motor lag": "--tau-motor or --dt"})
+               hint=step_hints(attitude="--attitude-wn or --dt", yaw="--dt", altitude="--dt",
+                               motor_lag="--tau-motor or --dt"))
     check_estimate(simulation_estimate(options.model, options.horizon_s, options.dt_s, options.output_dt_s),
                    option=f"--horizon {options.horizon_s:g}", error=SimulationError)
 
@@ -231,13 +241,12 @@ def run(args: argparse.Namespace) -> int:
     for name, value, note in rows:
         print(f"{name:<26} {value:>16}  {note}")
 
-    from nniquad.io import atomic_write_json
 
     # every output or none: a failed plot must not leave the trajectory file behind
     with output_transaction():
         written = None if traj_path is None else traj.save(traj_path)
         if args.plot:
-            from nniquad.reporting.plots import trajectory_plot
+            from nniquad.sim.plots import trajectory_plot
 
             trajectory_plot(traj, args.plot)
         data = {

@@ -5,11 +5,23 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from nniquad.config import GAMMA_MAX, TUNING_SCENARIO_SEED
-from nniquad.control.law_classes import within_sector_bound
+from nniquad.cli.commands.common import (
+    add_controller_option,
+    add_json_option,
+    add_tilt_limit_option,
+    add_vehicle_option,
+    vehicle_from_args,
+    write_json_if_asked,
+)
+from nniquad.config import CONTROL_RATE_HZ, DT_S, GAMMA_MAX, TUNING_SCENARIO_SEED
+from nniquad.control.inner_gains import InnerLoopGains
+from nniquad.errors import CertificateError, NniquadError
 from nniquad.format import fmt
-
-from nniquad.cli.commands.common import add_json_option, add_tilt_limit_option, add_vehicle_option, vehicle_from_args, write_json_if_asked
+from nniquad.io import parse_data, read_text_file
+from nniquad.laws.base import field_unit
+from nniquad.laws.classes import DEFAULT_LAW_CLASS, LAW_CLASSES, within_sector_bound
+from nniquad.laws.registry import law_named, law_names
+from nniquad.progress import Progress
 
 __all__ = ["HELP", "DESCRIPTION", "add_arguments", "run", "add_tuning_options", "tune_options_from_args",
            "print_tune_result"]
@@ -47,14 +59,13 @@ the time-optimal bound (nniquad bound)."""
 
 def add_tuning_options(parser: argparse.ArgumentParser) -> None:
     """Options shared by ``tune`` and ``certify``."""
+    # lazily: `nniquad --help` loads every command module, and its cold start stays under 0.5 s
     from nniquad.tuning.tune import BUDGETS, DEFAULT_OPTIMIZER, DEFAULT_ROA_RADIUS_M, OPTIMIZERS
 
     parser.add_argument("--model", choices=("reduced", "full"), default="reduced",
                         help="model the settling time is measured on (default reduced)")
     parser.add_argument("--gamma-max", type=float, default=GAMMA_MAX, metavar="G",
                         help=f"gamma_max of the sector bound, in (0, 1) (default {GAMMA_MAX:g}, the paper's)")
-    from nniquad.config import CONTROL_RATE_HZ
-    from nniquad.control.law_classes import DEFAULT_LAW_CLASS, LAW_CLASSES
 
     parser.add_argument("--law-class", choices=tuple(LAW_CLASSES), default=None,
                         help=f"class of certified NNI designs: paper (the sector bound holds; Theorem main_result) or "
@@ -79,7 +90,7 @@ def add_tuning_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--budget", choices=tuple(BUDGETS), default="normal",
                         help="search effort (default normal; quick for a fast look; with the robust objective "
                              "the sni2 law's normal is the thorough search without its extra seeds: at the NNI "
-                             "law's normal its optimum depended on the seed, FINDINGS.md section 28)")
+                             "law's normal its optimum depended on the seed, docs/notes/laws.md)")
     parser.add_argument("--optimizer", choices=OPTIMIZERS, default=DEFAULT_OPTIMIZER,
                         help=f"optimiser after the sweep: cma (BIPOP-CMA-ES) or nomad (MADS, NOMAD 4; needs PyNomadBBO) "
                              f"(default {DEFAULT_OPTIMIZER})")
@@ -110,17 +121,14 @@ def add_tuning_options(parser: argparse.ArgumentParser) -> None:
 
 
 def tune_options_from_args(args: argparse.Namespace):
-    from nniquad.config import CONTROL_RATE_HZ, DT_S
-    from nniquad.errors import NniquadError
+    # lazily: `nniquad --help` loads every command module, and its cold start stays under 0.5 s
     from nniquad.sim.options import check_rate_hz
     from nniquad.tuning.tune import TuneOptions
 
     # before any work: a bad rate fails at once
     rate = check_rate_hz(CONTROL_RATE_HZ if args.rate is None else args.rate, DT_S, error=NniquadError)
-    from nniquad.control.gains import NI_LAWS
-
     controller = getattr(args, "controller", "nni")  # certify: its own --controller (an NI law)
-    in_class = controller in NI_LAWS or (controller == "pd_filtered" and args.law_class is not None)
+    in_class = law_named(controller).in_class(args.law_class)
     robust = not (args.nominal or args.model != "full")
     if args.scenario_noise_range is not None and not robust:
         raise NniquadError("--scenario-noise-range sets the noise of the robust objective's scenarios: it needs "
@@ -162,10 +170,8 @@ def designs_from_files(paths, option: str, records: list | None = None) -> list:
     NniquadError
         A file that is neither (one line naming it).
     """
-    from nniquad.certificates.certificate import (certificate_gains, certificate_inner_loop, check_form)
-    from nniquad.control.gains import CONTROLLER_GAINS, InnerLoopGains
-    from nniquad.errors import CertificateError, NniquadError
-    from nniquad.io import parse_data, read_text_file
+    # lazily: `nniquad --help` loads every command module, and its cold start stays under 0.5 s
+    from nniquad.certificates.certificate import certificate_gains, certificate_inner_loop, check_form
 
     out = []
     for path in paths:
@@ -177,9 +183,9 @@ def designs_from_files(paths, option: str, records: list | None = None) -> list:
                 if records is not None:
                     records.append(data.get("tuning"))
                 continue
-            law = data["controller"]
-            gains = CONTROLLER_GAINS[law].from_values({**data["gains"], "kpy": data["gains"].get("kpy")}) \
-                if law == "nni" else CONTROLLER_GAINS[law](**data["gains"])
+            gains = law_named(data["controller"], error=NniquadError).gains(
+                {k: v for k, v in data["gains"].items() if v is not None})
+            gains = type(gains).from_values(gains.values())  # canonical: a second-axis gain equal to the first
             out.append((gains, InnerLoopGains(**data["inner_loop"])))
             if records is not None:
                 records.append(data)
@@ -193,7 +199,6 @@ def print_tune_result(res) -> None:
     m = res.metrics
     from dataclasses import fields
 
-    from nniquad.control.gains import field_unit
 
     rows = [("model", res.options.model, ""), ("controller", res.options.controller, "")]
     rows += [(f.name, fmt(getattr(res.gains, f.name), digits=5), field_unit(f)[0])
@@ -201,14 +206,14 @@ def print_tune_result(res) -> None:
     if res.options.law_class is not None:
         rows.append(("law class", res.options.law_class, "(sector bound " + ("required)" if res.options.law_class
                                                                               == "paper" else "dropped)")))
-    if res.options.controller in ("nni", "sni2"):
-        rows.append(("smallest gamma (sector)" if res.options.controller == "nni" else "DC loop gain gamma (sector)",
-                     fmt(res.gamma, digits=5),
+    law = res.options.law
+    if law.ni_structure:
+        rows.append((f"DC loop gain gamma = {law.gamma_formula} (sector)", fmt(res.gamma, digits=5),
                      f"{'<=' if within_sector_bound(res.gamma, res.options.gamma_max) else '>'} gamma_max {res.options.gamma_max:g}"))
     image = res.nni_image()
     if image is not None:
-        rows.append(("NNI image (kp, Gamma, delta)", ", ".join(fmt(v, digits=5) for v in
-                                                                (image["kp"], image["Gamma"], image["delta"])),
+        values = {k: v for k, v in image.items() if k not in ("gamma", "in_class", "controller")}
+        rows.append((f"NNI image ({', '.join(values)})", ", ".join(fmt(v, digits=5) for v in values.values()),
                      f"gamma {fmt(image['gamma'], digits=4)}"))
     if res.options.model == "full" and res.options.tune_attitude:
         rows += [("attitude natural frequency", fmt(res.inner.attitude_wn_rad_s, digits=5), "rad/s"),
@@ -223,8 +228,8 @@ def print_tune_result(res) -> None:
         ("overshoot", fmt(m.overshoot_pct, digits=3), "%"),
         ("peak actual tilt", fmt(m.peak_tilt_deg, digits=4), "deg"),
         ("peak rotor speed", fmt(m.peak_rotor_speed_rad_s, digits=4), "rad/s"),
-        ("certified reach (ROA LMI)", fmt(res.certified_reach_m, digits=4) if res.options.controller in ("nni", "sni2")
-         else "none (not an NNI design: no sector bound)", f"m (required {res.roa_radius_m:g})"),
+        ("certified reach (ROA LMI)", fmt(res.certified_reach_m, digits=4) if law.ni_structure
+         else "none (not a design of the NI structure: no sector bound)", f"m (required {res.roa_radius_m:g})"),
         ("best settling per seed", ", ".join(f"{r['seed']}: {r['settling_s']:.4g}" for r in res.reruns), "s"),
         ("simulations / LMI solves", f"{res.n_simulations} / {res.n_lmi}", ""),
         ("time taken", fmt(res.elapsed_s, digits=3), "s"),
@@ -247,7 +252,7 @@ def print_tune_result(res) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from nniquad.progress import Progress
+    # lazily: `nniquad --help` loads every command module, and its cold start stays under 0.5 s
     from nniquad.tuning.tune import tune
 
     vehicle = vehicle_from_args(args)
@@ -263,12 +268,7 @@ def run(args: argparse.Namespace) -> int:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_tuning_options(parser)
-    from nniquad.tuning.tune_options import TUNABLE_CONTROLLERS
-
-    parser.add_argument("--controller", choices=TUNABLE_CONTROLLERS, default="nni",
-                        help="horizontal law to tune (default nni, the paper's; sni2: the NNI structure with a "
-                             "second-order strictly negative-imaginary controller k/(s^2 + 2 zeta omega s + omega^2), "
-                             "the same law classes with its DC loop gain k/(m kp omega^2) as the sector constant; "
-                             "the PD comparison laws are tuned on the same inner loops and scenarios, have no sector "
-                             "bound and no certificate)")
+    add_controller_option(parser, law_names(), "nni",
+                          "horizontal law to tune (the laws outside the NI structure are tuned on the same inner loops "
+                          "and scenarios, have no sector bound and no certificate of their own)")
     add_json_option(parser, "tuned gains, metrics, per-seed optima and search statistics")

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import argparse
 
+from nniquad.cli.commands.common import add_output_option, add_vehicle_option, vehicle_from_args
 from nniquad.io import atomic_write_text
 from nniquad.model.vehicle import vehicle_to_toml
-from nniquad.cli.commands.common import add_output_option, add_vehicle_option, vehicle_from_args
 
 HELP = "show or write a vehicle parameter file, with units"
 DESCRIPTION = """Show the vehicle parameters with units and derived ratios.

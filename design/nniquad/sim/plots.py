@@ -1,6 +1,8 @@
-"""Matplotlib figures of simulated runs (computing lives in :mod:`nniquad.sim`).
+"""Matplotlib figures of simulated runs: what :meth:`nniquad.sim.results.SimulationResult.plot` draws.
 
-Every function takes results that were already computed, draws them, and writes
+Every function takes results that were already computed (a
+:class:`~nniquad.sim.results.Trajectory` or a :class:`~nniquad.sim.results.SimulationResult`, read by
+attribute), draws them, and writes
 a PNG atomically (a crash never leaves half a file).  Figures are built with
 :class:`matplotlib.figure.Figure` directly (no pyplot state), so no display is
 needed and a notebook's backend is left alone.
@@ -10,17 +12,13 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import TYPE_CHECKING, Mapping, Sequence
+from typing import Mapping, Sequence
 
 import numpy as np
 
-from nniquad.io import atomic_write_with
-
 from nniquad.config import BAND_FRACTION
-from nniquad.control.gains import gains_text
-
-if TYPE_CHECKING:  # pragma: no cover
-    from nniquad.sim.results import SimulationResult, Trajectory
+from nniquad.io import atomic_write_with
+from nniquad.laws.base import gains_text
 
 __all__ = ["trajectory_plot", "paper_figure", "runs_plot", "MODEL_STYLE"]
 

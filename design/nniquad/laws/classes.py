@@ -1,20 +1,21 @@
-"""The classes of certified NNI designs: which theorem certifies a design (issue 24, item 3).
+"""The classes of certified designs of the NI structure: which theorem certifies a design.
 
 ``paper`` (the default)
-    The paper's sector bound holds, ``δ >= 1/(γ_max m kp)`` with ``γ_max < 1``
+    The paper's sector bound holds, ``γ = C(0)/(m kp) <= γ_max < 1`` (the NNI law:
+    ``δ >= 1/(γ_max m kp)``)
     (``nniquad.config.GAMMA_MAX`` = 0.8, the paper's choice): Theorem
     ``thm:main_result`` of Ghallab & Petersen certifies the reduced horizontal
     loop, and a schema-2 certificate adds the sampled-data cascade section.
 ``cascade``
     The sector bound is dropped.  The proof is the sampled-data cascade
-    certificate alone (:mod:`nniquad.analysis.cascade.certificate`: a
+    certificate alone (:mod:`nniquad.analysis.cascade.box_certificate`: a
     parameter-dependent Lyapunov function of the linearised cascade sampled at
     the control rate over the parameter box, with its region of attraction
     under the tilt limit).  The reduced-loop LMIs are still stated (they hold
-    whenever ``m kp δ > 1``), but they are not what certifies the design.
+    whenever ``γ < 1``), but they are not what certifies the design.
 
 Every filtered-derivative PD law is an NNI law with ``m kp δ > 1``
-(:mod:`nniquad.control.pd_equivalence`): the ``cascade`` class holds all of
+(:mod:`nniquad.laws.pd_filtered`): the ``cascade`` class holds all of
 them, the ``paper`` class those with ``k_p τ_f/k_d >= 1/γ_max - 1``.
 """
 
@@ -72,7 +73,7 @@ LAW_CLASSES: dict[str, LawClass] = {
                 "stable (with a cascade section, the sampled-data cascade certificate adds the parameter box)"),
     "cascade": LawClass(
         "cascade", sector_bound=False, needs_cascade=True,
-        theorem="sampled-data cascade certificate (nniquad.analysis.cascade.certificate): a parameter-dependent Lyapunov "
+        theorem="sampled-data cascade certificate (nniquad.analysis.cascade.box_certificate): a parameter-dependent Lyapunov "
                 "function of the linearised cascade sampled at the control rate over the parameter box, with its "
                 "region of attraction under the tilt limit; the paper's sector bound is not assumed",
         former_wordings=(

@@ -2,7 +2,7 @@
 
 What is certified
 -----------------
-The linearised cascade of :mod:`nniquad.analysis.cascade.linearised` (the simulator's
+The linearised cascade of :mod:`nniquad.analysis.linearised_cascade` (the simulator's
 CasADi Jacobians at hover: rigid body, altitude PID and yaw hold, attitude PD in
 its linear region, allocation, first-order motor lag, NNI controller), sampled
 as in :mod:`nniquad.analysis.sampled`: the position is sampled at ``rate_hz``
@@ -18,7 +18,7 @@ values.  At a parameter point the *true* vehicle has mass ``f_m m``, inertias
 ``f_Jx Jx, f_Jy Jy, f_Jz Jz`` (the **three inertia factors vary independently**
 inside ``inertia_factor``, as the Monte Carlo draws them), motor time constant
 ``f_τ τ_m``, and the attitude torques are multiplied by ``f_a``
-(:attr:`nniquad.control.gains.InnerLoopGains.attitude_gain_scale` times
+(:attr:`nniquad.control.inner_gains.InnerLoopGains.attitude_gain_scale` times
 ``f_a``).  The controller's nominal mass ``m̂`` and the inner loops' nominal
 inertias stay nominal: they are what the flight code knows.  A point is thus
 six numbers ``θ = (f_m, f_Jx, f_Jy, f_Jz, f_a, f_τ)`` (:data:`POINT_NAMES`);
@@ -52,7 +52,7 @@ Certificates and what they cover
   uncertainty needs.  ``A_d(θ)`` is not affine in ``θ`` (matrix exponentials of
   Jacobians), so nothing is proved between the LMI points.
 * :func:`grid_check`: the exact contraction factor ``‖P^{1/2} A_d(θ) P^{-1/2}‖₂``
-  of the assembled 19-state ``P(θ)`` (:func:`_assemble_P`, on the full coupled
+  of the assembled 19-state ``P(θ)`` (:func:`assemble_P`, on the full coupled
   loop) and the spectral radius, with numpy, on a grid of
   :data:`nniquad.config.CASCADE_GRID_POINTS_PER_AXIS` points per coordinate
   in all six coordinates (4096 points; other points than the LMI points except
@@ -67,7 +67,7 @@ Certificates and what they cover
   of the block's best decay) and kept when it reaches further and passes the
   grid check; the ellipsoid cannot reach beyond about ``u0 / kp`` (the command
   of a pure position offset).  A vehicle whose y block mirrors its x block
-  reuses x's answers, re-checked with numpy on y's loops (:func:`_mirror`).
+  reuses x's answers, re-checked with numpy on y's loops (:func:`mirror_blocks`).
 
 Modules
 -------
@@ -78,13 +78,31 @@ section, check); this module gathers its public names.
 from __future__ import annotations
 
 from nniquad.analysis.cascade.box import BOX_KEYS, POINT_NAMES, ParameterBox, box_coordinates, tilt_accel_limit
+from nniquad.analysis.cascade.family import (
+                                            COUPLING_TOL,
+                                            RELEVANCE_BAND,
+                                            RELEVANCE_TOL,
+                                            SUBSYSTEMS,
+                                            CascadeFamily,
+                                            coupling,
+                                            mode_transform,
+                                            relevance_consistent,
+                                            relevant_coordinates,
+                                            sampled_family,
+)
+from nniquad.analysis.cascade.lyapunov import (
+                                            GridCheck,
+                                            RobustLyapunov,
+                                            WitnessMargins,
+                                            checked_grid_size,
+                                            contraction_batch,
+                                            grid_check,
+                                            point_index,
+                                            reach_lyapunov,
+                                            robust_lyapunov,
+                                            witness_margins,
+)
 from nniquad.analysis.cascade.recheck import check_cascade_section
-from nniquad.analysis.cascade.family import (COUPLING_TOL, RELEVANCE_BAND, RELEVANCE_TOL, SUBSYSTEMS, CascadeFamily,
-                                            coupling, mode_transform, relevance_consistent, relevant_coordinates,
-                                            sampled_family)
-from nniquad.analysis.cascade.lyapunov import (GridCheck, RobustLyapunov, WitnessMargins, checked_grid_size,
-                                              contraction_batch, grid_check, point_index, reach_lyapunov,
-                                              robust_lyapunov, witness_margins)
 from nniquad.analysis.cascade.region import linear_zone_reach
 from nniquad.analysis.cascade.section import LMI_POINTS_PER_AXIS, BoxSearch, cascade_section, widest_box
 

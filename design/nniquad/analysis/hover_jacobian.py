@@ -7,7 +7,7 @@ simulator's ``sample_hold`` switch on, so that the Jacobian with respect to the
 held states is the measurement input.  At exact hover the tilt limit's norm has
 a ``0 · NaN`` derivative, so the Jacobian is the mean of the Jacobians at
 ``±ε`` along the held measurement (the odd terms cancel; error ``O(ε²)``).
-:mod:`nniquad.analysis.cascade.linearised` splits these Jacobians into plant and
+:mod:`nniquad.analysis.linearised_cascade` splits these Jacobians into plant and
 controller; :mod:`nniquad.analysis.cascade.family` evaluates them over a
 parameter grid.
 """
@@ -20,15 +20,24 @@ import casadi as ca
 import numpy as np
 
 from nniquad.codecache import cached_casadi_function
-from nniquad.control.gains import NI_LAWS
 from nniquad.errors import CascadeError
-from nniquad.sim import EXO_FIELDS, OUTPUT_NAMES, SimParams, initial_state, n_params, output_function, rhs_function, state_names
+from nniquad.laws.registry import ni_law_names
+from nniquad.sim import (
+    EXO_FIELDS,
+    OUTPUT_NAMES,
+    SimParams,
+    initial_state,
+    n_params,
+    output_function,
+    rhs_function,
+    state_names,
+)
 
 __all__ = ["LINEARISATION_OFFSET_M", "EQUILIBRIUM_TOL", "Linearisation", "linearise"]
 
 #: Offset [m] of the held measurement for the symmetric-mean Jacobian (module docstring).
 LINEARISATION_OFFSET_M = 1e-6
-#: Largest |f(x_hover)| accepted as an equilibrium (absolute, in the state's units per second).
+#: Largest ``|f(x_hover)|`` accepted as an equilibrium (absolute, in the state's units per second).
 EQUILIBRIUM_TOL = 1e-9
 
 
@@ -68,7 +77,7 @@ class Linearisation:
 
 
 @cached_casadi_function
-def _jacobian_function(model: str, controller: str = "nni") -> ca.Function:
+def jacobian_function(model: str, controller: str = "nni") -> ca.Function:
     n = len(state_names(model, controller))
     X = ca.SX.sym("x", n)
     p = ca.SX.sym("p", n_params(controller))
@@ -76,8 +85,7 @@ def _jacobian_function(model: str, controller: str = "nni") -> ca.Function:
     f = rhs_function(model, controller)(X, e, p)
     out = OUTPUT_NAMES[model]
     y = output_function(model, controller)(X, e, p)[[out.index("a_x"), out.index("a_y")]]
-    sfx = "" if controller == "nni" else f"_{controller}"
-    return ca.Function(f"cascade_jac_{model}{sfx}", [X, p], [f, ca.jacobian(f, X), ca.jacobian(y, X)])
+    return ca.Function(f"cascade_jac_{model}_{controller}", [X, p], [f, ca.jacobian(f, X), ca.jacobian(y, X)])
 
 
 def linearise(model: str, params: SimParams, *, offset: float = LINEARISATION_OFFSET_M) -> Linearisation:
@@ -89,7 +97,7 @@ def linearise(model: str, params: SimParams, *, offset: float = LINEARISATION_OF
         ``"linear"`` or ``"full"`` (``"reduced"`` equals ``"linear"`` near hover).
     params
         Parameter set (:class:`nniquad.sim.SimParams`, gains of a law of the NI structure:
-        :data:`nniquad.control.gains.NI_LAWS`); its ``run.sample_hold`` is set to 1 and
+        :attr:`nniquad.laws.base.ControlLaw.ni_structure`); its ``run.sample_hold`` is set to 1 and
         ``run.discrete`` to 0 here.
     offset
         Symmetric offset of the held measurement [m] (module docstring).
@@ -106,13 +114,13 @@ def linearise(model: str, params: SimParams, *, offset: float = LINEARISATION_OF
     """
     if model not in ("linear", "full"):
         raise CascadeError(f"the cascade is linearised on the 'linear' or 'full' model, not {model!r}")
-    if not isinstance(params, SimParams) or params.controller not in NI_LAWS:
-        raise CascadeError(f"the cascade is linearised with a SimParams of the NNI controller or another law of "
-                           f"the NI structure ({', '.join(NI_LAWS)})")
+    if not isinstance(params, SimParams) or not params.gains.law.ni_structure:
+        raise CascadeError("the cascade is linearised with a SimParams of a law of the NI structure "
+                           f"({', '.join(ni_law_names())})")
     p = params.with_(run={"sample_hold": 1.0, "discrete": 0.0})  # the continuous controller's Jacobian
     names = state_names(model, params.controller)
     x_eq = initial_state(model, p, (0.0, 0.0))
-    fn = _jacobian_function(model, params.controller)
+    fn = jacobian_function(model, params.controller)
     f0 = np.asarray(fn(x_eq, p.vector())[0], float).ravel()
     residual = float(np.max(np.abs(f0)))
     if not residual <= EQUILIBRIUM_TOL:

@@ -64,19 +64,20 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Sequence
 
 import casadi as ca
 import numpy as np
 
-from nniquad.analysis.cascade.hover_jacobian import (EQUILIBRIUM_TOL, LINEARISATION_OFFSET_M, Linearisation,
-                                             linearise)
+from nniquad.analysis.hover_jacobian import EQUILIBRIUM_TOL, LINEARISATION_OFFSET_M, Linearisation, linearise
 from nniquad.analysis.loops import ClosedLoop, pade_delay
 from nniquad.config import TILT_LIMIT_DEG
 from nniquad.control import inner_loops as IL
-from nniquad.control.gains import DEFAULT_INNER_LOOP_GAINS, Gains, InnerLoopGains
+from nniquad.control.inner_gains import DEFAULT_INNER_LOOP_GAINS, InnerLoopGains
 from nniquad.errors import CascadeError
+from nniquad.laws.base import GainBlock
 from nniquad.model.vehicle import Vehicle
-from nniquad.sim import CONTROLLER_STATES, SimOptions, SimParams
+from nniquad.sim import SimOptions, SimParams
 
 __all__ = [
     "LINEARISATION_OFFSET_M",
@@ -86,6 +87,8 @@ __all__ = [
     "CONTROLLER_VARIANTS",
     "Linearisation",
     "LinearCascade",
+    "CascadeSplit",
+    "split_cascade",
     "ClosedLoop",
     "linearise",
     "linearise_cascade",
@@ -107,6 +110,90 @@ CONTROLLER_VARIANTS: tuple[str, ...] = ("discrete", "held")
 def _split_residual(M: np.ndarray, approx: np.ndarray) -> float:
     scale = max(float(np.max(np.abs(M))), 1.0)
     return float(np.max(np.abs(M - approx))) / scale if M.size else 0.0
+
+
+@dataclass(frozen=True)
+class CascadeSplit:
+    """The simulator's Jacobians at hover split into plant, controller and motors, at one or many points (index 0
+    of every stacked array is a point): what :func:`linearise_cascade` and the sampled family of the cascade
+    certificate (:func:`nniquad.analysis.cascade.family.sampled_family`) both build on.
+
+    Attributes
+    ----------
+    rigid, motors, controller, held
+        State names of the rigid body (with the altitude integrator), the rotor speeds, the law's controller
+        states and the held measurement.
+    ir, iw, ik, ih
+        Their positions in the simulator's state.
+    A_k, B_k, C_k, D_k : ndarray
+        The controller (the same at every point: it is the flight code's), ``z' = A_k z + B_k ξ_m``,
+        ``a_h = C_k z + D_k ξ_m``.
+    A_p, B_p : ndarray (N, n_p, n_p), (N, n_p, 2)
+        The plant (rigid body, then rotors), input the acceleration command ``a_h``.
+    """
+
+    rigid: tuple[str, ...]
+    motors: tuple[str, ...]
+    controller: tuple[str, ...]
+    held: tuple[str, ...]
+    ir: list[int]
+    iw: list[int]
+    ik: list[int]
+    ih: list[int]
+    A_k: np.ndarray
+    B_k: np.ndarray
+    C_k: np.ndarray
+    D_k: np.ndarray
+    A_p: np.ndarray
+    B_p: np.ndarray
+
+
+def split_cascade(J: np.ndarray, Y: np.ndarray, names: Sequence[str], controller: Sequence[str]) -> CascadeSplit:
+    """Split stacked Jacobians of the closed loop into plant, controller and motors, checking that the split is exact.
+
+    Parameters
+    ----------
+    J : ndarray (N, n, n)
+        ``∂f/∂x`` at each point.
+    Y : ndarray (N, 2, n)
+        ``∂a_h/∂x`` at each point.
+    names
+        The simulator's state names.
+    controller
+        The law's controller states (:attr:`nniquad.laws.base.ControlLaw.sim_state_names`).
+
+    Raises
+    ------
+    CascadeError
+        The law differs between points or reads a plant state, the plant sees the controller other than through
+        ``a_h``, or ``a_h`` reaches the rigid body other than through the rotors.
+    """
+    held, motors = ("held_x", "held_y"), ("w1", "w2", "w3", "w4")
+    ctrl = tuple(controller)
+    rigid = tuple(n for n in names if n not in ctrl + held + motors)
+    si = {n: i for i, n in enumerate(names)}
+    ik, ih, iw, ir = ([si[n] for n in group] for group in (ctrl, held, motors, rigid))
+    ip = ir + iw
+    A_k, B_k = J[0][np.ix_(ik, ik)], J[0][np.ix_(ik, ih)]
+    C_k, D_k = Y[0][:, ik], Y[0][:, ih]
+    # the controller is the flight code's: the same at every point, and velocity-free (it reads no plant state)
+    scale = max(1.0, float(np.max(np.abs(J[0]))))
+    for M, name in ((J[:, ik][:, :, ik] - A_k, "A_k"), (J[:, ik][:, :, ih] - B_k, "B_k"),
+                    (Y[:, :, ik] - C_k, "C_k"), (Y[:, :, ih] - D_k, "D_k"),
+                    (J[:, ik][:, :, ip], "z' from plant"), (Y[:, :, ip], "a_h from plant")):
+        if M.size and np.max(np.abs(M)) > SPLIT_TOL * scale:
+            raise CascadeError(f"the horizontal law is not one velocity-free law at every point ({name}): the split "
+                               "is not exact")
+    # the plant sees the controller only through a_h: J[p, (z, held)] = B_p [C_k D_k]
+    G = np.hstack([C_k, D_k])
+    Jpc = J[:, ip][:, :, ik + ih]
+    B_p = Jpc @ np.linalg.pinv(G)
+    res = np.max(np.abs(Jpc - B_p @ G)) / max(1.0, float(np.max(np.abs(Jpc))))
+    if res > SPLIT_TOL:
+        raise CascadeError(f"the plant does not see the controller through a_h alone (relative {res:.3g})")
+    if np.max(np.abs(B_p[:, : len(ir)])) > SPLIT_TOL * max(1.0, float(np.max(np.abs(B_p)))):
+        raise CascadeError("a_h reaches the rigid body other than through the rotors")
+    return CascadeSplit(rigid, motors, ctrl, held, ir, iw, ik, ih, A_k, B_k, C_k, D_k, J[:, ip][:, :, ip], B_p)
 
 
 @dataclass(frozen=True)
@@ -143,7 +230,7 @@ class LinearCascade:
     """
 
     vehicle: Vehicle
-    gains: Gains
+    gains: GainBlock
     inner: InnerLoopGains
     motor_lag: bool
     lin: Linearisation
@@ -191,7 +278,7 @@ class LinearCascade:
         return row
 
     # ------------------------------------------------------------------ closed loop
-    def closed_loop(self, rate_hz: float | None = None, *, controller: str = "discrete",
+    def closed_loop(self, rate_hz: float | None = None, *, variant: str = "discrete",
                     pade_order: int = 2) -> ClosedLoop:
         """The continuous-time closed loop, optionally with Padé models of the sampling delays.
 
@@ -200,7 +287,7 @@ class LinearCascade:
         rate_hz
             Sample rate of the position measurement [Hz]; ``None`` for a
             continuous measurement.
-        controller
+        variant
             ``"discrete"`` (NNI controller run in discrete time, delays ``T/2``
             on the measurement and ``T/2`` more on the controller-state path) or
             ``"held"`` (continuous controller on the held measurement: ``T/2``).
@@ -213,8 +300,8 @@ class LinearCascade:
             States: the plant, the delay states, the controller; break points
             ``"horizontal"`` (``a_h`` x axis) and ``"attitude"`` (roll torque).
         """
-        if controller not in CONTROLLER_VARIANTS:
-            raise CascadeError(f"unknown controller variant {controller!r} (choose one of "
+        if variant not in CONTROLLER_VARIANTS:
+            raise CascadeError(f"unknown controller variant {variant!r} (choose one of "
                                f"{', '.join(CONTROLLER_VARIANTS)})")
         n_p, n_k = self.n_plant, self.A_k.shape[0]
         n_y = self.C_p.shape[0]
@@ -226,7 +313,7 @@ class LinearCascade:
             d = pade_delay(T / 2, int(pade_order))
             # one Padé block per axis
             blk = tuple(np.kron(np.eye(n_y), M) for M in d)
-            delays = [blk] if controller == "held" else [blk, blk]
+            delays = [blk] if variant == "held" else [blk, blk]
         n_d = [D[0].shape[0] for D in delays]
         N = n_p + sum(n_d) + n_k
         off_k = n_p + sum(n_d)
@@ -276,7 +363,7 @@ class LinearCascade:
         return self.plant_states + self.controller_states
 
 
-def _hover_params(vehicle: Vehicle, gains: Gains, inner: InnerLoopGains, tilt_limit_deg: float,
+def hover_params(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, tilt_limit_deg: float,
                   tau_motor_s: float | None) -> SimParams:
     # motor lag on: the rotor states then expose the rotor-speed command (module docstring)
     opts = SimOptions(model="full", motor_lag=True, sample_hold=True, inner=inner, tilt_limit_deg=tilt_limit_deg,
@@ -308,7 +395,7 @@ def allocation_jacobian(params: SimParams) -> np.ndarray:
 
 def linearise_cascade(
     vehicle: Vehicle,
-    gains: Gains,
+    gains: GainBlock,
     inner: InnerLoopGains = DEFAULT_INNER_LOOP_GAINS,
     *,
     motor_lag: bool = True,
@@ -341,34 +428,16 @@ def linearise_cascade(
     CascadeError
         No equilibrium at hover, or the plant/controller split is not exact.
     """
-    params = _hover_params(vehicle, gains, inner, TILT_LIMIT_DEG if tilt_limit_deg is None else tilt_limit_deg,
+    params = hover_params(vehicle, gains, inner, TILT_LIMIT_DEG if tilt_limit_deg is None else tilt_limit_deg,
                            tau_motor_s)
     lin = linearise("full", params)
-    names = lin.state_names
-    ctrl = CONTROLLER_STATES[params.controller]
-    held = ("held_x", "held_y")
-    motors = ("w1", "w2", "w3", "w4")
-    rigid = tuple(n for n in names if n not in ctrl + held + motors)
-    ik, ih, iw, ir = lin.index(*ctrl), lin.index(*held), lin.index(*motors), lin.index(*rigid)
-    ip = ir + iw
-    J, Y = lin.J, lin.Y
-    A_k, B_k = J[np.ix_(ik, ik)], J[np.ix_(ik, ih)]
-    C_k, D_k = Y[:, ik], Y[:, ih]
-    # velocity-free law: a_h and z' read only the measurement and z
-    leak = max(_split_residual(J[np.ix_(ik, ip)], 0 * J[np.ix_(ik, ip)]), _split_residual(Y[:, ip], 0 * Y[:, ip]))
-    if leak > SPLIT_TOL:
-        raise CascadeError(f"the horizontal law reads plant states (relative {leak:.3g}); the split is not exact")
-    # the plant sees the controller only through a_h: J[p, (z, held)] = B_p [C_k D_k]
-    G = np.hstack([C_k, D_k])
-    Jpc = J[np.ix_(ip, ik + ih)]
-    B_full = Jpc @ np.linalg.pinv(G)
-    res = _split_residual(Jpc, B_full @ G)
-    if res > SPLIT_TOL:
-        raise CascadeError(f"the plant does not see the controller through a_h alone (relative {res:.3g})")
+    split = split_cascade(lin.J[None], lin.Y[None], lin.state_names, params.gains.law.sim_state_names)
+    rigid, motors, ctrl = split.rigid, split.motors, split.controller
+    ir, iw = split.ir, split.iw
+    J = lin.J
+    A_k, B_k, C_k, D_k = split.A_k, split.B_k, split.C_k, split.D_k
     nr = len(ir)
-    B_r, B_w = B_full[:nr], B_full[nr:]
-    if _split_residual(B_r, 0 * B_r) > SPLIT_TOL:
-        raise CascadeError("a_h reaches the rigid body other than through the rotors")
+    B_r, B_w = split.B_p[0][:nr], split.B_p[0][nr:]
     tau_m = params.plant.tau_motor
     A_rr, A_rw = J[np.ix_(ir, ir)], J[np.ix_(ir, iw)]
     A_wr, A_ww = J[np.ix_(iw, ir)], J[np.ix_(iw, iw)]
@@ -377,7 +446,7 @@ def linearise_cascade(
     W_r, W_a = tau_m * A_wr, tau_m * B_w  # ω_cmd = τ_m ω' + ω
     pos = [rigid.index("x"), rigid.index("y")]
     if motor_lag:
-        A_p, B_p = np.block([[A_rr, A_rw], [A_wr, A_ww]]), np.vstack([B_r, B_w])
+        A_p, B_p = split.A_p[0], split.B_p[0]
         plant = rigid + motors
     else:
         A_p, B_p = A_rr + A_rw @ W_r, A_rw @ W_a
