@@ -120,16 +120,22 @@ class CascadeSplit:
 
     Attributes
     ----------
-    rigid, motors, controller, held
-        State names of the rigid body (with the altitude integrator), the rotor speeds, the law's controller
-        states and the held measurement.
-    ir, iw, ik, ih
-        Their positions in the simulator's state.
+    rigid : tuple of str
+        The rigid body's states (with the altitude integrator).
+    motors : tuple of str
+        The rotor speeds.
+    controller : tuple of str
+        The law's controller states.
+    held : tuple of str
+        The held measurement.
+    ir, iw, ik, ih : list of int
+        Their positions in the simulator's state, in the same order.
     A_k, B_k, C_k, D_k : ndarray
         The controller (the same at every point: it is the flight code's), ``z' = A_k z + B_k ξ_m``,
         ``a_h = C_k z + D_k ξ_m``.
-    A_p, B_p : ndarray (N, n_p, n_p), (N, n_p, 2)
-        The plant (rigid body, then rotors), input the acceleration command ``a_h``.
+    A_p, B_p : ndarray
+        The plant (rigid body, then rotors) at each point, ``(N, n_p, n_p)`` and ``(N, n_p, 2)``, input the
+        acceleration command ``a_h``.
     """
 
     rigid: tuple[str, ...]

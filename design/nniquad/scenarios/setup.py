@@ -64,7 +64,7 @@ class StudySetup:
 
     @property
     def base(self) -> SimParams:
-        """:attr:`base_params` as a :class:`nniquad.sim.SimParams` (the :attr:`controller`'s layout)."""
+        """:attr:`base_params` as a :class:`nniquad.sim.SimParams` (the layout of the law :attr:`StudySetup.controller`)."""
         return SimParams.from_vector(self.base_params, self.controller)
 
     def to_json(self) -> dict[str, Any]:
