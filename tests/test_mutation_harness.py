@@ -76,7 +76,7 @@ def test_the_staged_conftest_empties_functools_caches_and_each_modules_own(tmp_p
 
 
 def test_sector_symbolic_clears_the_code_cache_memory():
-    """linear_symbolic's generated functions are kept in codecache's memory between tests of one process."""
+    """reduced_loop_symbolic's generated functions are kept in codecache's memory between tests of one process."""
     assert "nniquad.codecache" in MODULES["sector_symbolic"].clear_caches
     from nniquad import codecache
 

@@ -126,6 +126,17 @@ def test_resigned_edit_of_the_law_is_refused(doc, edit):
             Certificate.from_json(_resign(c))
 
 
+def test_the_study_draws_the_scenarios_of_a_certificate_as_of_its_setup(doc):
+    """``nniquad.study.draw_scenarios`` takes a loaded certificate (the study layer reads it) and draws exactly the
+    scenarios the scenarios layer draws from that certificate's setup."""
+    import nniquad.study as mc
+    from nniquad.scenarios.draws import draw_scenarios as draw_from_setup
+
+    setup = mc.study_setup(doc)
+    assert mc.draw_scenarios(4, 9, cert=doc) == draw_from_setup(4, 9, mc.DEFAULT_RANGES, setup)
+    assert mc.draw_scenarios(4, 9, cert=setup) == mc.draw_scenarios(4, 9, cert=doc)
+
+
 def test_monte_carlo_runs_the_certified_law(doc):
     """The study of an sni2 certificate simulates the sni2 law in discrete time from its take-over state."""
     from nniquad.jobs.montecarlo import montecarlo

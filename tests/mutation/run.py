@@ -326,7 +326,7 @@ def _mutant_env() -> dict[str, str]:
 
     The on-disk code cache (:mod:`nniquad.codecache`) is switched off: it is keyed by a hash of the generating
     module's source, which a mutant does not change (mutmut switches mutants at run time), so a warm cache would
-    hand every mutant of a code generator (``linear_symbolic.lambdified``) the unmutated code.
+    hand every mutant of a code generator (``reduced_loop_symbolic.lambdified``) the unmutated code.
     """
     return dict(os.environ, MPLBACKEND="Agg", PYTHONHASHSEED="0", NNIQUAD_TEST_SHARED_DIR=str(SHARED),
                 NNIQUAD_NO_CODE_CACHE="1")

@@ -10,20 +10,20 @@
 
 from nniquad.certificates.build import build_certificate, performance_runs
 from nniquad.certificates.certificate import (
-                                              CASCADE_SCHEMA_VERSION,
-                                              SCHEMA,
-                                              SCHEMA_VERSION,
-                                              SCHEMA_VERSIONS,
-                                              TOLERANCES,
-                                              Certificate,
-                                              canonical_digest,
-                                              certificate_gains,
-                                              certificate_inner_loop,
-                                              certificate_vehicle,
-                                              check_form,
-                                              load_certificate,
-                                              read_certificate,
-                                              write_certificate,
+    CASCADE_SCHEMA_VERSION,
+    SCHEMA,
+    SCHEMA_VERSION,
+    SCHEMA_VERSIONS,
+    TOLERANCES,
+    Certificate,
+    canonical_digest,
+    certificate_gains,
+    certificate_inner_loop,
+    certificate_vehicle,
+    check_form,
+    load_certificate,
+    read_certificate,
+    write_certificate,
 )
 from nniquad.certificates.verify import Check, Verification, verify_certificate
 

@@ -27,13 +27,13 @@ from __future__ import annotations
 
 from nniquad.io.reading import format_bytes, load_data_file, parse_data, read_text_file
 from nniquad.io.writing import (
-                                atomic_write_json,
-                                atomic_write_text,
-                                atomic_write_with,
-                                check_output_folder,
-                                check_output_path,
-                                check_output_paths,
-                                output_transaction,
+    atomic_write_json,
+    atomic_write_text,
+    atomic_write_with,
+    check_output_folder,
+    check_output_path,
+    check_output_paths,
+    output_transaction,
 )
 
 __all__ = [

@@ -24,26 +24,26 @@ from nniquad.sim.codegen import cache_dir, compile_status
 from nniquad.sim.models import output_function, rhs_function, step_function, vehicle_dynamics
 from nniquad.sim.options import CONTROLLER_SAMPLING, MODELS, SimOptions, check_rate_hz
 from nniquad.sim.params import (
-                                EXO_FIELDS,
-                                OUTPUT_NAMES,
-                                STATE_NAMES,
-                                ParamField,
-                                RunSettings,
-                                SimParams,
-                                VehicleParams,
-                                n_params,
-                                param_layout,
-                                state_names,
-                                to_gains,
+    EXO_FIELDS,
+    OUTPUT_NAMES,
+    STATE_NAMES,
+    ParamField,
+    RunSettings,
+    SimParams,
+    VehicleParams,
+    n_params,
+    param_layout,
+    state_names,
+    to_gains,
 )
 from nniquad.sim.results import SimulationResult, Trajectory
 from nniquad.sim.runner import (
-                                PAPER_FIGURE_HORIZON_S,
-                                exogenous_inputs,
-                                initial_state,
-                                paper_figure_runs,
-                                run_batch,
-                                simulate,
+    PAPER_FIGURE_HORIZON_S,
+    exogenous_inputs,
+    initial_state,
+    paper_figure_runs,
+    run_batch,
+    simulate,
 )
 
 __all__ = [

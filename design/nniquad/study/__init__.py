@@ -93,32 +93,31 @@ Modules
 
 from nniquad.errors import MonteCarloError, StudyFailedError
 from nniquad.scenarios.draws import (
-                                     BOX_KEYS,
-                                     DEFAULT_HORIZON_S,
-                                     DEFAULT_RANGES,
-                                     Scenario,
-                                     ScenarioRanges,
-                                     StudySetup,
-                                     certificate_rate_hz,
-                                     draw_scenario,
-                                     draw_scenarios,
-                                     study_setup_from,
-                                     within_certificate_ranges,
+    BOX_KEYS,
+    DEFAULT_HORIZON_S,
+    DEFAULT_RANGES,
+    Scenario,
+    ScenarioRanges,
+    StudySetup,
+    certificate_rate_hz,
+    draw_scenario,
+    study_setup_from,
+    within_certificate_ranges,
 )
 from nniquad.scenarios.setup import check_study_step
-from nniquad.study.certificate_setup import study_setup
+from nniquad.study.certificate_setup import draw_scenarios, study_setup
 from nniquad.study.executors import (
-                                     CONNECT_TIMEOUT_S,
-                                     STOP_SIGNALS,
-                                     StopRequest,
-                                     StudyRun,
-                                     auto_batch_size,
-                                     catch_interrupts,
-                                     close_client,
-                                     cluster_threads,
-                                     connect_scheduler,
-                                     make_batches,
-                                     run_study,
+    CONNECT_TIMEOUT_S,
+    STOP_SIGNALS,
+    StopRequest,
+    StudyRun,
+    auto_batch_size,
+    catch_interrupts,
+    close_client,
+    cluster_threads,
+    connect_scheduler,
+    make_batches,
+    run_study,
 )
 from nniquad.study.runs import ScenarioResult, run_scenarios
 from nniquad.study.statistics import Summary, pareto_front, quantile_ci, summarize, wilson_interval

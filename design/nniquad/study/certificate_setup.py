@@ -14,9 +14,11 @@ from nniquad.certificates.sections import certificate_gains, certificate_inner_l
 from nniquad.config import BAND_FRACTION, TILT_LIMIT_DEG, XI0_M
 from nniquad.errors import MonteCarloError
 from nniquad.scenarios.ranges import DEFAULT_RANGES, ScenarioRanges, positive_number_or_none
+from nniquad.scenarios.draws import Scenario
+from nniquad.scenarios.draws import draw_scenarios as draw_setup_scenarios
 from nniquad.scenarios.setup import DEFAULT_HORIZON_S, StudySetup, study_setup_from
 
-__all__ = ["study_setup"]
+__all__ = ["study_setup", "draw_scenarios"]
 
 
 def _certificate_label(cert: Mapping[str, Any]) -> str:
@@ -77,3 +79,30 @@ def study_setup(cert: Mapping[str, Any] | StudySetup, ranges: ScenarioRanges = D
     return setup
 
 
+def draw_scenarios(n: int, seed: int, ranges: ScenarioRanges = DEFAULT_RANGES,
+                   cert: Mapping[str, Any] | StudySetup | None = None, *,
+                   horizon_s: float | None = None) -> list[Scenario]:
+    """Scenarios ``0`` to ``n - 1`` of seed ``seed`` of the study of ``cert``: a loaded certificate or a
+    :class:`StudySetup` (:func:`nniquad.scenarios.draws.draw_scenarios` draws them from the setup).
+
+    Parameters
+    ----------
+    n
+        Number of scenarios.
+    seed
+        The study's seed.
+    ranges
+        What may vary.
+    cert
+        A loaded certificate (its setup is :func:`study_setup`) or a :class:`StudySetup`.
+    horizon_s
+        As in :func:`study_setup`: a setup keeps its own horizon unless one is given.
+
+    Raises
+    ------
+    MonteCarloError
+        ``n <= 0``, a negative or non-integer seed, no certificate.
+    """
+    if cert is None:
+        raise MonteCarloError("a certificate (or a StudySetup) is required")
+    return draw_setup_scenarios(n, seed, ranges, study_setup(cert, ranges, horizon_s=horizon_s))

@@ -79,28 +79,28 @@ from __future__ import annotations
 
 from nniquad.analysis.cascade.box import BOX_KEYS, POINT_NAMES, ParameterBox, box_coordinates, tilt_accel_limit
 from nniquad.analysis.cascade.family import (
-                                            COUPLING_TOL,
-                                            RELEVANCE_BAND,
-                                            RELEVANCE_TOL,
-                                            SUBSYSTEMS,
-                                            CascadeFamily,
-                                            coupling,
-                                            mode_transform,
-                                            relevance_consistent,
-                                            relevant_coordinates,
-                                            sampled_family,
+    COUPLING_TOL,
+    RELEVANCE_BAND,
+    RELEVANCE_TOL,
+    SUBSYSTEMS,
+    CascadeFamily,
+    coupling,
+    mode_transform,
+    relevance_consistent,
+    relevant_coordinates,
+    sampled_family,
 )
 from nniquad.analysis.cascade.lyapunov import (
-                                            GridCheck,
-                                            RobustLyapunov,
-                                            WitnessMargins,
-                                            checked_grid_size,
-                                            contraction_batch,
-                                            grid_check,
-                                            point_index,
-                                            reach_lyapunov,
-                                            robust_lyapunov,
-                                            witness_margins,
+    GridCheck,
+    RobustLyapunov,
+    WitnessMargins,
+    checked_grid_size,
+    contraction_batch,
+    grid_check,
+    point_index,
+    reach_lyapunov,
+    robust_lyapunov,
+    witness_margins,
 )
 from nniquad.analysis.cascade.recheck import check_cascade_section
 from nniquad.analysis.cascade.region import linear_zone_reach
