@@ -44,7 +44,7 @@ from nniquad.validate import finite_number
 
 __all__ = ["positive_gain", "gain_field", "field_unit", "field_symbol", "GainBlock", "ControlLaw", "NILaw",
            "gains_text", "wind_equilibrium_m",
-           "both_axes", "interleave", "dc_gain_of", "PlainGainBlock", "TuningBox", "AXES"]
+           "both_axes", "dc_gain_of", "PlainGainBlock", "TuningBox", "AXES"]
 
 #: The two horizontal axes (north, east), in the order of every pair.
 AXES: tuple[str, str] = ("x", "y")
@@ -168,18 +168,6 @@ class PlainGainBlock(GainBlock):
     def __post_init__(self) -> None:
         for f in fields(self):  # type: ignore[arg-type]
             object.__setattr__(self, f.name, positive_gain(f.name, getattr(self, f.name)))
-
-
-def interleave(per_axis: Sequence[Sequence[Any]]) -> list[Any]:
-    """Both axes' controller states in the project's order, state-major and axis-minor.
-
-    Parameters
-    ----------
-    per_axis
-        ``[states of x, states of y]``, each of length ``n``.
-    """
-    x, y = per_axis
-    return [v for pair in zip(x, y) for v in pair]
 
 
 def both_axes(per_axis: Sequence[np.ndarray], inputs: int, n: int) -> tuple[np.ndarray, ...]:
