@@ -543,8 +543,6 @@ def test_schema_2_cascade_section_is_checked_by_robust_cascade(certificate, monk
     """verify hands the section, vehicle, gains, inner loops and tilt limit to check_cascade_section; its rows are
     checks (a stub stands in for the function, which another module provides)."""
     import dataclasses
-    import sys
-    import types
 
     seen = {}
 

@@ -5,7 +5,6 @@ from __future__ import annotations
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from nniquad.analysis import reduced_loop_symbolic as L
 from nniquad.analysis.reduced_loop import ReducedLoop
 from nniquad.laws.nni import Gains
 from nniquad.sim import metrics as MT

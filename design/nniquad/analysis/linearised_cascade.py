@@ -442,8 +442,7 @@ def linearise_cascade(
     ir, iw = split.ir, split.iw
     J = lin.J
     A_k, B_k, C_k, D_k = split.A_k, split.B_k, split.C_k, split.D_k
-    nr = len(ir)
-    B_r, B_w = split.B_p[0][:nr], split.B_p[0][nr:]
+    B_w = split.B_p[0][len(ir):]  # the motor rows of the plant's input matrix
     tau_m = params.plant.tau_motor
     A_rr, A_rw = J[np.ix_(ir, ir)], J[np.ix_(ir, iw)]
     A_wr, A_ww = J[np.ix_(iw, ir)], J[np.ix_(iw, iw)]
