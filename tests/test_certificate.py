@@ -540,7 +540,7 @@ def test_schema_2_certificate_round_trips_and_keeps_schema_1_digests(certificate
 
 
 def test_schema_2_cascade_section_is_checked_by_robust_cascade(certificate, monkeypatch):
-    """verify hands the section, vehicle, gains, inner loops and tilt limit to check_cascade_section; its rows are
+    """verify hands the section, vehicle, gains, inner loops and tilt limit to check_cascade_rows; its rows are
     checks (a stub stands in for the function, which another module provides)."""
     import dataclasses
 
@@ -548,11 +548,11 @@ def test_schema_2_cascade_section_is_checked_by_robust_cascade(certificate, monk
 
     def stub(section, vehicle, gains, inner, *, tilt_limit_deg, **_):
         seen.update(section=section, vehicle=vehicle, gains=gains, inner=inner, tilt=tilt_limit_deg)
-        return [("lyapunov", True, "stub"), ("grid", section.get("grid_ok", True), "stub")]
+        return [("lyapunov", True, "stub", ()), ("grid", section.get("grid_ok", True), "stub", ())]
 
     import nniquad.certificates.recheck_reduced_loop as recheck
 
-    monkeypatch.setattr(recheck, "check_cascade_section", stub)
+    monkeypatch.setattr(recheck, "check_cascade_rows", stub)
     section = {"rate_hz": 100.0, "region_of_attraction": {"tilt_limit_deg": 30.0}}
     two = dataclasses.replace(certificate, cascade=section).signed()
     res = verify_certificate(two, simulate=False)

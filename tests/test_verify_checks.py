@@ -46,16 +46,48 @@ def test_the_result_object_by_hand():
     with pytest.raises(KeyError, match="^'d'$"):
         v["d"]
     assert repr(v) == "Verification(ok=False, checks=3, failed=['b', 'c'])"
-    assert v.table().splitlines() == ["check  result  detail", "-----  ------  ------", "a      pass    one",
-                                      "b      FAIL    two", "c      FAIL    three", "note: a note"]
-    assert v.to_json() == {"ok": False, "checks": [{"name": "a", "ok": True, "detail": "one"},
-                                                   {"name": "b", "ok": False, "detail": "two"},
-                                                   {"name": "c", "ok": False, "detail": "three"}],
+    lines = v.table().splitlines()
+    assert lines[:5] == ["check  result      method                    detail",
+                         "-----  ----------  ------------------------  ------",
+                         "a      pass        recomputed                one",
+                         "b      FAIL        recomputed                two",
+                         "c      FAIL        recomputed                three"]
+    assert lines[5].startswith("note: result 'proven'") and lines[6] == "note: a note"
+    row = {"outcome": None, "method": "recomputed", "margin": None, "proofs": []}
+    assert v.to_json() == {"ok": False, "outcome": "fails",
+                           "checks": [{"name": "a", "ok": True, "detail": "one"} | row | {"outcome": "pass"},
+                                      {"name": "b", "ok": False, "detail": "two"} | row | {"outcome": "fails"},
+                                      {"name": "c", "ok": False, "detail": "three"} | row | {"outcome": "fails"}],
                            "notes": ["a note"]}
     json.dumps(v.to_json())
     good = Verification(checks=[Check("a", True, "one")])
-    assert good.ok and good.first_failure is None and good.table().splitlines()[2] == "a      pass    one"
-    assert not Verification().ok and Verification().table().splitlines()[0] == "check  result  detail"
+    assert good.ok and good.first_failure is None and good.outcome == "proven"
+    assert good.table().splitlines()[2] == "a      pass        recomputed                one"
+    assert not Verification().ok and Verification().table().splitlines()[0].split() == ["check", "result", "method",
+                                                                                          "detail"]
+
+
+def test_the_three_outcomes_of_a_check_with_proofs():
+    """A check with proofs is ``proven`` only if every proof is; ``not proven`` is never a pass; a recomputed
+    number that is off fails the check whatever its proofs say."""
+    from nniquad.analysis.verified.inequalities import ProofRow
+    from nniquad.certificates.check_record import proof_check
+
+    good = ProofRow("P > 0", "proven", "verified-cholesky", 1e-15, 0.25)
+    exact = ProofRow("P > 0", "proven", "exact")
+    unsure = ProofRow("Q > 0", "not proven", "verified-cholesky", 1e-15)
+    bad = ProofRow("R > 0", "fails", "exact")
+    c = proof_check("x", True, "d", [good, exact])
+    assert (c.ok, c.outcome, c.methods, c.margin) == (True, "proven", ["exact", "verified-cholesky"], 0.25)
+    assert c.to_json()["method"] == "exact+verified-cholesky" and len(c.to_json()["proofs"]) == 2
+    c = proof_check("x", True, "d", [good, unsure])
+    assert (c.ok, c.outcome) == (False, "not proven") and "1 of 2 not proven" in c.detail
+    v = Verification(checks=[Check("a", True, "one"), c])
+    assert not v.ok and v.outcome == "not proven" and "NOT PROVEN" in v.table()
+    assert proof_check("x", True, "d", [unsure, bad]).outcome == "fails"
+    assert proof_check("x", False, "d", [good]).outcome == "fails"
+    with pytest.raises(ValueError, match="outcome"):
+        Check("x", True, "d", outcome="maybe")
 
 
 def test_a_check_holds_a_python_boolean():

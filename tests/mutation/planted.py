@@ -46,7 +46,11 @@ PLANTED: tuple[Planted, ...] = (
             "analysis/reduced_loop.py", "return self.smallest_gamma < 1.0", "return self.smallest_gamma <= 1.0",
             ("tests/test_linear.py",)),
     Planted("verify-ni-checks-p-only", "verify's NI checks test only P > 0, not the dissipation inequality",
-            "certificates/recheck_reduced_loop.py", "ok = definite > bound and worst <= tol", "ok = definite > bound",
+            "certificates/recheck_reduced_loop.py",
+            "    proofs = V.definite(P if stated_P is None else stated_P, exact=True) + dissipation\n"
+            "    return proof_check(name, worst <= tol,",
+            "    proofs = V.definite(P if stated_P is None else stated_P, exact=True)\n"
+            "    return proof_check(name, True,",
             ("tests/test_certificate.py",)),
     Planted("smooth-response-or", "the simulation claim's smoothness holds if any one of its conditions holds",
             "proofs/simulation.py", "            and shape[\"zero crossings along the initial direction\"] == 0\n"

@@ -13,38 +13,103 @@ from __future__ import annotations
 import copy
 import json
 import math
-from dataclasses import dataclass
-from typing import Any, Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
+from nniquad.analysis.verified.inequalities import ProofRow, outcome_of
+from nniquad.analysis.verified.spd import FAILS, NOT_PROVEN, PROVEN
 from nniquad.certificates.certificate import Certificate, gains_json
 from nniquad.errors import CertificateError
 
-__all__ = ["Check", "stated_array", "stated_part", "memo", "clear_cache", "thaw_json", "gains_key", "is_number",
+__all__ = ["Check", "proof_check", "PASS", "RECOMPUTED", "stated_array", "stated_part", "memo", "clear_cache", "thaw_json", "gains_key", "is_number",
            "close", "fmt_value"]
+
+
+#: Outcome of a check decided by recomputing numbers (within the certificate's tolerances), not by a proof.
+PASS = "pass"
+#: Method name of such a check.
+RECOMPUTED = "recomputed"
 
 
 @dataclass
 class Check:
-    """One verification check: name, pass/fail and what was compared.
+    """One verification check: name, verdict, what was compared, and the proofs behind it.
 
     Attributes
     ----------
     name
         What was checked (``'sector'``, ``'lmi.plant_ni'``, ...).
     ok
-        Whether it passed.
+        Whether it passed: its outcome is ``proven`` or ``pass``.
     detail
         The compared numbers, in one line.
+    proofs
+        The strict matrix inequalities this check proved (or failed to), each with its method and margin
+        (:class:`nniquad.analysis.verified.inequalities.ProofRow`); empty for a check of recomputed numbers.
+    outcome
+        ``proven`` (every inequality proven, every recomputed number within tolerance), ``pass`` (no inequality:
+        every recomputed number within tolerance), ``fails`` or ``not proven`` (nothing fails, but an inequality's
+        margin is below what floating point can prove: never a pass).  Derived from ``ok`` when not given.
     """
 
     name: str
     ok: bool
     detail: str
+    proofs: Sequence[ProofRow] = field(default_factory=tuple)
+    outcome: str = ""
 
     def __post_init__(self) -> None:
         self.ok = bool(self.ok)  # numpy comparisons give numpy booleans, which JSON refuses
+        if not self.outcome:
+            self.outcome = (PROVEN if self.proofs else PASS) if self.ok else FAILS
+        if self.outcome not in (PROVEN, PASS, FAILS, NOT_PROVEN):
+            raise ValueError(f"unknown outcome {self.outcome!r}")
+        self.ok = self.ok and self.outcome in (PROVEN, PASS)
+        self.proofs = tuple(self.proofs)
+
+    @property
+    def methods(self) -> list[str]:
+        """The methods that decided it: ``verified-cholesky`` and ``exact`` for proofs, ``recomputed`` otherwise."""
+        found = sorted({r.method for r in self.proofs})
+        return found or [RECOMPUTED]
+
+    @property
+    def margin(self) -> float | None:
+        """The smallest proven margin of its verified-Cholesky proofs (scaled units), or ``None``."""
+        m = [r.margin for r in self.proofs if math.isfinite(r.margin)]
+        return min(m) if m else None
+
+    def to_json(self) -> dict[str, Any]:
+        return {"name": self.name, "ok": self.ok, "outcome": self.outcome, "method": "+".join(self.methods),
+                "margin": self.margin, "detail": self.detail, "proofs": [r.to_json() for r in self.proofs]}
+
+
+def proof_check(name: str, recomputed_ok: bool, detail: str, proofs: Sequence[ProofRow]) -> Check:
+    """A check whose strict inequalities are ``proofs`` and whose other numbers were recomputed (``recomputed_ok``).
+
+    Its outcome: ``fails`` if a recomputed number is off or an inequality fails, ``not proven`` if one is not
+    proven, ``proven`` otherwise.  The detail gets the proofs' summary appended.
+    """
+    proven = outcome_of(proofs)
+    outcome = FAILS if not recomputed_ok or proven == FAILS else proven
+    return Check(name, outcome == PROVEN, f"{detail}; {proof_summary(proofs)}", proofs, outcome)
+
+
+def proof_summary(proofs: Sequence[ProofRow]) -> str:
+    """``'3 inequalities proven (verified-cholesky, exact), smallest margin 1.2e-03'`` or what failed."""
+    if not proofs:
+        return "no inequality"
+    methods = ", ".join(sorted({r.method for r in proofs}))
+    bad = [r for r in proofs if r.outcome != PROVEN]
+    if bad:
+        first = bad[0]
+        where = f" at {first.where}" if first.where else ""
+        return f"{len(bad)} of {len(proofs)} {first.outcome} ({first.method}: {first.inequality}{where})"
+    margins = [r.margin for r in proofs if math.isfinite(r.margin)]
+    small = f", smallest margin {min(margins):.2e}" if margins else ""
+    return f"{len(proofs)} proven ({methods}){small}"
 
 
 def stated_array(cert_part: Mapping[str, Any], key: str, shape: tuple[int, int], where: str) -> np.ndarray:

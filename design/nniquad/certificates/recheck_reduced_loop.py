@@ -3,7 +3,9 @@
 Every matrix condition is recomputed with numpy from the certificate's own
 vehicle and gains (never from stored system matrices), with the re-check
 functions the LMIs use (:mod:`nniquad.analysis.lmi.checks`); each strict
-inequality must hold with a margin above its rounding bound.  The schema-2
+inequality is proven in floating point by a verified Cholesky decomposition
+(:mod:`nniquad.analysis.verified`), and the small ones again in exact rational
+arithmetic.  The schema-2
 ``cascade`` section is rebuilt by
 :func:`nniquad.analysis.cascade.box_certificate.check_cascade_section`.
 """
@@ -16,14 +18,17 @@ from typing import Any, Mapping
 import numpy as np
 
 from nniquad.analysis.bound import time_optimal_bound
-from nniquad.analysis.cascade.box_certificate import check_cascade_section
+from nniquad.analysis.cascade.box_certificate import check_cascade_rows
 from nniquad.analysis.lmi import checks as K
 from nniquad.analysis.lmi.reduced_region import axis_acceleration_limit
+from nniquad.analysis.verified import inequalities as V
+from nniquad.analysis.verified.interval import IMat
 from nniquad.certificates.certificate import Certificate
 from nniquad.certificates.check_record import (
     Check,
     close,
     fmt_value,
+    proof_check,
     gains_key,
     memo,
     stated_array,
@@ -37,26 +42,35 @@ __all__ = ["ni_storage_check", "same_multiset", "POLE_RTOL", "sector_check", "po
            "closed_loop_check", "robust_mass_check", "roa_check", "bound_check", "cascade_checks"]
 
 
-def ni_storage_check(name: str, P: np.ndarray, A: np.ndarray, B: np.ndarray, C: np.ndarray, tol: float) -> Check:
+def ni_storage_check(name: str, P: np.ndarray, A: np.ndarray, B: np.ndarray, C: np.ndarray, tol: float,
+                     stated_P: np.ndarray | None = None) -> Check:
     """Whether ``V = x'Px/2`` is an NI storage of ``(A, B, C)``: ``P > 0`` *and* the dissipation inequality.
+
+    ``P > 0`` is proven (verified Cholesky and exact rationals) on ``stated_P`` (default ``P``: the stored matrix,
+    before any change of coordinates); the dissipation inequality is not strict (an NI system may be lossless),
+    so what is proven is ``λ_max(dissipation matrix) < tol × scale``, the tolerance the certificate states.
 
     Parameters
     ----------
     name
         Name of the check.
     P
-        Stored storage matrix.
+        Stored storage matrix (in the coordinates of ``A, B, C``).
     A, B, C
         The system, recomputed from the certificate's vehicle and gains.
     tol
         Tolerance on :func:`nniquad.analysis.lmi.checks.dissipation_residual`.
+    stated_P
+        The stored matrix itself, when ``P`` is its congruence into other coordinates.
     """
     min_eig = K.eigmin(P)
-    definite, bound = K.definite_margin(P)
     worst = K.dissipation_residual(K.sym(P), A, B, C)
-    ok = definite > bound and worst <= tol
-    return Check(name, ok, f"min eig P = {min_eig:.3e} (scaled {definite:.3g} > rounding bound {bound:.2g}), max eig "
-                           f"of the dissipation matrix {worst:.2e} (relative, <= {tol:g})")
+    scale = max(K.norm(P) * K.norm(A), K.norm(A) * K.norm(C) * K.norm(B), K.norm(C) * K.norm(B), 1e-300)
+    dissipation = V.below(V.ni_dissipation(P, A, B, C), tol * scale,
+                          f"lambda_max(NI dissipation matrix) < {tol:g} x its scale")
+    proofs = V.definite(P if stated_P is None else stated_P, exact=True) + dissipation
+    return proof_check(name, worst <= tol, f"min eig P = {min_eig:.3e}, max eig of the dissipation matrix "
+                                           f"{worst:.2e} (relative, <= {tol:g})", proofs)
 
 
 def sector_check(cert: Certificate, tol: Mapping[str, float]) -> Check:
@@ -157,7 +171,9 @@ def ni_checks(cert: Certificate, tol: Mapping[str, float], which: str) -> Check:
         # storage's terms, and a 1 % edit of P would pass; identity for NNI
         T, w = loop.controller_normalisation()
         Ti = np.linalg.inv(T)
+        stated = P
         P, A, B, C = T.T @ P @ T, Ti @ A @ T / w, Ti @ B / w, C @ T
+        return ni_storage_check(f"lmi.{which}", P, A, B, C, tol["lmi_relative"], stated_P=stated)
     return ni_storage_check(f"lmi.{which}", P, A, B, C, tol["lmi_relative"])
 
 
@@ -168,11 +184,14 @@ def closed_loop_check(cert: Certificate, tol: Mapping[str, float]) -> Check:
     if not np.array_equal(P, P.T):
         return Check("lmi.closed_loop", False, "stored P is not symmetric")
     rate = K.certified_rate(A, P)
-    bound = K.rate_rounding_bound(A, P, rate)
     stated = float(part.get("decay_rate_1_s", math.nan))
-    ok = rate >= stated * (1 - tol["rate_relative"]) and stated > 0 and rate > bound
-    return Check("lmi.closed_loop", ok, f"P > 0 and A'P + PA <= -eps P with eps = {rate:.6g} 1/s "
-                                        f"(stated {stated:.6g}; rounding bound {bound:.2g} 1/s)")
+    eps = stated * (1 - tol["rate_relative"])
+    if not (math.isfinite(stated) and stated > 0):
+        return Check("lmi.closed_loop", False, f"stated decay rate {stated!r} is not a positive number")
+    proofs = V.definite(P, exact=True) + V.decay(A, P, eps, f"-(A'P + PA + eps P) > 0, eps = {eps:.6g} 1/s", exact=True)
+    return proof_check("lmi.closed_loop", rate >= eps,
+                       f"P > 0 and A'P + PA <= -eps P: recomputed eps = {rate:.6g} 1/s (stated {stated:.6g}, "
+                       f"proven at {eps:.6g})", proofs)
 
 
 def robust_mass_check(cert: Certificate, tol: Mapping[str, float]) -> Check:
@@ -180,13 +199,7 @@ def robust_mass_check(cert: Certificate, tol: Mapping[str, float]) -> Check:
     the loop's vehicle and gains, the stated section and the tolerance)."""
     part = stated_part(cert.lmi, "robust_mass", "lmi")
     inputs = [thaw_json(part), cert.vehicle.as_dict(), gains_key(cert), tol["rate_relative"]]
-    name, ok, detail = memo("robust_mass", inputs, lambda: _robust_mass_check(cert, part, tol))
-    return Check(name, ok, detail)
-
-
-def _robust_mass_check(cert: Certificate, part: Mapping[str, Any], tol: Mapping[str, float]) -> tuple[str, bool, str]:
-    check = _robust_mass_recheck(cert, part, tol)
-    return check.name, check.ok, check.detail
+    return memo("robust_mass", inputs, lambda: _robust_mass_recheck(cert, part, tol))
 
 
 def _robust_mass_recheck(cert: Certificate, part: Mapping[str, Any], tol: Mapping[str, float]) -> Check:
@@ -199,16 +212,22 @@ def _robust_mass_recheck(cert: Certificate, part: Mapping[str, Any], tol: Mappin
     stated = float(part.get("decay_rate_1_s", math.nan))
     if not (0 < lo <= hi and math.isfinite(mn) and mn > 0):
         raise CertificateError("certificate lmi.robust_mass needs 0 < m_lo_kg <= m_hi_kg and m_nominal_kg > 0")
+    if not (math.isfinite(stated) and stated > 0):
+        return Check("lmi.robust_mass", False, f"stated decay rate {stated!r} is not a positive number")
     nominal = cert.loop.with_mass(mn)
-    worst, above = math.inf, math.inf  # the smallest rate, and the smallest rate less its rounding bound
+    eps = stated * (1 - tol["rate_relative"])
+    worst, proofs = math.inf, []
     for mt in 1.0 / np.linspace(1.0 / hi, 1.0 / lo, 201):
         A_m = nominal.with_mass(mt, thrust_model=True).closed_loop_A_axis()
-        rate = K.certified_rate(A_m, P0 + P1 / mt)
-        worst = min(worst, rate)
-        above = min(above, rate - K.rate_rounding_bound(A_m, P0 + P1 / mt, rate))
-    ok = worst >= stated * (1 - tol["rate_relative"]) and stated > 0 and above > 0
-    return Check("lmi.robust_mass", ok, f"P0 + P1/m > 0 and decay >= {worst:.6g} 1/s (stated {stated:.6g}; above "
-                                        f"its rounding bound: {above > 0}) on 201 masses in [{lo:g}, {hi:g}] kg")
+        # P(m) = P0 + P1 (1/m), enclosed: the rounding of 1/m only picks another valid candidate of the same form
+        Pm = (IMat.point(P0) + IMat.point(P1).scale(1.0 / mt)).symmetric()
+        worst = min(worst, K.certified_rate(A_m, Pm.mid))
+        where = f"m = {mt:.6g} kg"
+        proofs += [V.with_where(r, where) for r in V.definite_interval(Pm, "P0 + P1/m > 0")]
+        proofs += [V.with_where(r, where) for r in V.decay_interval(A_m, Pm, eps, f"-(A'P + PA + eps P) > 0, eps = {eps:.6g} 1/s")]
+    return proof_check("lmi.robust_mass", worst >= eps,
+                       f"P0 + P1/m > 0 and decay >= {worst:.6g} 1/s (stated {stated:.6g}, proven at {eps:.6g}) on "
+                       f"201 masses in [{lo:g}, {hi:g}] kg (the masses between them are not covered)", proofs)
 
 
 def roa_check(cert: Certificate) -> Check:
@@ -223,9 +242,9 @@ def roa_check(cert: Certificate) -> Check:
     r = float(part.get("max_displacement_m", math.nan))
     u0 = axis_acceleration_limit(cert.vehicle.g, cert.tilt_limit_deg, "norm")
     Acl = A0 + B @ Kc
-    dec_rel, dec_bound = K.roa_decrease_margin(Acl, B, P, Gm, T)
-    definite, definite_bound = K.definite_margin(P)
-    positive = definite > definite_bound
+    dec_rel, _ = K.roa_decrease_margin(Acl, B, P, Gm, T)
+    proofs = V.definite(P, exact=True) + V.roa_decrease(Acl, B, P, Gm, T, exact=True)
+    positive = K.eigmin(P) > 0
     W = np.linalg.inv(P) if positive else np.full((n, n), np.nan)
     incl = K.roa_inclusion_margin(Kc, Gm, W, u0)
     level = K.ellipsoid_level(P, r * cert.loop.start_direction())  # the law's start state at the reach
@@ -234,12 +253,11 @@ def roa_check(cert: Certificate) -> Check:
     consistent = (top.get("max_displacement_m") == r and start == bool(math.hypot(*cert.xi0_m) <= r)
                   and close(part.get("u0_m_s2"), u0, 1e-12) and close(top.get("u0_m_s2"), u0, 1e-12)
                   and top.get("tilt_limit_deg") == cert.tilt_limit_deg)
-    ok = (positive and T[0, 0] > 0 and dec_rel < -dec_bound and incl >= -1e-6 and level <= 1 + 1e-6 and r >= 0
-          and consistent)
-    return Check("lmi.region_of_attraction", ok,
-                 f"decrease max eig {dec_rel:.2e} (relative, < -{dec_bound:.2g}, its rounding bound), inclusion margin "
-                 f"{incl:.3g}, reach {r:.4g} m "
-                 f"at level {level:.6f} <= 1, start_certified = {start} consistent: {consistent}")
+    ok = positive and T[0, 0] > 0 and incl >= -1e-6 and level <= 1 + 1e-6 and r >= 0 and consistent
+    return proof_check("lmi.region_of_attraction", ok,
+                       f"decrease max eig {dec_rel:.2e} (relative), inclusion margin {incl:.3g} (recomputed, >= -1e-6), "
+                       f"reach {r:.4g} m at level {level:.6f} <= 1, start_certified = {start} consistent: {consistent}",
+                       proofs)
 
 
 def bound_check(cert: Certificate) -> Check:
@@ -262,9 +280,9 @@ def bound_check(cert: Certificate) -> Check:
                               + ", ".join(ratios))
 
 
-def cascade_checks(cert: Certificate, fail_fast: bool = False) -> list[Check]:
+def cascade_checks(cert: Certificate, fail_fast: bool = False, thorough: bool = False) -> list[Check]:
     """The schema-2 ``cascade`` section, rebuilt by :func:`nniquad.analysis.cascade.box_certificate.check_cascade_section`
-    (with ``fail_fast``, up to its first failed row)."""
+    (with ``fail_fast``, up to its first failed row; with ``thorough``, the box proven over its cells too)."""
     section = thaw_json(cert.cascade)
     if isinstance(section, dict):
         section.pop("box_search", None)  # a record (RECORD_FIELDS): how the box was found, not what is certified
@@ -272,9 +290,10 @@ def cascade_checks(cert: Certificate, fail_fast: bool = False) -> list[Check]:
             section["region_of_attraction"].pop("lure_search", None)  # a record too: how the region was found
     # a pure function of the section and the design: an edit elsewhere in the document does not re-run it
     rows = memo("cascade", [section, cert.vehicle.as_dict(), gains_key(cert), cert.inner_loop.as_dict(),
-                             cert.tilt_limit_deg, list(cert.xi0_m), bool(fail_fast)],
-                 lambda: check_cascade_section(section, cert.vehicle, cert.gains, cert.inner_loop,
-                                               tilt_limit_deg=cert.tilt_limit_deg, xi0_m=cert.xi0_m,
-                                               fail_fast=fail_fast, cache=memo))
-    checks = [Check(f"cascade.{name}", ok, detail) for name, ok, detail in rows]
+                             cert.tilt_limit_deg, list(cert.xi0_m), bool(fail_fast), bool(thorough)],
+                 lambda: check_cascade_rows(section, cert.vehicle, cert.gains, cert.inner_loop,
+                                            tilt_limit_deg=cert.tilt_limit_deg, xi0_m=cert.xi0_m,
+                                            fail_fast=fail_fast, cache=memo, thorough=thorough))
+    checks = [proof_check(f"cascade.{name}", ok, detail, proofs) if proofs else Check(f"cascade.{name}", ok, detail)
+              for name, ok, detail, proofs in rows]
     return checks or [Check("cascade", False, "the cascade check returned no checks")]

@@ -42,7 +42,8 @@ from nniquad.certificates.certificate import (
     read_certificate,
     reference_run_options,
 )
-from nniquad.certificates.check_record import Check, clear_cache, fmt_value, is_number, thaw_json
+from nniquad.analysis.verified.spd import FAILS, NOT_PROVEN, PROVEN
+from nniquad.certificates.check_record import PASS, Check, clear_cache, fmt_value, is_number, thaw_json
 from nniquad.certificates.recheck_reduced_loop import (
     bound_check,
     cascade_checks,
@@ -108,17 +109,31 @@ class Verification:
         bad = [c.name for c in self.checks if not c.ok]
         return f"Verification(ok={self.ok}, checks={len(self.checks)}, failed={bad})"
 
+    @property
+    def outcome(self) -> str:
+        """``fails`` if a check fails, else ``not proven`` if a check is not proven, else ``proven``."""
+        outcomes = {c.outcome for c in self.checks}
+        if not self.checks or FAILS in outcomes:
+            return FAILS
+        return NOT_PROVEN if NOT_PROVEN in outcomes else PROVEN
+
     def table(self) -> str:
-        """One row per check: name, pass/FAIL, detail."""
+        """One row per check: name, outcome (``proven``, ``pass`` for a recomputed number, ``FAIL``,
+        ``NOT PROVEN``), method and detail."""
         w = max([len("check")] + [len(c.name) for c in self.checks])
-        lines = [f"{'check':<{w}}  result  detail", f"{'-' * w}  ------  ------"]
-        lines += [f"{c.name:<{w}}  {'pass' if c.ok else 'FAIL':<6}  {c.detail}" for c in self.checks]
+        shown = {PROVEN: "proven", PASS: "pass", FAILS: "FAIL", NOT_PROVEN: "NOT PROVEN"}
+        lines = [f"{'check':<{w}}  {'result':<10}  {'method':<24}  detail", f"{'-' * w}  {'-' * 10}  {'-' * 24}  ------"]
+        lines += [f"{c.name:<{w}}  {shown[c.outcome]:<10}  {'+'.join(c.methods):<24}  {c.detail}" for c in self.checks]
+        lines.append("note: result 'proven': every strict matrix inequality of the check is proven in floating point "
+                     "(verified Cholesky, Rump 2006) or in exact rational arithmetic, and its other numbers are "
+                     "recomputed; 'pass': numbers recomputed within the certificate's tolerances (no inequality); "
+                     "'NOT PROVEN': nothing fails, but a margin is below what floating point can prove")
         lines += [f"note: {n}" for n in self.notes]
         return "\n".join(lines)
 
     def to_json(self) -> dict[str, Any]:
-        """``{'ok': ..., 'checks': [{'name', 'ok', 'detail'}, ...]}``."""
-        return {"ok": self.ok, "checks": [{"name": c.name, "ok": c.ok, "detail": c.detail} for c in self.checks],
+        """``{'ok', 'outcome', 'checks': [{'name', 'ok', 'outcome', 'method', 'margin', 'detail', 'proofs'}], 'notes'}``."""
+        return {"ok": self.ok, "outcome": self.outcome, "checks": [c.to_json() for c in self.checks],
                 "notes": list(self.notes)}
 
 
@@ -170,7 +185,8 @@ OPTIONAL_SECTIONS = ("margins", "law_class")
 
 
 def verify_certificate(cert: Certificate | Mapping[str, Any] | str | Path, *, simulate: bool = True,
-                       progress: Callable[[str], None] | None = None, fail_fast: bool = False) -> Verification:
+                       progress: Callable[[str], None] | None = None, fail_fast: bool = False,
+                       thorough: bool = False) -> Verification:
     """Recompute everything a certificate states, independently, with numpy and the simulator.
 
     The checks run cheap first: the document's own consistency (model, tolerances,
@@ -189,6 +205,10 @@ def verify_certificate(cert: Certificate | Mapping[str, Any] | str | Path, *, si
         Called with a short message before the re-simulation.
     fail_fast
         Stop at the first failed check (the result then holds the checks run so far).
+    thorough
+        Also prove the cascade's Lyapunov inequality over every cell of its parameter box
+        (:func:`nniquad.analysis.cascade.box_proof.box_proof`; without it a stated ``box_proof`` is checked for
+        form only).
 
     Returns
     -------
@@ -211,7 +231,7 @@ def verify_certificate(cert: Certificate | Mapping[str, Any] | str | Path, *, si
     if not cert.signature_ok:
         raise CertificateCheckError("certificate: digest mismatch (content changed after signing)")
     try:
-        return _verify(cert, simulate, progress or (lambda msg: None), fail_fast)
+        return _verify(cert, simulate, progress or (lambda msg: None), fail_fast, thorough)
     except (TypeError, ValueError, KeyError, IndexError, AttributeError, np.linalg.LinAlgError) as exc:
         if isinstance(exc, NniquadError):
             raise
@@ -245,7 +265,8 @@ def coverage_notes(cert: Certificate) -> list[str]:
     return notes
 
 
-def _verify(cert: Certificate, simulate: bool, say: Callable[[str], None], fail_fast: bool) -> Verification:
+def _verify(cert: Certificate, simulate: bool, say: Callable[[str], None], fail_fast: bool,
+            thorough: bool = False) -> Verification:
     tol = dict(TOLERANCES)
     out = Verification(notes=coverage_notes(cert))
     steps: list[Callable[[], Check | list[Check]]] = [
@@ -267,7 +288,9 @@ def _verify(cert: Certificate, simulate: bool, say: Callable[[str], None], fail_
     if cert.margins is not None:
         steps.append(lambda: margins_check(cert, tol))
     if cert.cascade is not None:
-        steps.append(lambda: cascade_checks(cert, fail_fast))
+        if thorough:
+            say("proving the cascade's Lyapunov inequality over the cells of its box")
+        steps.append(lambda: cascade_checks(cert, fail_fast, thorough))
     if simulate:
         def runs() -> list[Check]:
             say("re-simulating the reference runs")

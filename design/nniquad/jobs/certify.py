@@ -131,7 +131,8 @@ def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLo
 
 
 def verify(certificate: Certificate | Mapping[str, Any] | str | Path, *, simulate: bool = True,
-           progress: Callable[[str], None] | None = None, fail_fast: bool = False) -> Verification:
+           progress: Callable[[str], None] | None = None, fail_fast: bool = False,
+           thorough: bool = False) -> Verification:
     """Recompute everything a certificate states, independently, with numpy and the simulator.
 
     Parameters
@@ -145,6 +146,9 @@ def verify(certificate: Certificate | Mapping[str, Any] | str | Path, *, simulat
         Called with one-line status messages.
     fail_fast
         Stop at the first failed check.
+    thorough
+        Also prove the cascade's Lyapunov inequality over every cell of its parameter box (several seconds to a
+        minute; without it a stated ``box_proof`` is checked for form only).
 
     Returns
     -------
@@ -158,4 +162,5 @@ def verify(certificate: Certificate | Mapping[str, Any] | str | Path, *, simulat
         The document is not a certificate (unreadable, wrong schema or version,
         digest mismatch, malformed field).
     """
-    return verify_certificate(certificate, simulate=simulate, progress=progress, fail_fast=fail_fast)
+    return verify_certificate(certificate, simulate=simulate, progress=progress, fail_fast=fail_fast,
+                              thorough=thorough)

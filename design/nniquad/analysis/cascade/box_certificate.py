@@ -102,7 +102,7 @@ from nniquad.analysis.cascade.lyapunov import (
     robust_lyapunov,
     witness_margins,
 )
-from nniquad.analysis.cascade.recheck import check_cascade_section
+from nniquad.analysis.cascade.recheck import check_cascade_rows, check_cascade_section
 from nniquad.analysis.cascade.region import linear_zone_reach
 from nniquad.analysis.cascade.section import LMI_POINTS_PER_AXIS, BoxSearch, cascade_section, widest_box
 
@@ -138,4 +138,5 @@ __all__ = [
     "widest_box",
     "cascade_section",
     "check_cascade_section",
+    "check_cascade_rows",
 ]

@@ -12,6 +12,15 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 
 from nniquad.analysis.cascade.box import POINT_NAMES, ParameterBox, grid_subset, tilt_accel_limit
+from nniquad.analysis.cascade.box_proof import (
+    BOX_PROOF_METHOD,
+    ENCLOSURE,
+    allowed_box_rhos,
+    box_proof,
+    full_affine_P,
+    grid_point_proofs,
+    lyapunov_point_proofs,
+)
 from nniquad.analysis.cascade.family import (
     COUPLING_TOL,
     SUBSYSTEMS,
@@ -36,6 +45,7 @@ from nniquad.analysis.cascade.region import HORIZONTAL, check_lure_block, linear
 from nniquad.analysis.cascade.section import (
     LMI_POINTS_PER_AXIS,
     LYAPUNOV_COVERAGE,
+    LYAPUNOV_COVERAGE_GRID_ONLY,
     LYAPUNOV_FORM,
     MARGIN_MODEL,
     MARGIN_POINTS,
@@ -44,6 +54,7 @@ from nniquad.analysis.cascade.section import (
 )
 from nniquad.analysis.fast_margins import fast_cascade_margins
 from nniquad.analysis.sampled import control_period
+from nniquad.analysis.verified.inequalities import ProofRow
 from nniquad.config import CASCADE_GRID_POINTS_PER_AXIS, XI0_M
 from nniquad.control.inner_gains import InnerLoopGains
 from nniquad.errors import CascadeError
@@ -51,7 +62,7 @@ from nniquad.laws.base import GainBlock
 from nniquad.model.vehicle import Vehicle
 from nniquad.sim import state_names
 
-__all__ = ["check_cascade_section"]
+__all__ = ["check_cascade_section", "check_cascade_rows"]
 
 
 def _close(a: Any, b: Any, rtol: float = 1e-9) -> bool:
@@ -121,7 +132,19 @@ def _no_cache(kind: str, inputs: Any, compute: Callable[[], Any]) -> Any:
 
 def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: GainBlock,
                           inner: InnerLoopGains, *, tilt_limit_deg: float, xi0_m: Sequence[float] = XI0_M,
-                          fail_fast: bool = False, cache: Cache | None = None) -> list[tuple[str, bool, str]]:
+                          fail_fast: bool = False, cache: Cache | None = None,
+                          thorough: bool = False) -> list[tuple[str, bool, str]]:
+    """:func:`check_cascade_rows` as ``(name, ok, detail)``: ``ok`` when the row's numbers are recomputed and its
+    inequalities proven."""
+    rows = check_cascade_rows(section, vehicle, gains, inner, tilt_limit_deg=tilt_limit_deg, xi0_m=xi0_m,
+                              fail_fast=fail_fast, cache=cache, thorough=thorough)
+    return [(name, ok and all(r.outcome == "proven" for r in proofs), detail) for name, ok, detail, proofs in rows]
+
+
+def check_cascade_rows(section: Mapping[str, Any], vehicle: Vehicle, gains: GainBlock,
+                       inner: InnerLoopGains, *, tilt_limit_deg: float, xi0_m: Sequence[float] = XI0_M,
+                       fail_fast: bool = False, cache: Cache | None = None,
+                       thorough: bool = False) -> list[tuple[str, bool, str, tuple[ProofRow, ...]]]:
     """Re-check a ``cascade`` section from the design alone (cheap checks first).
 
     Every system matrix is rebuilt from ``vehicle``, ``gains``, ``inner``, the
@@ -137,6 +160,11 @@ def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: G
     the margins are recomputed at the stated worst vertices.  The box search (``box_search``) is a record, not re-run: the
     certified box is what is checked.
 
+    Every strict inequality (contraction at the LMI points and the grid points, ``P(θ) ≻ 0`` on the θ-cube) is
+    proven with a verified Cholesky decomposition (:mod:`nniquad.analysis.cascade.box_proof`).  With ``thorough``
+    the Lyapunov inequality is also proven over every cell of the box (:func:`box_proof`, several seconds) and
+    compared with the stated ``box_proof``; without it a stated ``box_proof`` is checked for form only.
+
     With ``fail_fast`` the re-check stops at its first failed row (``verify --fail-fast`` and the tamper loop: a
     refusal needs one failed check, and the grid, the region and the margins come last because they cost most).
 
@@ -147,22 +175,76 @@ def check_cascade_section(section: Mapping[str, Any], vehicle: Vehicle, gains: G
 
     Returns
     -------
-    list of (name, ok, detail)
-        Every row, in order; with ``fail_fast`` the rows up to and including the first failed one.
+    list of (name, ok, detail, proofs)
+        Every row, in order; with ``fail_fast`` the rows up to and including the first failed one.  ``proofs``
+        are the row's proven inequalities (empty for a row of recomputed numbers); ``ok`` is the verdict on
+        the recomputed numbers alone (the row passes only if its proofs are proven too).
     """
-    out: list[tuple[str, bool, str]] = []
+    out: list[tuple[str, bool, str, tuple[ProofRow, ...]]] = []
 
-    def add(name: str, ok: bool, detail: str) -> bool:
-        out.append((name, bool(ok), detail))
-        if fail_fast and not ok:
+    def add(name: str, ok: bool, detail: str, proofs: Sequence[ProofRow] = ()) -> bool:
+        good = bool(ok) and all(r.outcome == "proven" for r in proofs)
+        out.append((name, bool(ok), detail, tuple(proofs)))
+        if fail_fast and not good:
             raise _FirstFailure
-        return bool(ok)
+        return good
 
     try:
-        _recheck(section, vehicle, gains, inner, tilt_limit_deg, xi0_m, add, cache or _no_cache)
+        _recheck(section, vehicle, gains, inner, tilt_limit_deg, xi0_m, add, cache or _no_cache, thorough)
     except _FirstFailure:
         pass
     return out
+
+
+def _same_json(a: Any, b: Any) -> bool:
+    """Equal JSON values, floats within a relative 1e-9 (the allowance and the margin are recomputed floats)."""
+    if isinstance(b, float) and not isinstance(a, bool) and isinstance(a, (int, float)):
+        return abs(float(a) - b) <= 1e-9 * max(abs(b), 1e-300)
+    return a == b
+
+
+#: The stated ``box_proof`` keys.
+BOX_PROOF_KEYS = frozenset({"outcome", "rho", "cells", "initial_cells", "refined", "depth", "max_allowance",
+                            "min_margin", "enclosure", "method", "failed_cell"})
+
+
+def _box_proof_row(section: Mapping[str, Any], vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains,
+                   tilt_limit_deg: float, rate: float, box: ParameterBox, grid_n: int, P_affine: Any,
+                   grid_fam: Any, grid_rho: float, design: list[Any], add: Callable[..., bool], cache: Cache,
+                   thorough: bool) -> None:
+    """The row ``box cells``: the stated ``box_proof`` (if any) checked for form, and with ``thorough`` re-proven."""
+    stated = section.get("box_proof")
+    rhos = allowed_box_rhos(grid_rho)
+    rho = rhos[0]
+    if stated is None and not thorough:
+        return
+    form_ok = True
+    if stated is not None:
+        claimed = stated.get("rho") if isinstance(stated, Mapping) else None
+        rho = next((r for r in rhos if _close(claimed, r, 1e-12)), rho)
+        form_ok = (isinstance(stated, Mapping) and set(stated) == BOX_PROOF_KEYS and stated.get("outcome") == "proven"
+                   and any(_close(claimed, r, 1e-12) for r in rhos) and stated.get("enclosure") == ENCLOSURE
+                   and stated.get("method") == BOX_PROOF_METHOD
+                   and stated.get("failed_cell") is None
+                   and stated.get("initial_cells") == (grid_n - 1) ** int(np.sum(box.bounds()[1] > box.bounds()[0])))
+        if not thorough:
+            add("box cells", form_ok, f"stated: {stated.get('cells') if isinstance(stated, Mapping) else None} cells "
+                                      f"proven at rho {rho:.10g}; form checked (the cells are re-proven by --thorough)")
+            return
+    def evaluate(points: np.ndarray) -> np.ndarray:
+        return family_cached(vehicle, gains, inner, points, tilt_limit_deg, rate).A_d
+
+    got = cache("cascade.box_proof", design + [rho], lambda: box_proof(evaluate, box, grid_n, P_affine, rho,
+                                                                       known_points=grid_fam.points,
+                                                                       known_A=grid_fam.A_d))
+    # every stated number is the recomputed one (the refinement is deterministic: its cuts are decided on
+    # curvatures rounded to six digits)
+    same = stated is None or (form_ok and all(_same_json(stated.get(k), v) for k, v in got.to_json().items()))
+    detail = (f"{got.cells} cells ({got.initial_cells} + {got.refined} cut, depth {got.depth}) at rho {rho:.10g} "
+              f"(decay {-math.log(rho) / control_period(rate):.4g} 1/s); stated "
+              f"{stated.get('cells') if isinstance(stated, Mapping) else 'nothing'}; enclosure of A_d estimated "
+              f"(corner interpolation, see box_proof.enclosure)")
+    add("box cells", same, detail, [got.row()])
 
 
 def _design_inputs(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, tilt_limit_deg: float,
@@ -175,7 +257,8 @@ def _design_inputs(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, ti
 
 
 def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains,
-             tilt_limit_deg: float, xi0_m: Sequence[float], add: Callable[..., bool], cache: Cache) -> None:
+             tilt_limit_deg: float, xi0_m: Sequence[float], add: Callable[..., bool], cache: Cache,
+             thorough: bool = False) -> None:
     """The rows of :func:`check_cascade_section`, each handed to ``add(name, ok, detail)``."""
     expected = subsystems(state_names("full", gains.controller))
 
@@ -199,7 +282,8 @@ def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: GainBlock, inn
         f"{section['controller']}, attitude {section['attitude_loop']}")
     add("Monte Carlo default box", mc == ParameterBox.monte_carlo_default(), str(mc.to_json()))
     try:
-        texts = (section["lyapunov"]["form"] == LYAPUNOV_FORM and section["lyapunov"]["coverage"] == LYAPUNOV_COVERAGE
+        coverage = LYAPUNOV_COVERAGE if "box_proof" in section else LYAPUNOV_COVERAGE_GRID_ONLY
+        texts = (section["lyapunov"]["form"] == LYAPUNOV_FORM and section["lyapunov"]["coverage"] == coverage
                  and section["region_of_attraction"]["note"] == roa_note(gains.law)
                  and section["margins"]["points"] == MARGIN_POINTS and section["margins"]["model"] == MARGIN_MODEL
                  and all(list(section["lyapunov"]["subsystems"][n]["states"]) == list(expected[n])
@@ -253,7 +337,7 @@ def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: GainBlock, inn
         A, th = loops[name]
         m, q = A.shape[0], th.shape[1]
         good = Pk[name].shape == (q + 1, len(expected[name]), len(expected[name]))
-        detail = "bad P shape"
+        detail, proofs = "bad P shape", []
         if good:
             wm = witness_margins(Pk[name], A, th)
             sr = float(np.max(np.abs(np.linalg.eigvals(A))))
@@ -263,17 +347,18 @@ def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: GainBlock, inn
             # one signed; rho < 1 and P > 0 each hold with a margin above rounding (WitnessMargins.ok)
             tol = max(1e-9, wm.rho_bound) if math.isfinite(wm.rho_bound) else 1e-9
             stated_margins = {key: subs[name].get(key) for key in margin_fields(wm)}
-            good = (wm.ok and abs(wm.rho - rho) <= tol and m == subs[name]["lmi_points"]
+            proofs = cache("cascade.lyapunov_proofs", [Pk[name].tolist(), A.tolist(), th.tolist(), rho],
+                           lambda: lyapunov_point_proofs(Pk[name], A, th, rho))
+            good = (wm.rho < 1.0 and abs(wm.rho - rho) <= tol and m == subs[name]["lmi_points"]
                     and _close(subs[name]["spectral_radius"], sr)
                     and _close(subs[name]["decay_rate_1_s"], -math.log(rho) / T)
                     and all(_stated_margin_ok(key, stated_margins[key], v) for key, v in margin_fields(wm).items()))
             detail = (f"{m} points, contraction {wm.rho:.10f} = rho {rho:.10f} < 1 by {1 - wm.rho:.3g} "
-                      f"(rounding bound {wm.rho_bound:.2g}); min eig scaled P {wm.definite:.3g} "
-                      f"(bound {wm.definite_bound:.2g})")
+                      f"(rounding bound {wm.rho_bound:.2g}); min eig scaled P {wm.definite:.3g}")
             lyap[name] = RobustLyapunov(P=Pk[name], rho=rho, rho_vertices=wm.rho_all, spectral_radius=sr, T=T,
                                         decay_rate_1_s=-math.log(rho) / T, min_eig_P=wm.min_eig_ratio,
                                         status="stored", ok=good)
-        add(f"Lyapunov LMI [{name}]", good, detail)
+        add(f"Lyapunov LMI [{name}]", good, detail, proofs)
     if len(lyap) != len(SUBSYSTEMS):
         return
     add("rho and decay rate", _close(lyap_s.get("rho"), max(rhos.values())) and _close(lyap_s.get("period_s"), T)
@@ -282,21 +367,30 @@ def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: GainBlock, inn
     grid_fam = take_points(fam, np.arange(k, n_cert))
     # the Lyapunov blocks above are functions of the design and the stated lyapunov section alone
     design = _design_inputs(vehicle, gains, inner, tilt_limit_deg, rate, section["box"], grid_n) + [lyap_s]
+    P_affine = full_affine_P(Pk, dims, fam.state_names)
+    gc = None
     try:
         gc = cache("cascade.grid_check", design, lambda: grid_check(
             grid_fam, assemble_P(lyap, dims, box, grid_fam.points, fam.state_names), grid_n))
+        grid_proof = cache("cascade.grid_proof", design, lambda: grid_point_proofs(
+            P_affine, box, grid_fam.points, grid_fam.A_d, float(gc.worst_rho)))
         g = section["grid"]
-        ok = (gc.ok and g.get("size") == gc.size and g.get("ok") is True
+        ok = (gc.worst_rho < 1.0 and g.get("size") == gc.size and g.get("ok") is True
               and _same_worst(g, gc, grid_fam.points)
               and _stated_margin_ok("rounding_bound", g.get("rounding_bound"), gc.rounding_bound)
               # (1 - rho) / bound is known to within the bound's own share of it: 1 (rho is, to the bound)
               and _is_number(g.get("margin_over_bound"))
               and abs(float(g["margin_over_bound"]) - gc.margin_over_bound) <= 1.0 + BOUND_RTOL * gc.margin_over_bound)
-        add("grid check", ok, f"{gc.size} points, worst rho {gc.worst_rho:.8f} (1 - rho >= {gc.margin_over_bound:.3g} "
-                              f"x its rounding bound, <= {gc.rounding_bound:.2g}), worst spectral radius "
-                              f"{gc.worst_spectral_radius:.8f}")
+        add("grid check", ok, f"{gc.size} points, worst rho {gc.worst_rho:.8f}, worst spectral radius "
+                              f"{gc.worst_spectral_radius:.8f}", [grid_proof])
     except (KeyError, TypeError, ValueError, np.linalg.LinAlgError) as exc:
         add("grid check", False, f"unreadable or not positive definite ({exc})")
+    if gc is None:
+        if "box_proof" in section or thorough:
+            add("box cells", False, "not re-proven: the grid check could not run")
+    else:
+        _box_proof_row(section, vehicle, gains, inner, tilt_limit_deg, rate, box, grid_n, P_affine, grid_fam,
+                       float(gc.worst_rho), design, add, cache, thorough)
     try:
         lz_lmi, lz_grid = cache("cascade.linear_zone", design, lambda: (linear_zone_reach(lyap, dims, box, fam, L),
                                                                          linear_zone_reach(lyap, dims, box, grid_fam, L)))

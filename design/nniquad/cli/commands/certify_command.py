@@ -164,6 +164,13 @@ def run(args: argparse.Namespace) -> int:
               f"(covers the Monte Carlo ranges: {cas['covers_monte_carlo_default']}); decay "
               f"{fmt(cas['decay_rate_1_s'], '1/s')}, grid {cas['grid']['size']} points worst rho "
               f"{cas['grid']['worst_rho']:.6f}")
+        proof = cas.get("box_proof")
+        if proof:
+            T = 1.0 / float(cas["rate_hz"])
+            print(f"  box between the grid points: {proof['outcome']} on {proof['cells']} cells "
+                  f"({proof['initial_cells']} + {proof['refined']} cut) at rho {proof['rho']:.6f} "
+                  f"(decay {fmt(-math.log(proof['rho']) / T, '1/s')}); corner proofs by verified Cholesky, the "
+                  f"interpolation allowance between corners estimated")
         roa = cas["region_of_attraction"]
         start = math.hypot(*cert.xi0_m)
         print(f"  cascade region of attraction ({roa['method']}): reach {fmt(roa['max_displacement_m'], 'm')} beside "
