@@ -108,3 +108,21 @@ def test_an_edited_box_proof_is_caught(section, key, value, caught_by_default):
     sec["box_proof"][key] = value
     assert not _rows(sec, thorough=True)["box cells"][0], key
     assert _rows(sec)["box cells"][0] is (not caught_by_default), key
+
+
+def test_the_lure_decrease_enclosure_contains_the_form_the_region_module_writes():
+    """Two codings of the same form ``F`` (module region: numpy; lure_proof: midpoint-radius, with the selector
+    products written as placements) agree within the enclosure's radius, on random data."""
+    from nniquad.analysis.cascade.lure_proof import decrease_enclosure
+    from nniquad.analysis.cascade.region import decrease_forms
+
+    rng = np.random.default_rng(1)
+    N, n, m = 5, 6, 1
+    A = rng.standard_normal((N, n, n)) * 0.3
+    Bh, Kh, G = rng.standard_normal((N, n, m)), rng.standard_normal((N, m, n)), rng.standard_normal((N, m, n))
+    P = rng.standard_normal((N, n, n))
+    P = P @ np.swapaxes(P, 1, 2) + np.eye(n)
+    mu = rng.uniform(0, 2, N)
+    F, _ = decrease_forms(A, Bh, Kh, P, G, mu, 0.97)
+    M = decrease_enclosure(A, Bh, Kh, P, G, mu, 0.97)
+    assert np.all(np.abs(M.mid + F) <= M.rad + 1e-12 * np.abs(F))

@@ -41,7 +41,8 @@ from nniquad.analysis.cascade.lyapunov import (
     point_index,
     witness_margins,
 )
-from nniquad.analysis.cascade.region import HORIZONTAL, check_lure_block, linear_zone_reach, roa_note
+from nniquad.analysis.cascade.lure_proof import lure_proofs
+from nniquad.analysis.cascade.region import HORIZONTAL, LureRegion, check_lure_block, linear_zone_reach, roa_note
 from nniquad.analysis.cascade.section import (
     LMI_POINTS_PER_AXIS,
     LYAPUNOV_COVERAGE,
@@ -395,6 +396,7 @@ def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: GainBlock, inn
         lz_lmi, lz_grid = cache("cascade.linear_zone", design, lambda: (linear_zone_reach(lyap, dims, box, fam, L),
                                                                          linear_zone_reach(lyap, dims, box, grid_fam, L)))
         method = roa.get("method")
+        roa_proofs: list[ProofRow] = []
         ok = _close(roa.get("linear_zone_reach_lmi_points_m"), lz_lmi) and _close(roa.get("linear_zone_reach_grid_m"),
                                                                                   lz_grid)
         reach, detail = min(lz_lmi, lz_grid), f"linear zone {min(lz_lmi, lz_grid):.6g} m"
@@ -409,6 +411,8 @@ def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: GainBlock, inn
             lure_ok, lure_detail, lure_reach = cache("cascade.lure", design + [roa["lure"]],
                                                      lambda: check_lure_block(roa["lure"], dims, box, lmi, grid_fam,
                                                                               lyap))
+            roa_proofs = cache("cascade.lure_proofs", design + [roa["lure"]], lambda: lure_proofs(
+                LureRegion.from_json(roa["lure"], dims), box, lmi, grid_fam, lyap, dims))
             # the stated reach is the recomputed one (never larger), and reaches beyond the linear zone
             stated = roa.get("max_displacement_m")
             ok = (ok and lure_ok and _is_number(stated) and lure_reach * (1 - 2e-9) <= stated <= lure_reach
@@ -416,7 +420,8 @@ def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: GainBlock, inn
             reach, detail = lure_reach, lure_detail
         else:
             ok = False
-        add("region of attraction", ok, f"{method}: stated reach {roa.get('max_displacement_m')} m; {detail}")
+        add("region of attraction", ok, f"{method}: stated reach {roa.get('max_displacement_m')} m; {detail}",
+            roa_proofs)
         r0 = math.hypot(*(float(v) for v in xi0_m))
         add("start certified", section["start_certified"] is bool(r0 <= float(roa["max_displacement_m"])),
             f"start {r0:.6g} m, reach {roa.get('max_displacement_m')} m: stated {section['start_certified']}")

@@ -25,7 +25,7 @@ from nniquad.analysis.verified.interval import IMat
 from nniquad.analysis.verified.rounding import downward
 from nniquad.analysis.verified.spd import FAILS, METHOD, NOT_PROVEN, PROVEN, Proof, prove_definite, prove_definite_batch
 
-__all__ = ["ProofRow", "EXACT", "EXACT_MAX_DIM", "outcome_of", "with_where", "definite", "definite_interval",
+__all__ = ["ProofRow", "EXACT", "EXACT_MAX_DIM", "outcome_of", "definite", "definite_interval",
            "decay", "decay_interval", "below", "ni_dissipation", "roa_decrease", "contraction", "contraction_enclosure",
            "diagonal_scaling", "summary", "affine_enclosure", "affine_corners"]
 
@@ -78,11 +78,6 @@ def outcome_of(rows: Sequence[ProofRow]) -> str:
     return FAILS if FAILS in outcomes else NOT_PROVEN if NOT_PROVEN in outcomes else PROVEN
 
 
-def with_where(row: ProofRow, where: str) -> ProofRow:
-    """``row`` with its place (a mass, a point, a cell) stated."""
-    return replace(row, where=where)
-
-
 def _row(text: str, proof: Proof, where: str = "") -> ProofRow:
     return ProofRow(text, proof.outcome, METHOD, proof.shift, proof.margin, where)
 
@@ -105,18 +100,26 @@ def definite(P: np.ndarray, text: str = "P > 0", *, exact: bool = False) -> list
     return rows
 
 
-def definite_interval(P: IMat, text: str = "P > 0") -> list[ProofRow]:
-    """``P ≻ 0`` for every matrix of an enclosure (an expression such as ``P0 + P1/m``)."""
-    return [_row(text, prove_definite(P.symmetric()))]
+def definite_interval(P: IMat, text: str = "P > 0", where: Sequence[str] | None = None) -> list[ProofRow]:
+    """``P ≻ 0`` for every matrix of an enclosure (an expression such as ``P0 + P1/m``); on a stack, one row per
+    matrix (with one ``where`` each)."""
+    if P.mid.ndim == 2:
+        return [_row(text, prove_definite(P.symmetric()))]
+    proofs = prove_definite_batch(P.symmetric(), margin=True)
+    return [_row(text, p, w) for p, w in zip(proofs, where if where is not None else [""] * len(proofs))]
 
 
 def decay_interval(A: "IMat | np.ndarray", P: "IMat | np.ndarray", eps: float,
-                   text: str = "-(A'P + PA + eps P) > 0") -> list[ProofRow]:
-    """``-(AᵀP + PA + εP) ≻ 0`` for every ``A`` and ``P`` of their enclosures."""
+                   text: str = "-(A'P + PA + eps P) > 0", where: Sequence[str] | None = None) -> list[ProofRow]:
+    """``-(AᵀP + PA + εP) ≻ 0`` for every ``A`` and ``P`` of their enclosures; on a stack ``(k, n, n)`` (with one
+    ``where`` per matrix) one row per matrix."""
     Ai = A if isinstance(A, IMat) else IMat.point(np.asarray(A, float))
     Pi = P if isinstance(P, IMat) else IMat.point(np.asarray(P, float))
-    M = -(Ai.T @ Pi + Pi @ Ai + Pi.scale(eps))
-    return [_row(text, prove_definite(M.symmetric()))]
+    M = (-(Ai.T @ Pi + Pi @ Ai + Pi.scale(eps))).symmetric()
+    if M.mid.ndim == 2:
+        return [_row(text, prove_definite(M))]
+    proofs = prove_definite_batch(M, margin=True)
+    return [_row(text, p, w) for p, w in zip(proofs, where if where is not None else [""] * len(proofs))]
 
 
 def decay(A: np.ndarray, P: np.ndarray, eps: float, text: str = "-(A'P + PA + eps P) > 0", *,

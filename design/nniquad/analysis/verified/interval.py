@@ -82,6 +82,12 @@ class IMat:
         mid = s * self.mid
         return IMat(mid, upward(np.abs(s) * self.rad + UNIT_ROUNDOFF * np.abs(mid), 3))
 
+    def divided(self, s: np.ndarray) -> "IMat":
+        """Each matrix of a stack ``(k, n, m)`` divided by its own floating-point scalar ``s[i]`` (exact as given)."""
+        s = np.asarray(s, dtype=float).reshape((-1,) + (1,) * (self.mid.ndim - 1))
+        mid = self.mid / s
+        return IMat(mid, upward(self.rad / np.abs(s) + UNIT_ROUNDOFF * np.abs(mid), 3))
+
     def diagonal_scaled(self, d: np.ndarray, e: np.ndarray) -> "IMat":
         """``diag(d) X diag(e)`` for powers of two ``d``, ``e`` (exact but for underflow, which costs at most η)."""
         d, e = np.asarray(d, float), np.asarray(e, float)

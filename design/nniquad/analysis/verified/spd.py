@@ -15,8 +15,9 @@ often as not (Higham, Theorem 10.7: Cholesky succeeds for ``A + ΔA`` with ``|Δ
 
 Three outcomes:
 
-* ``proven``: the shifted Cholesky ran to completion; ``margin`` is the largest extra shift ``s`` (in the scaled
-  matrix's units) that still factors, a proven lower bound ``λ_min(D A D) > s`` for the scaling ``D``.
+* ``proven``: the shifted Cholesky ran to completion; ``margin`` is the largest extra shift ``s`` of
+  :data:`MARGIN_LADDER` (half decades, in the scaled matrix's units) with which it still factors, a proven lower
+  bound ``λ_min(D A D) > s`` for the scaling ``D`` (for a stack: the largest ``s`` with which every matrix factors).
 * ``fails``: a vector ``x`` whose quadratic form is proven ``<= 0`` over the whole interval, including the rounding
   of evaluating it: no matrix of the set is positive definite (for a point matrix, the matrix is not).
 * ``not proven``: neither; the margin is below what the arithmetic can prove.
@@ -33,7 +34,7 @@ import numpy as np
 from nniquad.analysis.verified.interval import IMat
 from nniquad.analysis.verified.rounding import ETA, downward, gamma, upward
 
-__all__ = ["PROVEN", "FAILS", "NOT_PROVEN", "METHOD", "Proof", "prove_definite", "prove_definite_batch",
+__all__ = ["PROVEN", "FAILS", "NOT_PROVEN", "METHOD", "MARGIN_LADDER", "Proof", "prove_definite", "prove_definite_batch",
            "cholesky_completes"]
 
 PROVEN, FAILS, NOT_PROVEN = "proven", "fails", "not proven"
@@ -52,8 +53,9 @@ class Proof:
     shift
         The shift ``c + ‖R‖`` the proof subtracted (scaled units: the scaled diagonal lies in ``[1/4, 1)``).
     margin
-        The largest tried extra shift that still factors (a proven lower bound of the scaled smallest
-        eigenvalue), 0 when only the rounding shift passes, ``nan`` unless proven or when not searched.
+        The largest extra shift of :data:`MARGIN_LADDER` that still factors (a proven lower bound of the scaled
+        smallest eigenvalue; in a stack, the stack's), 0 when only the rounding shift passes, ``nan`` unless
+        proven or when not searched.
     witness
         For ``fails``: the vector (in the original coordinates) whose quadratic form is proven ``<= 0``.
     form_upper
@@ -204,32 +206,33 @@ def prove_definite_batch(A: "IMat | np.ndarray", *, margin: bool = False, refute
     return out
 
 
+#: The extra shifts the proven margin is searched among (half decades from 1 down to 1e-15, in the scaled units).
+MARGIN_LADDER = tuple(10.0 ** (-k / 2) for k in range(31))
+
+
 def _margins(Ms: np.ndarray, shift: np.ndarray) -> list[float]:
-    """The proven margin of each matrix of a stack that factored after its shift (:func:`_margin`), one stacked
-    factorisation deciding the common case."""
-    lam = np.linalg.eigvalsh(Ms)[:, 0] - shift
-    s = np.maximum(lam * (1 - 2.0**-10), 0.0)
-    trial = Ms.copy()
+    """The largest shift of :data:`MARGIN_LADDER` with which every matrix of the stack still factors (beyond its
+    own rounding shift), by bisection on the ladder with stacked decompositions; 0 if none.  It is the stack's
+    proven margin: every matrix ``A_s`` of it has ``λ_min(A_s) > margin``."""
     idx = np.arange(Ms.shape[-1])
-    trial[:, idx, idx] = downward(np.diagonal(Ms, axis1=1, axis2=2) - upward(shift + s, 2)[:, None])
-    good = (s > 0) & cholesky_completes(trial)
-    return [float(v) if g else _margin(M, float(c)) for v, g, M, c in zip(s, good, Ms, shift)]
+    diag = np.diagonal(Ms, axis1=1, axis2=2)
 
+    def passes(extra: float) -> bool:
+        trial = Ms.copy()
+        trial[:, idx, idx] = downward(diag - upward(shift + extra, 2)[:, None])
+        return _factors(trial)  # LAPACK on the stack: it stops at the first matrix that fails
 
-def _margin(Ms: np.ndarray, shift: float) -> float:
-    """The largest of a few extra shifts below the estimated smallest eigenvalue that still factors (else 0)."""
-    lam = float(np.linalg.eigvalsh(Ms)[0]) - shift
-    for f in (1 - 2.0**-20, 1 - 2.0**-10, 0.75, 0.5, 0.25):
-        if lam * f > 0 and _factors(_shifted(Ms, float(upward(shift + lam * f, 2)))):
-            return lam * f
-    return 0.0
-
-
-def _shifted(Ms: np.ndarray, c: float) -> np.ndarray:
-    """``Ms - cI`` with the diagonal rounded down (below the exact difference)."""
-    out = Ms.copy()
-    np.fill_diagonal(out, downward(np.diag(Ms) - c))
-    return out
+    lo, hi = len(MARGIN_LADDER), 0  # MARGIN_LADDER[lo] passes (lo = len: none yet), [hi - 1] fails
+    if passes(MARGIN_LADDER[0]):
+        return [MARGIN_LADDER[0]] * len(Ms)
+    hi = 1
+    while hi < lo:
+        mid = (hi + lo) // 2
+        if passes(MARGIN_LADDER[mid]):
+            lo = mid
+        else:
+            hi = mid + 1
+    return [MARGIN_LADDER[lo] if lo < len(MARGIN_LADDER) else 0.0] * len(Ms)
 
 
 def _refute_or_not_proven(mid: np.ndarray, rad: np.ndarray, shift: float) -> Proof:
