@@ -10,7 +10,8 @@ Exit status, the same for every command (:data:`EXIT_STATUS_HELP`, printed by
 
     0    done; every check the command ran passed
     1    a check ran and failed: 'verify' found a recomputed number that does
-         not match, or a certificate whose digest does not match its content
+         not match, an inequality refuted or not proven, or a certificate
+         whose digest does not match its content
          (wherever a certificate is read); 'prove --strict' found a claim that
          does not hold; 'certify'/'report' issued a certificate that failed its
          own verification (nothing is written)
@@ -64,7 +65,7 @@ __all__ = ["main", "COMMANDS", "build_parser", "EXIT_STATUS_HELP"]
 
 #: The exit-status scheme, shown at the end of every ``--help``.
 EXIT_STATUS_HELP = (
-    f"exit status: {EXIT_OK} done (every check passed); {EXIT_CHECK_FAILED} a check failed (verify, a certificate "
+    f"exit status: {EXIT_OK} done (every check passed); {EXIT_CHECK_FAILED} a check failed or was not proven (verify, a certificate "
     f"digest mismatch, prove --strict); {EXIT_USER_ERROR} user error (bad option, input file or output path, "
     f"request too large; nothing written); {EXIT_INTERNAL_ERROR} internal error (a bug, with traceback); "
     f"{EXIT_STUDY_FAILED} montecarlo stopped by a fault of its workers or cluster (finished scenarios saved); "

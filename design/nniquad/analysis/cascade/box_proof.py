@@ -37,8 +37,8 @@ from nniquad.analysis.verified.interval import IMat
 from nniquad.analysis.verified.rounding import UNIT_ROUNDOFF, gamma, upward
 from nniquad.analysis.verified.spd import FAILS, NOT_PROVEN, PROVEN, prove_definite_batch
 
-__all__ = ["BOX_PROOF_METHOD", "ENCLOSURE", "MAX_DEPTH", "MAX_CELLS", "RHO_SLACK", "RHO_SLACKS", "BOX_RHO_FRACTIONS", "BOX_MARGIN", "BoxProof", "full_affine_P",
-           "box_proof", "box_rho", "allowed_box_rhos", "prove_box",
+__all__ = ["BOX_PROOF_METHOD", "ENCLOSURE", "MAX_DEPTH", "MAX_CELLS", "RHO_SLACK", "RHO_SLACKS", "BOX_RHO_FRACTIONS",
+           "BOX_MARGIN", "BoxProof", "full_affine_P", "box_proof", "box_rho", "allowed_box_rhos", "prove_box",
            "lyapunov_point_proofs", "grid_point_proofs"]
 
 #: How the range of ``A_d`` over a cell is enclosed (stated in the certificate and by ``verify``).

@@ -14,10 +14,10 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from nniquad.analysis.cascade.box import ParameterBox, normalised_coordinates
-from nniquad.analysis.cascade.family import CascadeFamily, mode_transform, subsystem_blocks
-from nniquad.analysis.cascade.lyapunov import RobustLyapunov, affine_in
-from nniquad.analysis.cascade.region import HORIZONTAL, LureRegion, axis_loops
+from nniquad.analysis.cascade.box import ParameterBox
+from nniquad.analysis.cascade.family import CascadeFamily
+from nniquad.analysis.cascade.lyapunov import RobustLyapunov
+from nniquad.analysis.cascade.region import HORIZONTAL, LureRegion, axis_loops, coupled_parts
 from nniquad.analysis.verified import inequalities as V
 from nniquad.analysis.verified.interval import IMat
 from nniquad.analysis.verified.rounding import UNIT_ROUNDOFF
@@ -30,8 +30,9 @@ def decrease_enclosure(A: "IMat | np.ndarray", Bh: "IMat | np.ndarray", Kh: "IMa
                        G: np.ndarray, mu: np.ndarray, rho: float) -> IMat:
     """An enclosure of ``-F`` (:func:`nniquad.analysis.cascade.region.decrease_forms`) at every point of a stack.
 
-    ``F = X⁺ᵀPX⁺ - ρ²XᵀPX + μ[(ν⁺ - ψ⁺)ᵀ(ν⁺ - ν) + (ν⁺ - ν)ᵀ(ν⁺ - ψ⁺) - sᵀs] - 2ψᵀψ + ψᵀĜX + XᵀĜᵀψ`` with the
-    selectors ``X, ψ, ψ⁺`` of ``ξ``, ``X⁺ = [A, -Bh, 0]``, ``ν = K̂X``, ``ν⁺ = K̂X⁺`` and ``s = (ν⁺ - ψ⁺) - (ν - ψ)``.
+    ``F = X⁺ᵀPX⁺ - ρ²XᵀPX + μ[(ν⁺ - ψ⁺)ᵀ(ν⁺ - ν) + (ν⁺ - ν)ᵀ(ν⁺ - ψ⁺) - sᵀs] - 2ψᵀψ + ψᵀĜX + XᵀĜᵀψ``
+    with the selectors ``X, ψ, ψ⁺`` of ``ξ``, ``X⁺ = [A, -Bh, 0]``, ``ν = K̂X``, ``ν⁺ = K̂X⁺`` and
+    ``s = (ν⁺ - ψ⁺) - (ν - ψ)``.
     """
     A, Bh, K = (x if isinstance(x, IMat) else IMat.point(np.asarray(x, float)) for x in (A, Bh, Kh))
     N, n, m = A.mid.shape[0], A.mid.shape[-1], Bh.mid.shape[-1]
@@ -89,17 +90,8 @@ def _coupled_enclosure(region: LureRegion, lyap: Mapping[str, RobustLyapunov], d
                        box: ParameterBox, fam: CascadeFamily) -> IMat:
     """:func:`decrease_enclosure` of the coupled loop (:func:`nniquad.analysis.cascade.region.coupled_decrease`),
     with ``T_m A_d T_mᵀ``, ``T_m B L`` and ``K T_mᵀ / L`` enclosed too."""
-    Tm, _ = mode_transform(fam.state_names)
-    n, N = Tm.shape[0], len(fam)
-    Pz, Gz = np.zeros((N, n, n)), np.zeros((N, 2, n))
-    mu = None
-    for name, sl in subsystem_blocks(fam.state_names).items():
-        if name in HORIZONTAL:
-            P, G, mu = region.at(box, fam.points, name)
-            Pz[:, sl, sl] = P
-            Gz[:, HORIZONTAL.index(name), sl] = G[:, 0]
-        else:
-            Pz[:, sl, sl] = affine_in(lyap[name].P, normalised_coordinates(box, fam.points, dims[name]))
+    Tm, Pz, Gz, mu = coupled_parts(region, lyap, dims, box, fam)
+    N = len(fam)
     L = np.broadcast_to(np.asarray(fam.accel_limit, float), (N,))
     T = IMat.point(np.broadcast_to(Tm, (N,) + Tm.shape).copy())
     A = T @ IMat.point(fam.A_d) @ T.T

@@ -58,7 +58,7 @@ from nniquad.analysis.lmi import checks as lmi_checks
 from nniquad.laws.base import ControlLaw
 
 __all__ = ["linear_zone_reach", "HORIZONTAL", "features", "LureRegion", "decrease_forms", "LureCheck",
-           "lure_check", "coupled_decrease", "huber", "lure_block", "check_lure_block", "ROA_NOTE", "roa_note",
+           "lure_check", "coupled_decrease", "coupled_parts", "huber", "lure_block", "check_lure_block", "ROA_NOTE", "roa_note",
            "start_vector"]
 
 #: The horizontal subsystems, whose command the tilt limit bounds.
@@ -434,6 +434,24 @@ def lure_check(region: LureRegion, box: ParameterBox, fam: CascadeFamily,
                      reach_m=float(np.min(reach)), eps=float(np.min(eps)), failing=fail, per_point=margin)
 
 
+def coupled_parts(region: LureRegion, lyap: Mapping[str, RobustLyapunov], dims: Mapping[str, Sequence[int]],
+                  box: ParameterBox, fam: CascadeFamily) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(T_m, P_ζ, Ĝ_ζ, μ)`` of the coupled loop at every point of ``fam``, in the subsystems' coordinates: the
+    horizontal blocks from the region, the altitude and yaw blocks from their Lyapunov matrices."""
+    Tm, _ = mode_transform(fam.state_names)
+    n, N = Tm.shape[0], len(fam)
+    Pz, Gz = np.zeros((N, n, n)), np.zeros((N, 2, n))
+    mu = np.zeros(N)
+    for name, sl in subsystem_blocks(fam.state_names).items():
+        if name in HORIZONTAL:
+            P, G, mu = region.at(box, fam.points, name)
+            Pz[:, sl, sl] = P
+            Gz[:, HORIZONTAL.index(name), sl] = G[:, 0]
+        else:
+            Pz[:, sl, sl] = affine_in(lyap[name].P, normalised_coordinates(box, fam.points, dims[name]))
+    return Tm, Pz, Gz, mu
+
+
 def coupled_decrease(region: LureRegion, lyap: Mapping[str, RobustLyapunov], dims: Mapping[str, Sequence[int]],
                      box: ParameterBox, fam: CascadeFamily) -> tuple[float, float]:
     """The decrease on the **coupled** 19-state loop at every point of ``fam``: ``(worst λ_max, its bound)``.
@@ -445,17 +463,8 @@ def coupled_decrease(region: LureRegion, lyap: Mapping[str, RobustLyapunov], dim
     the diagonal scaling sees each block in its own units; every off-block entry of ``T_m A_d T_mᵀ`` is kept,
     and the rounding of forming it is in the bound.
     """
-    Tm, _ = mode_transform(fam.state_names)
+    Tm, Pz, Gz, mu = coupled_parts(region, lyap, dims, box, fam)
     n, N = Tm.shape[0], len(fam)
-    Pz, Gz = np.zeros((N, n, n)), np.zeros((N, 2, n))
-    mu = None
-    for name, sl in subsystem_blocks(fam.state_names).items():
-        if name in HORIZONTAL:
-            P, G, mu = region.at(box, fam.points, name)
-            Pz[:, sl, sl] = P
-            Gz[:, HORIZONTAL.index(name), sl] = G[:, 0]
-        else:
-            Pz[:, sl, sl] = affine_in(lyap[name].P, normalised_coordinates(box, fam.points, dims[name]))
     L = np.broadcast_to(np.asarray(fam.accel_limit, float), (N,))[:, None, None]
     A, B, K = Tm @ fam.A_d @ Tm.T, Tm @ fam.B * L, fam.K @ Tm.T / L
     F, F_abs = decrease_forms(A, B, K, Pz, Gz, mu, region.rho)
