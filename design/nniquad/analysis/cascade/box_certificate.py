@@ -56,7 +56,10 @@ Certificates and what they cover
   loop) and the spectral radius, with numpy, on a grid of
   :data:`nniquad.config.CASCADE_GRID_POINTS_PER_AXIS` points per coordinate
   in all six coordinates (4096 points; other points than the LMI points except
-  the vertices): the interior is covered **at the grid points only**.
+  the vertices).  The contraction is proven at every grid point, and between
+  them cell by cell (:mod:`nniquad.analysis.cascade.box_proof`: the corners
+  proven with a verified Cholesky test, the interpolation between them bounded
+  by an estimated allowance; the section's ``box_proof`` states the cells).
 * Region of attraction under the norm tilt limit ``‖a‖ <= u0``,
   ``u0 = (lowest mass factor) g tan(tilt)`` (the limit is ``g_z tan(tilt)`` with
   ``g_z = (m/m̂) g`` at hover): by default the linear-zone ellipsoid of the

@@ -68,10 +68,9 @@ def exact_definite(M: FMatrix) -> tuple[bool, int | None]:
         pivot = A[k][k]
         if pivot <= 0:
             return False, k
+        # eliminate column k from the lower triangle: A[i][j] -= A[i][k] A[j][k] / pivot for k < j <= i
         for i in range(k + 1, n):
             f = A[i][k] / pivot
-            if f:
-                for j in range(k + 1, i + 1):
-                    A[i][j] -= f * A[k][j]
-                    A[j][i] = A[i][j] if j < i else A[i][j]
+            for j in range(k + 1, i + 1):
+                A[i][j] -= f * A[j][k]
     return True, None

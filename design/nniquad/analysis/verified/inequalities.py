@@ -240,5 +240,6 @@ def affine_enclosure(Pk: np.ndarray, theta: np.ndarray) -> IMat:
 def affine_corners(Pk: np.ndarray) -> IMat:
     """``P(θ) = P_0 + Σ θ_j P_j`` at every corner ``θ ∈ {-1, 1}^q`` of the cube, enclosed (stack ``(2^q, n, n)``)."""
     q = np.asarray(Pk).shape[0] - 1
-    corners = np.array(list(itertools.product((-1.0, 1.0), repeat=q)), float).reshape(-1, q)
+    signs = list(itertools.product((-1.0, 1.0), repeat=q))
+    corners = np.array(signs, float).reshape(len(signs), q)  # q = 0: one corner, no coordinate
     return affine_enclosure(Pk, corners)
