@@ -331,3 +331,97 @@ def test_the_contraction_metric_and_its_fallback():
     # a P whose midpoint does not factor: the diagonal scaling stands in, and nothing is proven
     assert V.contraction(A, -P, 0.6)[0].outcome != PROVEN
     assert np.array_equal(V.diagonal_scaling(np.diag([4.0, 0.25, -1.0, 0.0])), [0.5, 2.0, 1.0, 1.0])
+
+
+# ----------------------------------------------------------------------------- stacks and edge cases
+
+
+def test_stack_operations_keep_each_matrix_its_own_radius():
+    """A stack of non-square matrices with asymmetric radii: the transpose, the symmetric part, the product with
+    both radii and the diagonal scaling each keep every matrix's own radius where it belongs."""
+    A = np.arange(24, dtype=float).reshape(2, 3, 4) + 1.0
+    R = np.arange(24, dtype=float).reshape(2, 3, 4) * 1e-3
+    X = IMat(A, R)
+    assert np.array_equal(X.T.rad, np.swapaxes(R, 1, 2)) and X.T.mid.shape == (2, 4, 3)
+    S = IMat(A[:, :, :3], R[:, :, :3]).symmetric()
+    assert np.all(S.rad >= 0.5 * (R[:, :, :3] + np.swapaxes(R[:, :, :3], 1, 2)))
+    assert np.all(S.rad <= 0.5 * (R[:, :, :3] + np.swapaxes(R[:, :, :3], 1, 2)) + 1e-12)
+    assert np.array_equal(S.rad, np.swapaxes(S.rad, 1, 2))
+    Y = IMat(np.swapaxes(A, 1, 2).copy(), np.swapaxes(R, 1, 2) * 2)
+    P = X @ Y
+    want = np.abs(A) @ (2 * np.swapaxes(R, 1, 2)) + R @ (np.abs(np.swapaxes(A, 1, 2)) + 2 * np.swapaxes(R, 1, 2))
+    assert np.all(P.rad >= want) and np.all(P.rad <= want * (1 + 1e-12) + 1e-9 * np.abs(P.mid))
+    d, e = np.array([[2.0, 0.5, 4.0], [1.0, 1.0, 0.25]]), np.array([[0.5, 2.0, 1.0, 8.0], [1.0, 0.5, 0.5, 2.0]])
+    D = X.diagonal_scaled(d, e)
+    assert np.allclose(D.rad, R * d[:, :, None] * e[:, None, :] + ETA, rtol=0, atol=0)
+    assert np.all(D.rad >= R * d[:, :, None] * e[:, None, :])
+    sq = IMat(A[:, :, :3], R[:, :, :3])
+    sh = sq.shift(2.0)
+    assert np.array_equal(sh.mid, A[:, :, :3] - 2.0 * np.eye(3)) and np.all(sh.rad >= R[:, :, :3])
+    assert np.all(sh.rad[:, [0, 1, 2], [0, 1, 2]] > R[:, [0, 1, 2], [0, 1, 2]])  # the diagonal's rounding added
+    for s in (np.array([2.0, -3.0]), [2.0, -3.0]):
+        T = X.times(s)
+        assert np.array_equal(T.mid, A * np.array([2.0, -3.0])[:, None, None])
+        assert np.all(T.rad >= R * np.array([2.0, 3.0])[:, None, None])
+        Q = X.divided(s)
+        assert np.allclose(Q.mid, A / np.array([2.0, -3.0])[:, None, None], rtol=1e-15)
+        assert np.all(Q.rad >= R / np.array([2.0, 3.0])[:, None, None])
+    assert np.array_equal(X.magnitude >= np.abs(A) + R, np.ones_like(A, bool))
+
+
+def test_the_radius_of_a_stack_is_judged_per_matrix():
+    """Two matrices, one with a radius that defeats it and one without: the second is still proven (the radius'
+    norm is each matrix's own, never the stack's largest)."""
+    M = np.stack([np.eye(3), np.eye(3)])
+    R = np.stack([np.full((3, 3), 0.6), np.zeros((3, 3))])
+    got = prove_definite_batch(IMat(M, R))
+    assert [g.outcome for g in got] == [NOT_PROVEN, PROVEN] and got[0].shift > got[1].shift
+    # a radius on the diagonal alone lowers the diagonal (it is not added to the off-diagonal norm)
+    diag_only = prove_definite(IMat(np.eye(3), np.eye(3) * 0.5))
+    assert diag_only.outcome == PROVEN
+
+
+def test_a_zero_diagonal_and_a_zero_form_are_refuted():
+    """``x'Mx = 0`` refutes strict definiteness: a zero diagonal entry, and a singular matrix's null vector."""
+    z = prove_definite(np.diag([1.0, 0.0, 2.0]))
+    assert z.outcome == FAILS and z.witness.tolist() == [0.0, 1.0, 0.0] and z.form_upper == 0.0
+    assert math.isfinite(z.shift) or math.isinf(z.shift)
+    singular = np.array([[1.0, 1.0], [1.0, 1.0]])
+    # its null vector is not a float vector: the form's upper bound stays above 0, so not proven (never proven)
+    assert prove_definite(singular).outcome == NOT_PROVEN
+    # with a radius the same vector is not a counterexample: the set may hold definite members
+    assert prove_definite(IMat.around(singular, np.full((2, 2), 1e-3))).outcome == NOT_PROVEN
+    # a not-proven answer still states the shift it tried
+    near = prove_definite(np.diag([1.0, 1e-18]) + 0.0)
+    assert near.outcome in (NOT_PROVEN, PROVEN) and math.isfinite(near.shift)
+
+
+def test_the_margin_ladder_edges():
+    assert MARGIN_LADDER[0] == 1.0 and MARGIN_LADDER[-1] == 1e-15 and len(MARGIN_LADDER) == 31
+    # far from singular: the highest rung below the scaled λ_min 0.9 (the scaled diagonal is below 1)
+    assert prove_definite(np.eye(4) * 0.9).margin == 10**-0.5
+    # a smallest eigenvalue between rungs: the rung just below it, for every rung
+    for k in range(1, 26):
+        lam = MARGIN_LADDER[k] * 1.5 + 1e-14
+        got = prove_definite(np.diag([0.5, lam * 2.0 ** (2 * math.ceil(-0.5 * math.log2(lam))) * 0 + lam, 0.75]))
+        scaled = lam * float(np.exp2(-2 * np.ceil(0.5 * np.log2(lam))))
+        assert got.margin == max(r for r in MARGIN_LADDER if r < scaled - got.shift), k
+    # only the rounding shift passes (λ_min below the lowest rung): margin 0
+    q, _ = np.linalg.qr(np.random.default_rng(3).standard_normal((6, 6)))
+    for _ in range(20):
+        M = (q * np.r_[3e-16, np.ones(5) * 0.5]) @ q.T
+        got = prove_definite(0.5 * (M + M.T))
+        if got.outcome == PROVEN:
+            assert got.margin == 0.0
+            break
+
+
+def test_a_long_dot_product_is_enclosed_by_its_inner_dimension():
+    """γ_k of the *inner* dimension: 1 x 3000 times 3000 x 1 with cancelling terms; the exact value lies inside."""
+    rng = np.random.default_rng(30)
+    a = rng.standard_normal((1, 3000)) * 10.0 ** rng.integers(-3, 4, (1, 3000))
+    b = rng.standard_normal((3000, 1))
+    got = IMat.point(a) @ IMat.point(b)
+    exact = sum(F(float(x)) * F(float(y)) for x, y in zip(a[0], b[:, 0]))
+    assert abs(exact - F(float(got.mid[0, 0]))) <= F(float(got.rad[0, 0]))
+    assert got.rad[0, 0] >= gamma(3000) * float((np.abs(a) @ np.abs(b))[0, 0])

@@ -111,8 +111,7 @@ class IMat:
         """``(X + Xᵀ)/2``; its midpoint is exactly symmetric (floating-point addition commutes)."""
         mid = (self.mid + np.swapaxes(self.mid, -1, -2)) * 0.5
         rad = 0.5 * (self.rad + np.swapaxes(self.rad, -1, -2)) + UNIT_ROUNDOFF * np.abs(mid)
-        rad = upward(rad, 3)
-        return IMat(mid, np.maximum(rad, np.swapaxes(rad, -1, -2)))
+        return IMat(mid, upward(rad, 3))  # symmetric too: a sum with its transpose, plus u|mid|
 
     def shift(self, c: float) -> "IMat":
         """``X - c I`` for a floating-point scalar ``c`` (on the last two axes, square)."""

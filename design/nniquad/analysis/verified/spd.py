@@ -239,7 +239,8 @@ def _refute_or_not_proven(mid: np.ndarray, rad: np.ndarray, shift: float) -> Pro
     """``fails`` with a vector whose quadratic form is proven ``<= 0`` for every matrix of ``mid ± rad`` (a diagonal
     entry, or the eigenvector of the smallest eigenvalue); ``not proven`` otherwise."""
     n = mid.shape[0]
-    d_up = np.nextafter(np.diag(mid) + np.diag(rad), np.inf)  # one rounding to nearest: one ulp up bounds it
+    # the largest diagonal entry of the set: exact for a point entry, else one ulp above the rounded sum
+    d_up = np.where(np.diag(rad) == 0, np.diag(mid), np.nextafter(np.diag(mid) + np.diag(rad), np.inf))
     if np.any(d_up <= 0):
         i = int(np.argmin(d_up))
         x = np.zeros(n)
