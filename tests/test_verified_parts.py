@@ -198,18 +198,24 @@ def test_a_mixed_stack_gets_each_outcome_and_its_witness():
     assert math.isinf(got[3].shift)
     quiet = prove_definite_batch(stack, refute=False)
     assert [g.outcome for g in quiet[:3]] == [PROVEN, NOT_PROVEN, NOT_PROVEN] and quiet[1].witness is None
+    assert math.isfinite(quiet[2].shift) and math.isinf(quiet[1].shift)  # a negative diagonal: no shift to try
+    assert isinstance(got[1].form_upper, float) and isinstance(got[2].shift, float)
     assert math.isnan(quiet[0].margin)  # not searched
     two = prove_definite(offdiag)
     assert two.outcome == FAILS and np.isclose(abs(two.witness[0]), abs(two.witness[1]))
     x = two.witness
     assert x @ offdiag @ x < 0
-    with pytest.raises(ValueError, match="square"):
+    with pytest.raises(ValueError, match="^a square matrix is needed"):
         prove_definite(np.ones((2, 3)))
+    with pytest.raises(ValueError, match="^a square matrix is needed"):
+        prove_definite(np.ones((1, 2, 2)))
+    with pytest.raises(ValueError, match="^a stack of square matrices"):
+        prove_definite_batch(np.ones((1, 2, 3)))
     with pytest.raises(ValueError, match="stack"):
         prove_definite_batch(np.ones((2, 3)))
     with pytest.raises(ValueError, match="stack"):
         prove_definite_batch(IMat(np.ones((1, 2, 2)), np.zeros((1, 3, 3))))
-    with pytest.raises(ValueError, match="symmetric"):
+    with pytest.raises(ValueError, match=r"^the midpoints must be exactly symmetric \(use IMat.symmetric\)$"):
         prove_definite_batch(np.array([[[1.0, 0.5], [0.0, 1.0]]]))
     # the caller may vouch for symmetry (the box proof): then no check runs
     assert prove_definite_batch(np.array([[[1.0, 0.0], [0.0, 1.0]]]), symmetric_checked=True)[0].proven
@@ -425,3 +431,30 @@ def test_a_long_dot_product_is_enclosed_by_its_inner_dimension():
     exact = sum(F(float(x)) * F(float(y)) for x, y in zip(a[0], b[:, 0]))
     assert abs(exact - F(float(got.mid[0, 0]))) <= F(float(got.rad[0, 0]))
     assert got.rad[0, 0] >= gamma(3000) * float((np.abs(a) @ np.abs(b))[0, 0])
+
+
+def test_the_scaling_of_the_radius_and_a_stack_with_one_infinite_radius():
+    big = np.eye(2) * 1e6
+    off = np.array([[0.0, 1.0], [1.0, 0.0]])
+    assert prove_definite(IMat(big, off * 0.9e6)).outcome == PROVEN  # every member diagonally dominant
+    assert prove_definite(IMat(big, off * 1.1e6)).outcome == NOT_PROVEN  # a member is indefinite
+    every = IMat(np.array([[1e6, 3e6], [3e6, 1e6]]), off * 1e3)
+    refuted = prove_definite(every)
+    assert refuted.outcome == FAILS and refuted.form_upper < 0 and math.isfinite(refuted.shift)
+    stack = IMat(np.stack([np.eye(2), np.eye(2)]), np.stack([np.zeros((2, 2)), np.full((2, 2), np.inf)]))
+    assert [p.outcome for p in prove_definite_batch(stack)] == [PROVEN, NOT_PROVEN]
+    # a diagonal whose lower bound is exactly zero: not proven (never a division by a zero scale)
+    assert prove_definite(IMat(np.diag([1.0, 0.5]), np.diag([0.0, 0.5]))).outcome == NOT_PROVEN
+
+
+def test_the_vectorised_decomposition_leaves_its_input_alone():
+    M = np.stack([[[2.0, 1.0, 0.0], [1.0, 2.0, 1.0], [0.0, 1.0, 2.0]], [[1.0, 2.0, 0.0], [2.0, 1.0, 0.0], [0.0, 0.0, 1.0]]])
+    before = M.copy()
+    assert cholesky_completes(M).tolist() == [True, False] and np.array_equal(M, before)
+
+
+def test_a_margin_below_the_lowest_rung_is_zero():
+    delta = 2.0**-50  # λ_min of [[1/2, 1/2 - δ], [1/2 - δ, 1/2]] is δ: above the rounding shift, below 1e-15
+    M = np.array([[0.5, 0.5 - delta], [0.5 - delta, 0.5]])
+    got = prove_definite(M)
+    assert got.outcome == PROVEN and got.margin == 0.0

@@ -222,10 +222,8 @@ def _margins(Ms: np.ndarray, shift: np.ndarray) -> list[float]:
         trial[:, idx, idx] = downward(diag - upward(shift + extra, 2)[:, None])
         return _factors(trial)  # LAPACK on the stack: it stops at the first matrix that fails
 
-    lo, hi = len(MARGIN_LADDER), 0  # MARGIN_LADDER[lo] passes (lo = len: none yet), [hi - 1] fails
-    if passes(MARGIN_LADDER[0]):
-        return [MARGIN_LADDER[0]] * len(Ms)
-    hi = 1
+    # the scaled diagonal lies below 1, so the top rung never passes; search the rest
+    lo, hi = len(MARGIN_LADDER), 1  # MARGIN_LADDER[lo] passes (lo = len: none yet), [hi - 1] fails
     while hi < lo:
         mid = (hi + lo) // 2
         if passes(MARGIN_LADDER[mid]):
