@@ -458,3 +458,48 @@ def test_a_margin_below_the_lowest_rung_is_zero():
     M = np.array([[0.5, 0.5 - delta], [0.5 - delta, 0.5]])
     got = prove_definite(M)
     assert got.outcome == PROVEN and got.margin == 0.0
+
+
+def test_each_inequality_row_carries_its_text_place_margin_and_routes():
+    """The rows say what was proven, where, with which margin, by which routes (exact only up to EXACT_MAX_DIM
+    and only when asked)."""
+    A = np.array([[-1.0, 0.5], [0.0, -2.0]])
+    P = np.eye(2)
+    rows = V.decay(A, P, 0.1, "my decay")
+    assert [(r.inequality, r.method) for r in rows] == [("my decay", METHOD)] and rows[0].margin > 0
+    rows = V.decay(A, P, 0.1, "my decay", exact=True)
+    assert [(r.inequality, r.method, r.outcome) for r in rows] == [("my decay", METHOD, PROVEN), ("my decay", "exact", PROVEN)]
+    big = -np.eye(9)
+    assert [r.method for r in V.decay(big, np.eye(9), 0.1, exact=True)] == [METHOD]
+    assert [r.method for r in V.decay(-np.eye(8), np.eye(8), 0.1, exact=True)] == [METHOD, "exact"]
+    assert [r.method for r in V.definite(np.eye(8), exact=True)] == [METHOD, "exact"]
+    assert [r.inequality for r in V.definite(np.eye(2), "Q > 0")] == ["Q > 0"]
+    stack = np.stack([np.eye(2), 2 * np.eye(2)])
+    for rows in (V.definite_interval(IMat.point(stack), "S > 0", ["s1", "s2"]),
+                 V.decay_interval(np.stack([A, A]), stack, 0.1, "S decay", ["s1", "s2"]),
+                 V.contraction(np.stack([0.5 * np.eye(2)] * 2), stack, 0.9, "S contracts", ["s1", "s2"])):
+        assert [r.where for r in rows] == ["s1", "s2"] and len({r.inequality for r in rows}) == 1
+        assert all(math.isfinite(r.margin) and r.margin > 0 and math.isfinite(r.shift) for r in rows)
+    assert [r.where for r in V.contraction(np.stack([0.5 * np.eye(2)] * 2), stack, 0.9)] == ["", ""]
+    assert [r.where for r in V.decay_interval(np.stack([A, A]), stack, 0.1)] == ["", ""]
+    assert [r.where for r in V.definite_interval(IMat.point(stack))] == ["", ""]
+    assert V.contraction(np.stack([0.5 * np.eye(2)]), np.eye(2)[None], 0.9)[0].inequality == "rho^2 P - A'PA > 0"
+    assert V.below(IMat.point(np.eye(2)), 2.0, "below two")[0].inequality == "below two"
+    none = V.summary([], "T", "cells")
+    assert (none.inequality, none.method, none.where) == ("T", METHOD, "cells (none)")
+    bad = V.summary([V.ProofRow("x", FAILS, "exact", where="c7")], "T", "cells")
+    assert bad.inequality == "T" and bad.method == "exact"
+    assert V.summary([V.ProofRow("x", PROVEN, METHOD, 1e-16, math.nan, "a"),
+                      V.ProofRow("x", PROVEN, METHOD, 1e-16, 0.2, "b")], "T", "p").margin == 0.2
+
+
+def test_the_saturation_decrease_against_the_exact_route_near_its_boundary():
+    """The S-procedure block -2T decides this case: the verified and the exact route must agree on each side."""
+    A_cl, B, G = np.array([[-1.0]]), np.array([[1.0]]), np.array([[0.0]])
+    P = np.array([[1.0]])
+    # M = [[-2, -1], [-1, -2T]]: negative definite iff 4T > 1
+    for T, want in ((0.26, PROVEN), (0.24, FAILS)):
+        rows = V.roa_decrease(A_cl, B, P, G, np.array([[T]]), exact=True)
+        assert [r.outcome for r in rows] == [want, want] and [r.method for r in rows] == [METHOD, "exact"]
+    assert len(V.roa_decrease(A_cl, B, P, G, np.array([[1.0]]))) == 1
+    assert len(V.roa_decrease(-np.eye(8), np.ones((8, 1)), np.eye(8), np.zeros((1, 8)), np.eye(1), exact=True)) == 1
