@@ -126,3 +126,18 @@ def test_the_lure_decrease_enclosure_contains_the_form_the_region_module_writes(
     F, _ = decrease_forms(A, Bh, Kh, P, G, mu, 0.97)
     M = decrease_enclosure(A, Bh, Kh, P, G, mu, 0.97)
     assert np.all(np.abs(M.mid + F) <= M.rad + 1e-12 * np.abs(F))
+
+
+def test_a_section_whose_box_is_widened_past_what_it_holds_fails_at_a_named_cell(section):
+    """The same stated P(θ) over a box four times wider in the motor lag (its normalised coordinates stretched with
+    it): ``verify --thorough`` refuses the box, and the failing cell is named."""
+    sec = copy.deepcopy(section)
+    lo, hi = sec["box"]["tau_motor_factor"]
+    sec["box"]["tau_motor_factor"] = [lo / 4.0, hi * 4.0]
+    rows = _rows(sec, thorough=True)
+    ok, detail, proofs = rows["box cells"]
+    assert not ok and [p.outcome for p in proofs] == [FAILS]
+    assert proofs[0].where.startswith("cell {") and "'tau_motor': [" in proofs[0].where
+    # the grid's own worst contraction is past 1: the grid row is refuted too, at rho = 1 at most
+    ok, _, proofs = rows["grid check"]
+    assert not ok and proofs[0].outcome == FAILS and "rho = worst" in proofs[0].inequality

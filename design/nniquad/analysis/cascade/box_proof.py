@@ -69,8 +69,9 @@ MAX_CELLS = 20000
 
 
 def box_rho(grid_rho: float, fraction: float = BOX_RHO_FRACTIONS[0]) -> float:
-    """The contraction a box proof claims: ``1 - fraction (1 - grid_rho)`` (:data:`BOX_RHO_FRACTIONS`)."""
-    return 1.0 - float(fraction) * (1.0 - float(grid_rho))
+    """The contraction a box proof claims: ``1 - fraction (1 - grid_rho)`` (:data:`BOX_RHO_FRACTIONS`), never above
+    1 (a grid that does not contract leaves the claim of stability alone, which the proof then refutes)."""
+    return min(1.0 - float(fraction) * (1.0 - float(grid_rho)), 1.0)
 
 
 def allowed_box_rhos(grid_rho: float) -> list[float]:
@@ -399,7 +400,8 @@ def _with_slack(prove: Callable[[float], list[V.ProofRow]], rho: float) -> tuple
     for slack in RHO_SLACKS:
         if rho + slack >= 1.0 and slack != RHO_SLACKS[0]:
             break
-        rows, used = prove(rho + slack), slack
+        # never a contraction above 1: a stated rho at or past 1 is checked for stability, and refuted
+        rows, used = prove(min(rho + slack, 1.0)), slack
         if all(r.outcome == PROVEN for r in rows) or any(r.outcome == FAILS for r in rows):
             break
     return rows, used
