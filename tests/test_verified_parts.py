@@ -115,7 +115,6 @@ def test_every_interval_operation_encloses_the_exact_result_tightly(seed):
         _contains(W + IB, exact(lambda i: fadd(_exact(member[i]), _exact(B[i]))))
     # no wider than what it must cover: the propagated radius is |B| RA to first order
     assert np.all(prod.rad <= 1.01 * (np.abs(np.swapaxes(RA, 1, 2) * 0 + RA) @ np.abs(B)) + 1e-6 * np.abs(prod.mid))
-    assert np.allclose(W.magnitude, np.abs(A) + RA, rtol=1e-14) and np.all(W.magnitude >= np.abs(A) + RA)
 
 
 def test_contains_point_and_the_mixed_operands():
@@ -151,10 +150,7 @@ def test_the_shift_is_corollary_2_4s_and_the_radius_is_added():
 def test_the_proof_record():
     p = Proof(PROVEN, shift=1e-15, margin=0.25)
     assert p.proven and p.to_json() == {"outcome": PROVEN, "method": METHOD, "shift": 1e-15, "margin": 0.25}
-    assert "proven by verified Cholesky" in p.text() and "0.25" in p.text() and "1e-15" in p.text()
-    assert not Proof(FAILS).proven and "fails" in Proof(FAILS, form_upper=-0.5).text()
-    assert "-0.5" in Proof(FAILS, form_upper=-0.5).text()
-    assert "not proven" in Proof(NOT_PROVEN, shift=2e-16).text() and "2e-16" in Proof(NOT_PROVEN, shift=2e-16).text()
+    assert not Proof(FAILS).proven and not Proof(NOT_PROVEN).proven
     assert METHOD == "verified-cholesky"
 
 
@@ -372,7 +368,6 @@ def test_stack_operations_keep_each_matrix_its_own_radius():
         Q = X.divided(s)
         assert np.allclose(Q.mid, A / np.array([2.0, -3.0])[:, None, None], rtol=1e-15)
         assert np.all(Q.rad >= R / np.array([2.0, 3.0])[:, None, None])
-    assert np.array_equal(X.magnitude >= np.abs(A) + R, np.ones_like(A, bool))
 
 
 def test_the_radius_of_a_stack_is_judged_per_matrix():

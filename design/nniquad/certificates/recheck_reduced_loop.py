@@ -65,8 +65,7 @@ def ni_storage_check(name: str, P: np.ndarray, A: np.ndarray, B: np.ndarray, C: 
     """
     min_eig = K.eigmin(P)
     worst = K.dissipation_residual(K.sym(P), A, B, C)
-    scale = max(K.norm(P) * K.norm(A), K.norm(A) * K.norm(C) * K.norm(B), K.norm(C) * K.norm(B), 1e-300)
-    dissipation = V.below(V.ni_dissipation(P, A, B, C), tol * scale,
+    dissipation = V.below(V.ni_dissipation(P, A, B, C), tol * K.dissipation_scale(P, A, B, C),
                           f"lambda_max(NI dissipation matrix) < {tol:g} x its scale")
     proofs = V.definite(P if stated_P is None else stated_P, exact=True) + dissipation
     return proof_check(name, worst <= tol, f"min eig P = {min_eig:.3e}, max eig of the dissipation matrix "

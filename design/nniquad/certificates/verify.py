@@ -42,6 +42,7 @@ from nniquad.certificates.certificate import (
     read_certificate,
     reference_run_options,
 )
+from nniquad.analysis.verified.inequalities import outcome_of
 from nniquad.analysis.verified.spd import FAILS, NOT_PROVEN, PROVEN
 from nniquad.certificates.check_record import PASS, Check, clear_cache, fmt_value, is_number, thaw_json
 from nniquad.certificates.recheck_reduced_loop import (
@@ -112,10 +113,7 @@ class Verification:
     @property
     def outcome(self) -> str:
         """``fails`` if a check fails, else ``not proven`` if a check is not proven, else ``proven``."""
-        outcomes = {c.outcome for c in self.checks}
-        if not self.checks or FAILS in outcomes:
-            return FAILS
-        return NOT_PROVEN if NOT_PROVEN in outcomes else PROVEN
+        return outcome_of(self.checks) if self.checks else FAILS
 
     def table(self) -> str:
         """One row per check: name, outcome (``proven``, ``pass`` for a recomputed number, ``FAIL``,

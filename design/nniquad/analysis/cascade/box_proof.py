@@ -30,14 +30,13 @@ from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
-from nniquad.analysis.cascade.box import POINT_NAMES, ParameterBox
+from nniquad.analysis.cascade.box import POINT_NAMES, ParameterBox, normalised_coordinates
 from nniquad.analysis.cascade.family import mode_transform, subsystem_blocks
 from nniquad.analysis.verified import inequalities as V
 from nniquad.analysis.verified.interval import IMat
-from nniquad.analysis.verified.rounding import UNIT_ROUNDOFF, gamma, upward
 from nniquad.analysis.verified.spd import FAILS, NOT_PROVEN, PROVEN, prove_definite_batch
 
-__all__ = ["BOX_PROOF_METHOD", "ENCLOSURE", "MAX_DEPTH", "MAX_CELLS", "RHO_SLACK", "RHO_SLACKS", "BOX_RHO_FRACTIONS",
+__all__ = ["BOX_PROOF_METHOD", "ENCLOSURE", "MAX_DEPTH", "MAX_CELLS", "RHO_SLACKS", "BOX_RHO_FRACTIONS",
            "BOX_MARGIN", "BoxProof", "full_affine_P", "box_proof", "box_rho", "allowed_box_rhos", "prove_box",
            "lyapunov_point_proofs", "grid_point_proofs"]
 
@@ -58,7 +57,6 @@ MAX_DEPTH = 12
 #: point (the stated value is the largest computed contraction, attained to rounding at one point, where nothing
 #: larger can be proven; an ill-conditioned P, 1e16 between its eigenvalues, needs more than 1e-6).
 RHO_SLACKS: tuple[float, ...] = (1e-5, 1e-4, 1e-3)
-RHO_SLACK = RHO_SLACKS[0]
 
 
 #: The contractions a box proof may claim: ``1 - f (1 - ρ_grid)`` for these ``f``, tried in order (between grid
@@ -229,17 +227,14 @@ class _Evaluator(_PerPoint):
         return out.reshape(points.shape[:-1] + out.shape[-2:])
 
 
-def _theta(box: ParameterBox, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Each cell's centre ``θ_c`` and half-width ``h`` in the box's normalised log coordinates, ``(k, 6)`` each;
-    ``h`` rounded up so that ``θ_c ± h`` contains the cell's exact coordinates.  Degenerate coordinates: 0, 0."""
-    blo, bhi = box.bounds()
-    span = np.log(bhi) - np.log(blo)
-    ok = span > 0
-    with np.errstate(divide="ignore", invalid="ignore"):
-        centre = np.where(ok, (np.log(lo) + np.log(hi) - (np.log(blo) + np.log(bhi))) / np.where(ok, span, 1.0), 0.0)
-        half = np.where(ok, (np.log(hi) - np.log(lo)) / np.where(ok, span, 1.0), 0.0)
-    # log, the divisions and the sums each round: a relative 16 u of the coordinates' size covers them generously
-    return centre, upward(half + 16 * UNIT_ROUNDOFF * (np.abs(centre) + half + 1.0), 3) * ok
+def _theta(box: ParameterBox, points: np.ndarray) -> np.ndarray:
+    """The box's normalised log coordinates of ``points`` ``(k, 6)``; 0 in a degenerate coordinate (which no
+    block of ``P`` depends on)."""
+    lo, hi = box.bounds()
+    free = [d for d in range(len(lo)) if hi[d] > lo[d]]
+    out = np.zeros((np.atleast_2d(points).shape[0], len(lo)))
+    out[:, free] = normalised_coordinates(box, points, free)
+    return out
 
 
 def _psd_abs(E: np.ndarray) -> np.ndarray:
@@ -256,18 +251,14 @@ class _Forms(_PerPoint):
 
     def __init__(self, evaluate: _Evaluator, box: ParameterBox, P: IMat, rho: float) -> None:
         super().__init__(self._forms)
-        self.evaluate, self.box, self.P = evaluate, box, P
-        self.r2 = float(np.nextafter(float(rho) * float(rho), -np.inf))
+        self.evaluate, self.box, self.P, self.rho = evaluate, box, P, float(rho)
         P0 = 0.5 * (P.mid[0] + P.mid[0].T)
         self.X = np.linalg.inv(np.linalg.cholesky(P0)).T
 
     def _forms(self, rows: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
         A = self.evaluate(rows)
-        theta, _ = _theta(self.box, rows, rows)
-        Pv = _centre_P(self.P, theta)
-        X = IMat.point(np.broadcast_to(self.X, A.shape).copy())
-        Y = IMat.point(A) @ X
-        M = ((X.T @ Pv @ X).scale(self.r2) - Y.T @ Pv @ Y).symmetric()
+        M = V.metric_form(A, V.affine_enclosure(self.P, _theta(self.box, rows)),
+                          np.broadcast_to(self.X, A.shape).copy(), self.rho)
         return list(zip(M.mid, M.rad))
 
     def __call__(self, points: np.ndarray) -> IMat:
@@ -291,9 +282,7 @@ def _cell_proofs(forms: _Forms, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndar
     Mv, Mc = forms(corners), forms(centre)
     # the allowance, and the margin every corner must clear beyond it (proven in the same decomposition)
     F = 2.0 * _psd_abs(Mc.mid - np.mean(Mv.mid, axis=1)) + BOX_MARGIN * np.eye(Mc.mid.shape[-1])
-    # both symmetric, so the difference is exactly symmetric; its one rounding per entry joins the radius
-    mid = Mv.mid - F[:, None]
-    shifted = IMat(mid, upward(Mv.rad + UNIT_ROUNDOFF * np.abs(mid), 2))
+    shifted = Mv - F[:, None]  # both symmetric, so the difference is exactly symmetric
     n = Mv.mid.shape[-1]
     proofs = prove_definite_batch(IMat(shifted.mid.reshape(k * nc, n, n), shifted.rad.reshape(k * nc, n, n)),
                                   refute=False, symmetric_checked=True)
@@ -381,19 +370,6 @@ def prove_box(evaluate: Callable[[np.ndarray], np.ndarray], box: ParameterBox, g
     return got
 
 
-def _centre_P(P: IMat, theta: np.ndarray) -> IMat:
-    """An enclosure of ``P(θ) = Q_0 + Σ_d θ_d Q_d`` at the rows of ``theta`` ``(k, 6)``.
-
-    The sum of ``q + 1`` products is formed in any order; its error is at most ``γ_{q+1} Σ|terms|`` (Higham §3.1),
-    and the coefficients' own radii propagate with ``|θ_d|``.
-    """
-    th = np.concatenate([np.ones((theta.shape[0], 1)), np.asarray(theta, float)], axis=1)
-    mid = np.einsum("kd,dij->kij", th, P.mid)
-    spread = np.einsum("kd,dij->kij", np.abs(th), np.abs(P.mid))
-    rad = np.einsum("kd,dij->kij", np.abs(th), P.rad) + gamma(th.shape[1] + 1) * spread
-    return IMat(mid, upward(rad, 2 * th.shape[1] + 2)).symmetric()
-
-
 def _with_slack(prove: Callable[[float], list[V.ProofRow]], rho: float) -> tuple[list[V.ProofRow], float]:
     """``prove(ρ + slack)`` at the first slack of :data:`RHO_SLACKS` (below 1) that proves every row."""
     rows, used = [], RHO_SLACKS[0]
@@ -413,15 +389,13 @@ def lyapunov_point_proofs(Pk: np.ndarray, A_v: np.ndarray, theta: np.ndarray, rh
     whole cube)."""
     P = V.affine_enclosure(Pk, theta)
     points, slack = _with_slack(lambda r: V.contraction(A_v, P, r), rho)
-    corners = prove_definite_batch(V.affine_corners(Pk), margin=True)
-    corner_rows = [V.ProofRow("P(theta) > 0", p.outcome, "verified-cholesky", p.shift, p.margin) for p in corners]
+    corners = V.rows_of("P(theta) > 0", prove_definite_batch(V.affine_corners(Pk), margin=True))
     return [V.summary(points, f"rho^2 P(theta) - A'P(theta)A > 0, rho = stated + {slack:g}", "LMI points"),
-            V.summary(corner_rows, "P(theta) > 0 on the theta-cube", "corners")]
+            V.summary(corners, "P(theta) > 0 on the theta-cube", "corners")]
 
 
 def grid_point_proofs(P: IMat, box: ParameterBox, points: np.ndarray, A_d: np.ndarray, rho: float) -> V.ProofRow:
     """The assembled ``P(θ)`` (:func:`full_affine_P`) at the grid points: ``(ρ + slack)²P - A_dᵀPA_d ≻ 0``."""
-    theta, _ = _theta(box, points, points)
-    Pg = _centre_P(P, theta)
+    Pg = V.affine_enclosure(P, _theta(box, points))
     rows, slack = _with_slack(lambda r: V.contraction(A_d, Pg, r), rho)
     return V.summary(rows, f"rho^2 P(theta) - A_d'P(theta)A_d > 0, rho = worst + {slack:g}", "grid points")

@@ -34,7 +34,7 @@ def decrease_enclosure(A: "IMat | np.ndarray", Bh: "IMat | np.ndarray", Kh: "IMa
     with the selectors ``X, ψ, ψ⁺`` of ``ξ``, ``X⁺ = [A, -Bh, 0]``, ``ν = K̂X``, ``ν⁺ = K̂X⁺`` and
     ``s = (ν⁺ - ψ⁺) - (ν - ψ)``.
     """
-    A, Bh, K = (x if isinstance(x, IMat) else IMat.point(np.asarray(x, float)) for x in (A, Bh, Kh))
+    A, Bh, K = (IMat.of(x) for x in (A, Bh, Kh))
     N, n, m = A.mid.shape[0], A.mid.shape[-1], Bh.mid.shape[-1]
     d = n + 2 * m
     zeros = np.zeros(Bh.mid.shape)
@@ -61,8 +61,7 @@ def decrease_enclosure(A: "IMat | np.ndarray", Bh: "IMat | np.ndarray", Kh: "IMa
 
 
 def _summary(proofs, text: str, where: str) -> V.ProofRow:
-    rows = [V.ProofRow(text, p.outcome, "verified-cholesky", p.shift, p.margin) for p in proofs]
-    return V.summary(rows, text, where)
+    return V.summary(V.rows_of(text, proofs), text, where)
 
 
 def lure_proofs(region: LureRegion, box: ParameterBox, lmi: Mapping[str, CascadeFamily], grid: CascadeFamily,

@@ -21,6 +21,7 @@ __all__ = [
     "norm",
     "ni_dissipation_matrix",
     "dissipation_residual",
+    "dissipation_scale",
     "certified_rate",
     "roa_decrease_matrix",
     "roa_inclusion_margin",
@@ -99,8 +100,12 @@ def dissipation_residual(P: np.ndarray, A: np.ndarray, B: np.ndarray, C: np.ndar
     A, B, C
         The system.
     """
-    M = ni_dissipation_matrix(P, A, B, C)
-    return eigmax(M) / max(norm(P) * norm(A), norm(A) * norm(C) * norm(B), norm(C) * norm(B), 1e-300)
+    return eigmax(ni_dissipation_matrix(P, A, B, C)) / dissipation_scale(P, A, B, C)
+
+
+def dissipation_scale(P: np.ndarray, A: np.ndarray, B: np.ndarray, C: np.ndarray) -> float:
+    """The scale :func:`dissipation_residual` is relative to: the largest norm product of its terms."""
+    return max(norm(P) * norm(A), norm(A) * norm(C) * norm(B), norm(C) * norm(B), 1e-300)
 
 
 def certified_rate(A: np.ndarray, P: np.ndarray) -> float:

@@ -27,7 +27,7 @@ from nniquad.analysis.verified.spd import FAILS, METHOD, NOT_PROVEN, PROVEN, Pro
 
 __all__ = ["ProofRow", "EXACT", "EXACT_MAX_DIM", "outcome_of", "definite", "definite_interval",
            "decay", "decay_interval", "below", "ni_dissipation", "roa_decrease", "contraction", "contraction_enclosure",
-           "diagonal_scaling", "summary", "affine_enclosure", "affine_corners"]
+           "metric_form", "rows_of", "diagonal_scaling", "summary", "affine_enclosure", "affine_corners"]
 
 #: Method name of the rational route.
 EXACT = "exact"
@@ -72,14 +72,28 @@ def _json_number(x: float) -> float | None:
     return float(x) if math.isfinite(x) else None
 
 
-def outcome_of(rows: Sequence[ProofRow]) -> str:
-    """``fails`` if any row fails, else ``not proven`` if any is not proven, else ``proven`` (no rows: ``proven``)."""
+def outcome_of(rows: Sequence[Any]) -> str:
+    """``fails`` if any row fails, else ``not proven`` if any is not proven, else ``proven`` (no rows: ``proven``).
+
+    Any records with an ``outcome`` (proof rows, or a verification's checks, whose ``pass`` counts as proven)."""
     outcomes = {r.outcome for r in rows}
     return FAILS if FAILS in outcomes else NOT_PROVEN if NOT_PROVEN in outcomes else PROVEN
 
 
 def _row(text: str, proof: Proof, where: str = "") -> ProofRow:
     return ProofRow(text, proof.outcome, METHOD, proof.shift, proof.margin, where)
+
+
+def rows_of(text: str, proofs: Sequence[Proof], where: Sequence[str] | None = None) -> list[ProofRow]:
+    """One row per proof of a stack, each with its place (``where``, one per proof) or none."""
+    return [_row(text, p, w) for p, w in zip(proofs, where if where is not None else [""] * len(proofs))]
+
+
+def _prove_rows(text: str, M: IMat, where: Sequence[str] | None) -> list[ProofRow]:
+    """``M ≻ 0`` for one matrix (its margin searched alone) or a stack (one row per matrix, the stack's margin)."""
+    if M.mid.ndim == 2:
+        return [_row(text, prove_definite(M))]
+    return rows_of(text, prove_definite_batch(M, margin=True), where)
 
 
 def _exact_row(text: str, M: FMatrix) -> ProofRow:
@@ -103,23 +117,15 @@ def definite(P: np.ndarray, text: str = "P > 0", *, exact: bool = False) -> list
 def definite_interval(P: IMat, text: str = "P > 0", where: Sequence[str] | None = None) -> list[ProofRow]:
     """``P ≻ 0`` for every matrix of an enclosure (an expression such as ``P0 + P1/m``); on a stack, one row per
     matrix (with one ``where`` each)."""
-    if P.mid.ndim == 2:
-        return [_row(text, prove_definite(P.symmetric()))]
-    proofs = prove_definite_batch(P.symmetric(), margin=True)
-    return [_row(text, p, w) for p, w in zip(proofs, where if where is not None else [""] * len(proofs))]
+    return _prove_rows(text, P.symmetric(), where)
 
 
 def decay_interval(A: "IMat | np.ndarray", P: "IMat | np.ndarray", eps: float,
                    text: str = "-(A'P + PA + eps P) > 0", where: Sequence[str] | None = None) -> list[ProofRow]:
     """``-(AᵀP + PA + εP) ≻ 0`` for every ``A`` and ``P`` of their enclosures; on a stack ``(k, n, n)`` (with one
     ``where`` per matrix) one row per matrix."""
-    Ai = A if isinstance(A, IMat) else IMat.point(np.asarray(A, float))
-    Pi = P if isinstance(P, IMat) else IMat.point(np.asarray(P, float))
-    M = (-(Ai.T @ Pi + Pi @ Ai + Pi.scale(eps))).symmetric()
-    if M.mid.ndim == 2:
-        return [_row(text, prove_definite(M))]
-    proofs = prove_definite_batch(M, margin=True)
-    return [_row(text, p, w) for p, w in zip(proofs, where if where is not None else [""] * len(proofs))]
+    Ai, Pi = IMat.of(A), IMat.of(P)
+    return _prove_rows(text, (-(Ai.T @ Pi + Pi @ Ai + Pi.scale(eps))).symmetric(), where)
 
 
 def decay(A: np.ndarray, P: np.ndarray, eps: float, text: str = "-(A'P + PA + eps P) > 0", *,
@@ -183,16 +189,20 @@ def contraction_enclosure(A: "IMat | np.ndarray", P: "IMat | np.ndarray", rho: f
     ``P`` mixes states in units twelve orders of magnitude apart).  Where ``P``'s midpoint does not factor, a
     diagonal scaling by powers of two stands in.  ``ρ²`` is rounded down.
     """
-    Ai = A if isinstance(A, IMat) else IMat.point(np.asarray(A, float))
-    Pi = P if isinstance(P, IMat) else IMat.point(np.asarray(P, float))
+    Pi = IMat.of(P)
     mid = 0.5 * (Pi.mid + np.swapaxes(Pi.mid, -1, -2))
-    d = diagonal_scaling(mid)
     try:
         X = np.swapaxes(np.linalg.inv(np.linalg.cholesky(mid)), -1, -2)
     except np.linalg.LinAlgError:
-        X = d[..., :, None] * np.eye(mid.shape[-1])
-    Xi = IMat.point(X)
-    Y = Ai @ Xi
+        X = diagonal_scaling(mid)[..., :, None] * np.eye(mid.shape[-1])
+    return metric_form(A, Pi, X, rho)
+
+
+def metric_form(A: "IMat | np.ndarray", P: "IMat | np.ndarray", X: np.ndarray, rho: float) -> IMat:
+    """An enclosure of ``Xᵀ(ρ²P - AᵀPA)X`` for a float metric ``X`` (any nonsingular one keeps definiteness; a
+    proven ``XᵀMX ≻ 0`` implies that ``X`` is nonsingular), with ``ρ²`` rounded down; stacks allowed."""
+    Pi, Xi = IMat.of(P), IMat.point(X)
+    Y = IMat.of(A) @ Xi
     r2 = float(downward(float(rho) * float(rho)))
     return ((Xi.T @ Pi @ Xi).scale(r2) - Y.T @ Pi @ Y).symmetric()
 
@@ -210,9 +220,7 @@ def contraction(A: "IMat | np.ndarray", P: "IMat | np.ndarray", rho: float, text
 
     One row per matrix (:func:`contraction_enclosure`).
     """
-    proofs = prove_definite_batch(contraction_enclosure(A, P, rho), margin=True)
-    labels = list(where) if where is not None else [""] * len(proofs)
-    return [_row(text, p, w) for p, w in zip(proofs, labels)]
+    return rows_of(text, prove_definite_batch(contraction_enclosure(A, P, rho), margin=True), where)
 
 
 def summary(rows: Sequence[ProofRow], text: str, where: str) -> ProofRow:
@@ -227,13 +235,22 @@ def summary(rows: Sequence[ProofRow], text: str, where: str) -> ProofRow:
     return replace(low, inequality=text, where=f"all {len(rows)} {where}")
 
 
-def affine_enclosure(Pk: np.ndarray, theta: np.ndarray) -> IMat:
-    """``P(θ) = P_0 + Σ_j θ_j P_j`` at every row of ``theta`` ``(k, q)``, enclosed (stack ``(k, n, n)``)."""
-    Pk = np.asarray(Pk, float)
+def affine_enclosure(Pk: "IMat | np.ndarray", theta: np.ndarray) -> IMat:
+    """``P(θ) = P_0 + Σ_j θ_j P_j`` at every row of ``theta`` ``(k, q)``, enclosed (stack ``(k, n, n)``).
+
+    The coefficients ``Pk`` ``(q + 1, n, n)`` may be enclosures themselves; each term and each partial sum is
+    enclosed in turn (:class:`IMat`), which keeps the radius at the size of the partial sums, not of the terms.
+    """
+    Q = IMat.of(Pk)
     th = np.atleast_2d(np.asarray(theta, float))
-    out = IMat.point(np.broadcast_to(Pk[0], (th.shape[0],) + Pk.shape[1:]).copy())
-    for j in range(Pk.shape[0] - 1):
-        out = out + IMat.point(np.broadcast_to(Pk[j + 1], out.mid.shape).copy()).times(th[:, j])
+    shape = (th.shape[0],) + Q.mid.shape[1:]
+
+    def coefficient(j: int) -> IMat:
+        return IMat(np.broadcast_to(Q.mid[j], shape).copy(), np.broadcast_to(Q.rad[j], shape).copy())
+
+    out = coefficient(0)
+    for j in range(Q.mid.shape[0] - 1):
+        out = out + coefficient(j + 1).times(th[:, j])
     return out.symmetric()
 
 

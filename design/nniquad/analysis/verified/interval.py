@@ -43,6 +43,11 @@ class IMat:
         return cls(M, np.zeros_like(M))
 
     @classmethod
+    def of(cls, x: "IMat | np.ndarray") -> "IMat":
+        """``x`` itself if it is an :class:`IMat`, else the exact floating-point matrix ``x``."""
+        return x if isinstance(x, IMat) else cls.point(np.asarray(x, dtype=float))
+
+    @classmethod
     def around(cls, M: np.ndarray, radius: np.ndarray) -> "IMat":
         """``M ± radius`` (a stated uncertainty, e.g. the enclosure of a matrix over a parameter cell)."""
         M = np.asarray(M, dtype=float)
@@ -54,13 +59,8 @@ class IMat:
         """The transpose (exact)."""
         return IMat(np.swapaxes(self.mid, -1, -2), np.swapaxes(self.rad, -1, -2))
 
-    @property
-    def magnitude(self) -> np.ndarray:
-        """An upper bound of ``|X|`` over the set: ``|mid| + rad`` (rounded up)."""
-        return upward(np.abs(self.mid) + self.rad, 1)
-
     def __add__(self, other: "IMat | np.ndarray") -> "IMat":
-        o = _as_imat(other)
+        o = IMat.of(other)
         mid = self.mid + o.mid
         return IMat(mid, upward(self.rad + o.rad + UNIT_ROUNDOFF * np.abs(mid), 3))
 
@@ -68,7 +68,7 @@ class IMat:
         return IMat(-self.mid, self.rad)
 
     def __sub__(self, other: "IMat | np.ndarray") -> "IMat":
-        return self + (-_as_imat(other))
+        return self + (-IMat.of(other))
 
     def scale(self, s: float) -> "IMat":
         """``s X`` for a floating-point scalar ``s`` (exact as given)."""
@@ -95,7 +95,7 @@ class IMat:
                     self.rad * d[..., :, None] * e[..., None, :] + ETA)
 
     def __matmul__(self, other: "IMat | np.ndarray") -> "IMat":
-        o = _as_imat(other)
+        o = IMat.of(other)
         k = self.mid.shape[-1]
         mid = self.mid @ o.mid
         a, b = np.abs(self.mid), np.abs(o.mid)
@@ -124,7 +124,3 @@ class IMat:
     def contains(self, X: np.ndarray) -> bool:
         """Whether the floating-point matrix ``X`` lies in the set (a test aid)."""
         return bool(np.all(np.abs(np.asarray(X, float) - self.mid) <= self.rad))
-
-
-def _as_imat(x: "IMat | np.ndarray") -> IMat:
-    return x if isinstance(x, IMat) else IMat.point(np.asarray(x, dtype=float))

@@ -75,14 +75,6 @@ class Proof:
     def to_json(self) -> dict[str, Any]:
         return {"outcome": self.outcome, "method": METHOD, "shift": self.shift, "margin": self.margin}
 
-    def text(self) -> str:
-        """One phrase for a check's detail line."""
-        if self.outcome == PROVEN:
-            return f"proven by verified Cholesky (shift {self.shift:.2g}, margin {self.margin:.3g})"
-        if self.outcome == FAILS:
-            return f"fails: a vector with x'Mx <= {self.form_upper:.3g} (proven, scaled)"
-        return f"not proven (the margin is below the rounding shift {self.shift:.2g})"
-
 
 def _power_of_two_scaling(d: np.ndarray) -> np.ndarray:
     """``2^-ceil(log2(d)/2)``: ``s² d`` lies in ``[1/4, 1)`` and scaling by ``s`` is exact."""
@@ -134,9 +126,10 @@ def _prepare(mid: np.ndarray, rad: np.ndarray) -> tuple[np.ndarray, np.ndarray, 
     eye = np.eye(n, dtype=bool)
     d_low = downward(np.diagonal(mid, axis1=1, axis2=2) - np.diagonal(rad, axis1=1, axis2=2))
     ok = np.all(d_low > 0, axis=1)
-    s = _power_of_two_scaling(np.where(d_low > 0, d_low, 1.0))
+    d_pos = np.where(d_low > 0, d_low, 1.0)  # a placeholder where the matrix is refused anyway
+    s = _power_of_two_scaling(d_pos)
     S = s[:, :, None] * s[:, None, :]
-    Ms = np.where(eye, (np.where(d_low > 0, d_low, 1.0) * s * s)[:, :, None] * eye, mid * S)
+    Ms = np.where(eye, (d_pos * s * s)[:, :, None] * eye, mid * S)
     Rs = np.where(eye, 0.0, rad * S + ETA)  # exact scaling by powers of two; an underflow costs at most η
     r_norm = np.max(upward(np.sum(Rs, axis=2), n), axis=1)  # ρ(R) <= ‖R‖∞ for R >= 0
     g = np.array([gamma(i + 2) for i in range(n)])
@@ -162,7 +155,7 @@ def prove_definite(A: "IMat | np.ndarray", radius: np.ndarray | None = None, *, 
     margin
         Also search the proven margin (a few more factorisations).
     """
-    X = A if isinstance(A, IMat) else IMat.point(A)
+    X = IMat.of(A)
     mid = np.asarray(X.mid, dtype=float)
     rad = np.asarray(X.rad, dtype=float) + (0.0 if radius is None else np.abs(np.asarray(radius, dtype=float)))
     if mid.ndim != 2 or mid.shape[0] != mid.shape[1]:
@@ -179,7 +172,7 @@ def prove_definite_batch(A: "IMat | np.ndarray", *, margin: bool = False, refute
     refines such cells instead).  ``symmetric_checked``: the caller built the midpoints exactly symmetric (a
     difference or :meth:`IMat.symmetric` of symmetric matrices), and the check is skipped.
     """
-    X = A if isinstance(A, IMat) else IMat.point(np.asarray(A, dtype=float))
+    X = IMat.of(A)
     mid, rad = np.asarray(X.mid, dtype=float), np.asarray(X.rad, dtype=float)
     if mid.ndim != 3 or mid.shape[1] != mid.shape[2] or rad.shape != mid.shape:
         raise ValueError(f"a stack of square matrices is needed, got shapes {mid.shape} and {rad.shape}")
