@@ -19,14 +19,14 @@ import pytest
 from nniquad.analysis.sampled import zoh
 from nniquad.certificates import (Certificate, build_certificate, canonical_digest, certificate_gains,
                                   verify_certificate, write_certificate)
-from nniquad.certificates.export import START_NAME, STEP_NAME, controller_from_certificate
+from nniquad.certificates.export import controller_from_certificate
 from nniquad.laws.sni2 import SNI2Gains
 from nniquad.laws.sni2 import controller_matrices, sni2_from_nni
 from nniquad.errors import CertificateError, NniquadError
 from nniquad.model.vehicle import PAPER_VEHICLE as V
 from nniquad.sim import SimOptions, simulate
 from tests.test_certificate import GAINS, INNER, SMALL_BOX
-from tests.test_export import README_MAIN, _readme_c_block
+from tests.test_export import DOC_PREFIX, README_MAIN, _readme_c_block
 
 #: The test design of test_certificate in the sni2 law: the NNI law behind a low-pass 34 times faster than its pole
 #: (sni2_from_nni at zeta = 3), DC loop gain 0.799 (paper class); it certifies over SMALL_BOX.
@@ -169,17 +169,17 @@ def test_json_export_states_the_exact_discretisation(doc, tmp_path, run_cli):
 @pytest.mark.skipif(shutil.which("gcc") is None, reason="needs the system C compiler")
 def test_readme_flight_stack_snippet_flies_the_sni2_controller(doc, tmp_path, run_cli):
     """The docs' C position task (docs/export.md), compiled as written against an sni2 export, gives the Python controller's
-    tilt set points from its take-over state (nniquad_nni_start), to 1e-12."""
+    tilt set points from its take-over state (the export's start), to 1e-12."""
     path = write_certificate(doc, tmp_path / "c.json")
-    code, _, err = run_cli("export", str(path), "--format", "c", "--out", str(tmp_path))
+    code, _, err = run_cli("export", str(path), "--format", "c", "--prefix", DOC_PREFIX, "--out", str(tmp_path))
     assert code == 0, err
-    header = (tmp_path / f"{STEP_NAME}.h").read_text()
-    assert "#define NNIQUAD_STATE_SIZE 4" in header and START_NAME in header
+    header = (tmp_path / f"{DOC_PREFIX}.h").read_text()
+    assert f"#define {DOC_PREFIX.upper()}_STATE_SIZE 4\n" in header
     (tmp_path / "task.c").write_text(_readme_c_block())
     (tmp_path / "main.c").write_text(README_MAIN)
     exe = tmp_path / "task"
     subprocess.run(["gcc", "-std=c99", "-Wall", "-Werror", "-O2", "-o", str(exe), str(tmp_path / "main.c"),
-                    str(tmp_path / "task.c"), str(tmp_path / f"{STEP_NAME}.c"), "-lm"],
+                    str(tmp_path / "task.c"), str(tmp_path / f"{DOC_PREFIX}.c"), "-lm"],
                    check=True, capture_output=True, cwd=tmp_path)
     tr = simulate(V, SNI2_GAINS, SimOptions(model="reduced", horizon_s=2.0, output_dt_s=0.01, sample_hold=True))[0]
     rng = np.random.default_rng(5)

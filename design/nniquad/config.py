@@ -20,6 +20,7 @@ __all__ = [
     "OUTPUT_DT_S",
     "MASS_RANGE_FRACTION",
     "CONTROL_RATE_HZ",
+    "EXPORT_POSITION_ERROR_LIMIT_M",
     "REQUIRED_GM_DB",
     "REQUIRED_PM_DEG",
     "TAU_MOTOR_FACTOR_RANGE",
@@ -74,6 +75,10 @@ OUTPUT_DT_S: float = 0.01
 MASS_RANGE_FRACTION: tuple[float, float] = (0.8, 1.2)
 #: Control rate = position sample rate [Hz] of the sampled-data loop and of the exported controller.
 CONTROL_RATE_HZ: float = 100.0
+#: The exported C step scales a larger position error down to this norm [m] (direction kept) before the law: a
+#: glitch then cannot overflow the command or wind the controller state up for minutes.  Far beyond any certified
+#: reach, so the law inside it is exactly the certified one.
+EXPORT_POSITION_ERROR_LIMIT_M: float = 1000.0
 #: Required gain margin [dB], both ways (gain increase and reduction); flight-control practice (MIL-F-9490D).
 REQUIRED_GM_DB: float = 6.0
 #: Required phase margin [deg]; flight-control practice (MIL-F-9490D).

@@ -193,7 +193,7 @@ class DiscreteLaw:
         """One step in numpy: ``(z_next, a_h, (φ_d, θ_d))`` (see :data:`STEP_OUTPUTS`)."""
         z, xi = np.asarray(z, float), np.asarray(xi, float)
         a = self.C @ z + self.D @ xi
-        g_z = max(self.g - a_z, IL.G_Z_MIN_FRACTION * self.g)
+        g_z = float(IL.vertical_specific_force(self.g, a_z))
         limit = g_z * math.tan(self.tilt_limit_rad)
         norm = float(np.hypot(a[0], a[1]))
         a = a * (limit / max(norm, limit))
@@ -234,7 +234,7 @@ class DiscreteLaw:
         """
         z, xi, psi, a_z = (ca.SX.sym(n, k) for n, k, _, _ in self.step_inputs)
         a = ca.mtimes(ca.DM(self.C), z) + ca.mtimes(ca.DM(self.D), xi)
-        g_z = ca.fmax(self.g - a_z, IL.G_Z_MIN_FRACTION * self.g)
+        g_z = IL.vertical_specific_force(self.g, a_z)
         a = IL.limit_norm(a, g_z * math.tan(self.tilt_limit_rad))
         phi_d, theta_d, _ = IL.tilt_setpoints(a, g_z, psi)
         z_next = ca.mtimes(ca.DM(self.A), z) + ca.mtimes(ca.DM(self.B), xi)

@@ -104,6 +104,7 @@ allocated collective: the vehicle falls ("altitude lost").
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import casadi as ca
 
@@ -119,6 +120,7 @@ __all__ = [
     "attitude_motor_lag_limit",
     "attitude_wn_limit",
     "G_Z_MIN_FRACTION",
+    "vertical_specific_force",
     "ATTITUDE_RESERVE_FRACTION",
     "TILT_COMPENSATION_MIN_COS",
 ]
@@ -167,6 +169,17 @@ def altitude_command(z: ca.SX, z_dot: ca.SX, z_int: ca.SX, wn: ca.SX) -> ca.SX:
     Closed-loop characteristic polynomial ``(s + ω_z)^3`` for a double integrator.
     """
     return -(3 * wn**2) * z - (3 * wn) * z_dot - wn**3 * z_int
+
+
+def vertical_specific_force(g: Any, a_z: Any) -> Any:
+    """The vertical specific force the thrust must give, ``g_z = max(g - a_z, G_Z_MIN_FRACTION g)`` [m/s²].
+
+    ``a_z`` is the altitude loop's vertical acceleration command (NED, positive
+    down); the clamp keeps the thrust above :data:`G_Z_MIN_FRACTION` of hover, so
+    the tilt limit ``g_z tan(T_lim)`` and the setpoints stay defined.  Numbers in,
+    a number out; CasADi symbols in, a symbol out.
+    """
+    return ca.fmax(g - a_z, G_Z_MIN_FRACTION * g)
 
 
 def limit_norm(a: ca.SX, limit: ca.SX) -> ca.SX:
