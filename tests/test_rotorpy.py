@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +18,7 @@ from scipy.spatial.transform import Rotation
 
 from nniquad.certificates.certificate import PERFORMANCE_OUTPUT_DT_S, read_certificate
 from nniquad.certificates.export import certified_rate_hz, controller_from_certificate
+from nniquad.errors import NniquadError
 from nniquad.model.layout import PARAM_NAMES
 from nniquad.model.vehicle import Vehicle
 from nniquad.sim import SimOptions, simulate
@@ -164,3 +166,23 @@ def test_rotorpy_default_attitude_gains_break_the_match():
     ours = _project_settling(cert)
     flight = fly_certificate(cert, horizon_s=HORIZON_S, attitude="rotorpy-default", sim_rate_hz=SIM_RATE_HZ)
     assert flight.settling_s is None or flight.settling_s > (1 + 10 * SETTLING_RTOL) * ours
+
+
+def test_take_over_at_any_time_and_refuse_a_missed_sample():
+    cert = read_certificate(NNI)
+    ctrl = RotorPyController(cert)
+    T = ctrl.law.T
+    state = {"x": np.array([1.0, 0.5, 0.0]), "v": np.zeros(3), "q": np.array([0.0, 0.0, 0.0, 1.0]), "w": np.zeros(3)}
+    flat = {"x": np.zeros(3), "yaw": 0.0}
+    first = ctrl.update(7.0, state, flat)["cmd_q"]  # takes over at t = 7 s: samples at 7, 7 + T, ...
+    moved = {**state, "x": np.array([-1.0, 0.0, 0.0])}
+    np.testing.assert_array_equal(ctrl.update(7.0 + T / 2, moved, flat)["cmd_q"], first)  # held between samples
+    assert not np.array_equal(ctrl.update(7.0 + T, moved, flat)["cmd_q"], first)
+    with pytest.raises(NniquadError, match="at least at the control rate"):
+        ctrl.update(7.0 + 3 * T, moved, flat)
+
+
+def test_a_missing_rotorpy_is_one_line(monkeypatch):
+    monkeypatch.setitem(sys.modules, "rotorpy", None)
+    with pytest.raises(NniquadError, match=r"pip install 'rotorpy==3\.0\.0'"):
+        fly_certificate(read_certificate(NNI), horizon_s=1.0)

@@ -235,6 +235,9 @@ class RotorPyController:
     def update(self, t: float, state: Mapping[str, Any], flat_output: Mapping[str, Any]) -> dict[str, Any]:
         """RotorPy's controller call: the commands for ``state`` at time ``t`` [s].
 
+        The first call takes over (the law's start state for the measured
+        position); the law then steps on the first call at or after each
+        sample instant, which RotorPy must reach at least once per period.
         Reads ``state['x']``, ``state['q']``, ``state['w']`` and the vertical
         component of ``state['v']``; the setpoint is ``flat_output['x']`` and
         ``flat_output['yaw']``.
@@ -248,11 +251,15 @@ class RotorPyController:
         self._t_last = t
         g = self.vehicle.g
         a_z = float(IL.altitude_command(err[2], v_down, self._z_int, self.inner.altitude_wn_rad_s))
-        if self._z is None:
-            self._z = self.law.start(err[:2])
-        if t >= self._next_sample_s - 1e-9 * self.law.T:
+        T = self.law.T
+        if self._z is None:  # take-over: the law's start state, and its sample grid from now
+            self._z, self._next_sample_s = self.law.start(err[:2]), t
+        if t >= self._next_sample_s - 1e-9 * T:
+            if t >= self._next_sample_s + T * (1 - 1e-9):
+                raise NniquadError(f"RotorPy called the controller {t - self._next_sample_s + T:.6g} s after its last "
+                                   f"sample: step RotorPy at least at the control rate ({1 / T:g} Hz)")
             self._z, _, self._tilt_sp = self.law.step(self._z, err[:2], psi, a_z)
-            self._next_sample_s += self.law.T
+            self._next_sample_s += T
         # the collective of inner_loops item 2: the hover thrust of g_z, tilt-compensated (capped)
         g_z = max(g - a_z, IL.G_Z_MIN_FRACTION * g)
         thrust = self.vehicle.m * g_z / max(R[2, 2], IL.TILT_COMPENSATION_MIN_COS)
@@ -267,7 +274,7 @@ class RotorPyController:
         """The project's attitude torques (FRD) for the held setpoints, moved to the FLU body."""
         psi, theta, phi = Rotation.from_matrix(R).as_euler("ZYX")
         inner, v = self.inner, self.vehicle
-        tau = IL.attitude_torques(np.array([phi, theta, psi - psi_d]), between_frames(w_flu), self._tilt_sp[0],
+        tau = IL.attitude_torques(np.array([phi, theta, math.remainder(psi - psi_d, 2 * math.pi)]), between_frames(w_flu), self._tilt_sp[0],
                                   self._tilt_sp[1], (v.Jx, v.Jy, v.Jz), inner.attitude_wn_rad_s, inner.attitude_zeta,
                                   inner.yaw_wn_rad_s, inner.yaw_zeta, inner.attitude_gain_scale,
                                   inner.attitude_accel_limit_rad_s2)
