@@ -70,7 +70,7 @@ from nniquad.config import CONTROL_RATE_HZ, DT_S
 from nniquad.control import inner_loops as IL
 from nniquad.errors import NniquadError
 from nniquad.model.layout import PARAM_NAMES
-from nniquad.sim.metrics import settling_time
+from nniquad.sim.metrics import overshoot_pct, settling_time
 
 if TYPE_CHECKING:
     from nniquad.control.inner_gains import InnerLoopGains
@@ -314,6 +314,11 @@ class RotorPyFlight:
     def settling_s(self) -> float | None:
         """The 2 % settling time (:func:`nniquad.sim.metrics.settling_time`), ``None`` if it did not settle."""
         return settling_time(self.t, self.xy)
+
+    @property
+    def overshoot_pct(self) -> float:
+        """The overshoot past the setpoint along the start direction [%] (:func:`nniquad.sim.metrics.overshoot_pct`)."""
+        return overshoot_pct(self.t, self.xy)
 
 
 def fly_certificate(cert: "Certificate | Mapping[str, Any]", *, horizon_s: float, attitude: str = "rotorpy",
