@@ -173,7 +173,7 @@ def quad_params(vehicle: "Vehicle", inner: "InnerLoopGains | None" = None) -> di
     params: dict[str, Any] = {
         "mass": vehicle.m, "Ixx": vehicle.Jx, "Iyy": vehicle.Jy, "Izz": vehicle.Jz, "Ixy": 0.0, "Ixz": 0.0, "Iyz": 0.0,
         "num_rotors": len(spins), "rotor_pos": {f"r{i + 1}": between_frames(p) for i, p in enumerate(pos)},
-        "rotor_directions": spins.copy(), "rotor_radius": 0.0,
+        "rotor_directions": spins.copy(),
         "c_Dx": 0.0, "c_Dy": 0.0, "c_Dz": 0.0, "k_d": 0.0, "k_z": 0.0, "k_h": 0.0, "k_flap": 0.0,
         "k_eta": vehicle.b, "k_m": vehicle.d, "tau_m": vehicle.tau_motor, "motor_noise_std": 0.0,
         "rotor_speed_min": 0.0, "rotor_speed_max": vehicle.omega_max,
