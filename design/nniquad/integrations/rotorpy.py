@@ -65,8 +65,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from nniquad.certificates.certificate import Certificate
-from nniquad.certificates.export import certified_rate_hz, controller_from_certificate
-from nniquad.config import CONTROL_RATE_HZ, DT_S
+from nniquad.certificates.export import controller_from_certificate, export_rate_hz
+from nniquad.config import DT_S
 from nniquad.control import inner_loops as IL
 from nniquad.errors import NniquadError
 from nniquad.model.layout import PARAM_NAMES
@@ -214,7 +214,7 @@ class RotorPyController:
             raise NniquadError(f"unknown attitude mode {attitude!r} (choose one of {', '.join(ATTITUDE_MODES)})")
         self.cert = _typed(cert)
         self.attitude = attitude
-        rate = rate_hz if rate_hz is not None else (certified_rate_hz(self.cert) or CONTROL_RATE_HZ)
+        rate = export_rate_hz(self.cert, rate_hz)
         self.law = controller_from_certificate(self.cert, rate)
         self.vehicle, self.inner = self.cert.vehicle, self.cert.inner_loop
         self.control_abstraction = "cmd_ctbm" if attitude == "certificate" else "cmd_ctatt"
@@ -261,7 +261,7 @@ class RotorPyController:
             self._z, _, self._tilt_sp = self.law.step(self._z, err[:2], psi, a_z)
             self._next_sample_s += T
         # the collective of inner_loops item 2: the hover thrust of g_z, tilt-compensated (capped)
-        g_z = max(g - a_z, IL.G_Z_MIN_FRACTION * g)
+        g_z = float(IL.vertical_specific_force(g, a_z))
         thrust = self.vehicle.m * g_z / max(R[2, 2], IL.TILT_COMPENSATION_MIN_COS)
         psi_d = -float(flat_output.get("yaw", 0.0))
         phi_d, theta_d = self._tilt_sp
