@@ -103,7 +103,7 @@ def test_full_rk4_matches_solve_ivp(lag):
         assert np.max(w) == pytest.approx(V.omega_max) or np.min(w) == pytest.approx(0.0, abs=1e-9)
     P = SimParams.from_options(V, PAPER_GAINS, o).vector()
     f = sim.rhs_function("full")
-    e = np.zeros(5)
+    e = np.zeros(len(sim.EXO_FIELDS))
     sol = solve_ivp(lambda t, x: np.asarray(f(x, e, P)).ravel(), (0, 4.0), tr.state[0], method="DOP853",
                     rtol=1e-11, atol=1e-12, t_eval=tr.t)
     assert sol.success
@@ -288,7 +288,7 @@ def test_simulated_settling_matches_independent_fine_grid():
 def test_noise_is_seeded_sampled_and_held():
     o = SimOptions(model="linear", horizon_s=1.0, noise_sigma_m=0.01, noise_rate_hz=50.0)
     E = sim.exogenous_inputs(o)
-    assert E.shape == (1000, 5) and np.count_nonzero(E[:, 2]) == 50  # a new sample every 20 steps
+    assert E.shape == (1000, len(sim.EXO_FIELDS)) and np.count_nonzero(E[:, 2]) == 50  # a new sample every 20 steps
     assert np.all(E[1:20, 0] == E[0, 0]) and E[20, 0] != E[0, 0]
     np.testing.assert_array_equal(E, sim.exogenous_inputs(o))
     assert not np.array_equal(E, sim.exogenous_inputs(o.with_(seed=1)))

@@ -58,11 +58,15 @@ __all__ = [
     "check_controller",
 ]
 
-#: Per-step exogenous input ``e``: position noise [m], sample flag, gust force [N].  The sample flag is
+#: Per-step exogenous input ``e``: position noise [m], sample flag, gust force [N], and the reference the
+#: controller reads: position ``ξ_d`` [m], velocity ``ξ̇_d`` [m/s] (read only by a law that measures the
+#: velocity) and the acceleration feedforward ``a_ff`` [m/s²] (zero without feedforward).  The sample flag is
 #: 0 between samples, 1 at the first sample of a run (the measurement is latched) and 2 at every later
 #: sample (the discrete controller first advances one period on the previous held value, then the
-#: measurement is latched); the continuous and held variants treat 1 and 2 alike.
-EXO_FIELDS: tuple[str, ...] = ("noise_x", "noise_y", "sample_flag", "gust_x", "gust_y")
+#: measurement is latched); the continuous and held variants treat 1 and 2 alike.  The reference is
+#: an input, not a parameter, so one compiled function serves every reference (and none: zeros).
+EXO_FIELDS: tuple[str, ...] = ("noise_x", "noise_y", "sample_flag", "gust_x", "gust_y",
+                               "ref_x", "ref_y", "ref_vx", "ref_vy", "ff_x", "ff_y")
 
 
 def state_names(model: str, controller: str = "nni") -> tuple[str, ...]:
