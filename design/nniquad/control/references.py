@@ -22,6 +22,8 @@ Types
 :class:`FigureEight`
     ``ξ_d = (A_x sin ωt, A_y sin 2ωt)``, ``ω = 2π/T``: through the origin, north extent
     ``±A_x``, east extent ``±A_y`` (``A_x``, ``A_y`` are amplitudes).
+:class:`TimeShifted`
+    Another reference from a later time on, ``ξ_d(t + t_0)`` (a run that takes over mid-way).
 
 Before its first time a reference holds its start, after its last time its end
 (the periodic ones run on).  Files and specs (``circle:R,T``, ``figure8:AX,AY,T``,
@@ -39,7 +41,7 @@ import numpy as np
 from nniquad.errors import InputError
 from nniquad.validate import finite_number
 
-__all__ = ["Reference", "SetpointSteps", "MinimumJerk", "Circle", "FigureEight", "Samples"]
+__all__ = ["Reference", "SetpointSteps", "MinimumJerk", "Circle", "FigureEight", "TimeShifted", "Samples"]
 
 #: ``(position, velocity, acceleration)``, each ``(N, 2)`` [m, m/s, m/s²].
 Samples = tuple[np.ndarray, np.ndarray, np.ndarray]
@@ -297,3 +299,46 @@ class FigureEight(Reference):
 
     def jerk(self, t: Any) -> np.ndarray:
         return self._harmonics(t, 3)
+
+
+@dataclass(frozen=True)
+class TimeShifted(Reference):
+    """``reference`` from ``offset_s`` on: ``ξ_d(t) = reference(t + offset_s)``.
+
+    Attributes
+    ----------
+    reference
+        The reference shifted.
+    offset_s
+        The shift [s].
+    spec
+        How it was given.
+    """
+
+    reference: Reference
+    offset_s: float
+    spec: str = ""
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.reference, Reference):
+            raise InputError(f"a time shift needs a Reference, got {type(self.reference).__name__}")
+        object.__setattr__(self, "offset_s", finite_number("time shift", self.offset_s, error=InputError))
+
+    def sample(self, t: Any) -> Samples:
+        return self.reference.sample(_times(t) + self.offset_s)
+
+    def jerk(self, t: Any) -> np.ndarray:
+        return self.reference.jerk(_times(t) + self.offset_s)
+
+    @property
+    def waypoints(self) -> tuple[np.ndarray, np.ndarray] | None:
+        wp = self.reference.waypoints
+        return None if wp is None else (wp[0] - self.offset_s, wp[1])
+
+    @property
+    def end_s(self) -> float:
+        return self.reference.end_s - self.offset_s
+
+    def to_json(self) -> dict[str, Any]:
+        return {"type": "TimeShifted", "spec": self.spec, "offset_s": self.offset_s,
+                "reference": self.reference.to_json()}
