@@ -167,3 +167,24 @@ def test_arrivals_on_a_constructed_run():
     assert arrivals(t, xy2, ref)[0].arrival_s == pytest.approx(4.9)
     xy2[t >= 4.95] += [0.1, 0.0]  # never back in the band before the reference leaves
     assert arrivals(t, xy2, ref)[0].arrival_s is None
+
+
+def test_the_feedforward_is_read_with_the_measurement_and_its_lead():
+    """Sampled at 50 Hz: every step carries the reference at the last sample instant and the acceleration
+    ``lead`` after it; continuous: at the middle of each step."""
+    from nniquad.sim import EXO_FIELDS, exogenous_inputs
+
+    col = {n: EXO_FIELDS.index(n) for n in EXO_FIELDS}
+    o = SimOptions(model="reduced", horizon_s=0.5, reference=EIGHT, feedforward=True, feedforward_lead_s=0.07,
+                   controller_sampling="held", noise_rate_hz=50.0)
+    E = exogenous_inputs(o)
+    t = np.arange(E.shape[0]) * o.dt_s
+    sample = np.floor(t * 50.0 + 1e-9) / 50.0
+    p, v, _ = EIGHT.sample(sample)
+    np.testing.assert_array_equal(E[:, [col["ref_x"], col["ref_y"]]], p)
+    np.testing.assert_array_equal(E[:, [col["ref_vx"], col["ref_vy"]]], v)
+    np.testing.assert_array_equal(E[:, [col["ff_x"], col["ff_y"]]], EIGHT.sample(sample + 0.07)[2])
+    E = exogenous_inputs(o.with_(controller_sampling="continuous", feedforward_lead_s=0.0))
+    np.testing.assert_allclose(E[:, [col["ff_x"], col["ff_y"]]], EIGHT.sample(t + 0.5 * o.dt_s)[2], rtol=0, atol=1e-15)
+    with pytest.raises(SimulationError, match="lead needs the feedforward"):
+        o.with_(feedforward=False)

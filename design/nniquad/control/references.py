@@ -41,7 +41,7 @@ import numpy as np
 from nniquad.errors import InputError
 from nniquad.validate import finite_number
 
-__all__ = ["Reference", "SetpointSteps", "MinimumJerk", "Circle", "FigureEight", "TimeShifted", "Samples"]
+__all__ = ["Reference", "Schedule", "SetpointSteps", "MinimumJerk", "Circle", "FigureEight", "TimeShifted", "Samples"]
 
 #: ``(position, velocity, acceleration)``, each ``(N, 2)`` [m, m/s, m/s²].
 Samples = tuple[np.ndarray, np.ndarray, np.ndarray]
@@ -128,54 +128,13 @@ def _check_schedule(times: Sequence[float], points: Sequence[Sequence[float]], w
 
 
 @dataclass(frozen=True)
-class SetpointSteps(Reference):
-    """Setpoint ``points[i]`` from ``times[i]`` on; ``points[0]`` before (module docstring).
+class Schedule(Reference):
+    """A reference through waypoints at given times (what :class:`SetpointSteps` and :class:`MinimumJerk` share).
 
     Attributes
     ----------
     times
-        Switching times [s], increasing.
-    points
-        The setpoints ``(north, east)`` [m].
-    spec
-        How it was given.
-    """
-
-    times: tuple[float, ...]
-    points: tuple[tuple[float, float], ...]
-    spec: str = ""
-
-    def __post_init__(self) -> None:
-        ts, ps = _check_schedule(self.times, self.points, "setpoint steps")
-        object.__setattr__(self, "times", ts)
-        object.__setattr__(self, "points", ps)
-
-    def sample(self, t: Any) -> Samples:
-        t = _times(t)
-        i = np.clip(np.searchsorted(np.asarray(self.times), t, side="right") - 1, 0, None)
-        pos = np.asarray(self.points)[i]
-        return pos, np.zeros_like(pos), np.zeros_like(pos)
-
-    def jerk(self, t: Any) -> np.ndarray:
-        return np.zeros((_times(t).size, 2))
-
-    @property
-    def waypoints(self) -> tuple[np.ndarray, np.ndarray]:
-        return np.asarray(self.times), np.asarray(self.points)
-
-    @property
-    def end_s(self) -> float:
-        return self.times[-1]
-
-
-@dataclass(frozen=True)
-class MinimumJerk(Reference):
-    """Rest-to-rest minimum-jerk legs through ``points`` at ``times`` (module docstring).
-
-    Attributes
-    ----------
-    times
-        Time [s] the reference reaches each point, increasing.
+        Time [s] of each waypoint, increasing.
     points
         The waypoints ``(north, east)`` [m].
     spec
@@ -190,6 +149,33 @@ class MinimumJerk(Reference):
         ts, ps = _check_schedule(self.times, self.points, "waypoints")
         object.__setattr__(self, "times", ts)
         object.__setattr__(self, "points", ps)
+
+    @property
+    def waypoints(self) -> tuple[np.ndarray, np.ndarray]:
+        return np.asarray(self.times), np.asarray(self.points)
+
+    @property
+    def end_s(self) -> float:
+        return self.times[-1]
+
+
+@dataclass(frozen=True)
+class SetpointSteps(Schedule):
+    """Setpoint ``points[i]`` from ``times[i]`` on; ``points[0]`` before (module docstring)."""
+
+    def sample(self, t: Any) -> Samples:
+        t = _times(t)
+        i = np.clip(np.searchsorted(np.asarray(self.times), t, side="right") - 1, 0, None)
+        pos = np.asarray(self.points)[i]
+        return pos, np.zeros_like(pos), np.zeros_like(pos)
+
+    def jerk(self, t: Any) -> np.ndarray:
+        return np.zeros((_times(t).size, 2))
+
+
+@dataclass(frozen=True)
+class MinimumJerk(Schedule):
+    """Rest-to-rest minimum-jerk legs through ``points``, reached at ``times`` (module docstring)."""
 
     def _leg(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Per time: the leg's start point, its displacement, its duration and ``τ`` clipped to [0, 1]."""
@@ -214,14 +200,6 @@ class MinimumJerk(Reference):
         _, d, T, tau = self._leg(t)
         inside = (t > self.times[0]) & (t < self.times[-1])
         return d * (np.where(inside, 60 * (1 - 6 * tau + 6 * tau**2), 0.0) / T**3)[:, None]
-
-    @property
-    def waypoints(self) -> tuple[np.ndarray, np.ndarray]:
-        return np.asarray(self.times), np.asarray(self.points)
-
-    @property
-    def end_s(self) -> float:
-        return self.times[-1]
 
 
 def _positive(name: str, value: Any) -> float:

@@ -150,6 +150,10 @@ class SimOptions:
         The reference ``ξ_d(t)`` the law follows (:mod:`nniquad.control.references`); ``None``: the origin.
     feedforward
         Add the reference's acceleration ``ξ̈_d`` to the command before the tilt limit (needs a reference).
+    feedforward_lead_s
+        Read the feedforward this much ahead, ``a_ff(t) = ξ̈_d(t + lead)`` [s] (default 0): the inner loops realise
+        the command late (about ``2 ζ_a/ω_a`` for the attitude loop, plus half a sample period for the hold), and
+        the reference's future is known, so reading it that much ahead cancels most of the lag.  Nothing measured.
     v0
         Initial horizontal velocity [m/s] (a start from motion; the law's state is its take-over state for
         the error ``xi0 - ξ_d(0)``, :mod:`nniquad.laws.base`, "Reference and feedforward").
@@ -176,6 +180,7 @@ class SimOptions:
     inner: InnerLoopGains = DEFAULT_INNER_LOOP_GAINS
     reference: Reference | None = None
     feedforward: bool = False
+    feedforward_lead_s: float = 0.0
     v0: tuple[float, float] = (0.0, 0.0)
 
     def __post_init__(self) -> None:
@@ -228,6 +233,9 @@ class SimOptions:
             raise SimulationError(f"feedforward must be True or False, got {self.feedforward!r}")
         if self.feedforward and self.reference is None:
             raise SimulationError("feedforward needs a reference (it is the reference's acceleration)")
+        set_("feedforward_lead_s", _finite("feedforward lead", self.feedforward_lead_s, nonneg=True))
+        if self.feedforward_lead_s > 0 and not self.feedforward:
+            raise SimulationError("a feedforward lead needs the feedforward")
         set_("v0", self._pair("initial velocity v0", self.v0))
 
     @staticmethod
@@ -280,7 +288,7 @@ class SimOptions:
             del d["controller_sampling"]
         # likewise a run without a reference or motion at the start records what it did before these fields
         if self.reference is None:
-            del d["reference"], d["feedforward"]
+            del d["reference"], d["feedforward"], d["feedforward_lead_s"]
         else:
             d["reference"] = self.reference.to_json()
         if self.v0 == (0.0, 0.0):

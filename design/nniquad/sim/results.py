@@ -140,6 +140,7 @@ class Trajectory:
             rotor_speeds=self.rotor_speeds,
             z=self.z_ned,
             z_ref=0.0,
+            follows_reference=self.options.reference is not None,
         )
 
     def tracking(self, window_s: tuple[float, float] | None = None) -> TrackingMetrics | None:

@@ -136,8 +136,8 @@ def exogenous_inputs(options: SimOptions, n_steps: int | None = None, seed: int 
     """Per-step exogenous inputs ``(n_steps, n_exo)`` (:data:`EXO_FIELDS`) for the options.
 
     Reference (with ``options.reference``): its position and velocity and, with
-    ``options.feedforward``, its acceleration, read with the measurement
-    (:func:`_reference_columns`).
+    ``options.feedforward``, its acceleration (``feedforward_lead_s`` ahead), read with the
+    measurement (:func:`_reference_columns`).
 
     Noise: ``σ · N(0, 1)`` drawn at each sensor sample instant (the first step at
     or after ``k / rate``), constant until the next.  Gust: first-order
@@ -184,11 +184,13 @@ def _reference_columns(E: np.ndarray, o: SimOptions, t: np.ndarray, idx: np.ndar
     if o.sampled:
         instants = idx / o.noise_rate_hz
         first = np.r_[0, np.flatnonzero(np.diff(idx)) + 1]  # the step of each sample instant
-        pos, vel, acc = o.reference.sample(instants[first])
         which = np.searchsorted(first, np.arange(t.size), side="right") - 1
-        pos, vel, acc = pos[which], vel[which], acc[which]
+        read = instants[first]
     else:
-        pos, vel, acc = o.reference.sample(t + 0.5 * o.dt_s)
+        which, read = slice(None), t + 0.5 * o.dt_s
+    pos, vel, _ = o.reference.sample(read)
+    acc = o.reference.sample(read + o.feedforward_lead_s)[2]
+    pos, vel, acc = pos[which], vel[which], acc[which]
     cols = [EXO_FIELDS.index(n) for n in ("ref_x", "ref_y", "ref_vx", "ref_vy", "ff_x", "ff_y")]
     E[:, cols[0:2]], E[:, cols[2:4]] = pos, vel
     if o.feedforward:
@@ -410,7 +412,7 @@ def _broadcast(name: str, items: list, n: int) -> list:
 
 def _exo_key(o: SimOptions) -> tuple:
     return (o.seed, o.noise_sigma_m, o.noise_rate_hz, o.gust_N, o.gust_tau_s, o.dt_s, o.n_samples,
-            o.steps_per_sample, o.reference, o.feedforward, o.sampled)
+            o.steps_per_sample, o.reference, o.feedforward, o.feedforward_lead_s, o.sampled)
 
 
 def _start_of(o: SimOptions) -> tuple[float, float]:

@@ -19,6 +19,7 @@ from nniquad.cli.commands.common import (
     step_hints,
     vehicle_from_args,
 )
+from nniquad.cli.commands.reference_options import add_reference_options, reference_settings, tracking_window
 from nniquad.config import ALTITUDE_LIMIT_M, CONTROL_RATE_HZ, DIVERGENCE_FACTOR, XI0_M
 from nniquad.control.inner_gains import DEFAULT_INNER_LOOP_GAINS
 from nniquad.errors import GainError, NniquadError, SimulationError
@@ -60,7 +61,11 @@ Prints settling time (2 % band, last exit), overshoot, peak tilt, whether
 the vehicle was lost ("diverged": it blew up -- a non-finite state or a distance
 beyond {DIVERGENCE_FACTOR:g} x its start -- or lost its altitude by more than {ALTITUDE_LIMIT_M:g} m), whether it lost
 its altitude, and the verdict, which names the cause ("diverged" for a blow-up,
-"altitude lost", "not settled").  --json writes them with the trajectory file
+"altitude lost", "not settled").  With --reference the law follows a reference
+(the settling numbers then still measure the distance to the origin) and the
+tracking error is printed too: RMS and maximum over --tracking-window, the
+arrival at each waypoint (2 % band of its leg), and the tilt the reference
+demands against the limit (docs/follow.md).  --json writes them with the trajectory file
 (.npz next to the JSON, or --trajectory FILE with .npz or .csv).  Runs that take
 more than a few seconds show progress on stderr."""
 
@@ -107,6 +112,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                    help="attitude-loop natural frequency in rad/s (full model; default 25, or the certificate's)")
     d.add_argument("--attitude-zeta", type=float, default=None, metavar="Z",
                    help="attitude-loop damping ratio (full model; default 0.8, or the certificate's)")
+    add_reference_options(parser.add_argument_group("reference (default: hold the origin)"))
     add_json_option(parser, "metrics, gains, options and the trajectory file path")
     add_output_option(parser, "--trajectory", metavar="FILE", default=None,
                         help="write the trajectory here (.npz or .csv); default with --json: JSON name + .traj.npz")
@@ -198,6 +204,7 @@ def run(args: argparse.Namespace) -> int:
         true_mass_kg=args.true_mass,
         inner=_inner(args),
     )
+    options = options.with_(**reference_settings(args))
     from nniquad.sim import SimParams
     from nniquad.sim.step_check import check_step
 
@@ -224,7 +231,8 @@ def run(args: argparse.Namespace) -> int:
     print(f"vehicle: {vehicle.name}")
     print(f"model: {args.model}   gains: {gains_text(gains)}")
     rows = [
-        ("settling time (2 % band)", fmt(m.settling_s, "s"), "not settled" if m.settling_s is None else ""),
+        ("settling time (2 % band)", fmt(m.settling_s, "s"),
+         "(following a reference)" if m.follows_reference else "not settled" if m.settling_s is None else ""),
         ("overshoot along xi0", fmt(m.overshoot_pct, "%"), ""),
         ("peak tilt", fmt(m.peak_tilt_deg, "deg"), ""),
         ("peak commanded tilt", fmt(m.peak_cmd_tilt_deg, "deg"), ""),
@@ -235,11 +243,15 @@ def run(args: argparse.Namespace) -> int:
         ("tilt RMS after settling", fmt(m.tilt_jitter_rms_deg, "deg"), ""),
         ("diverged", fmt(m.diverged), "(vehicle lost)" if m.diverged else ""),
         ("altitude lost", fmt(m.altitude_lost), "" if m.altitude_lost is None else f"(> {ALTITUDE_LIMIT_M:g} m)"),
-        ("verdict", m.failure or "settled", ""),
+        ("verdict", m.failure or ("followed" if m.follows_reference else "settled"), ""),
         ("horizon", fmt(m.horizon_s, "s"), ""),
     ]
     for name, value, note in rows:
         print(f"{name:<26} {value:>16}  {note}")
+    tracking = traj.tracking(tracking_window(args))
+    if tracking is not None:
+        print(f"reference: {options.reference.describe()}, feedforward {'on' if options.feedforward else 'off'}")
+        print("\n".join(tracking.lines()))
 
 
     # every output or none: a failed plot must not leave the trajectory file behind
@@ -259,7 +271,7 @@ def run(args: argparse.Namespace) -> int:
             "failure": m.failure,
             "horizon_s": m.horizon_s,
             "trajectory": None if written is None else str(written),
-            "metrics": m.to_json(),
+            "metrics": {**m.to_json(), **({} if tracking is None else tracking.to_json())},
             "gains": gains.as_dict(),
             "vehicle": vehicle.as_dict(),
             "options": options.to_json(),
