@@ -22,7 +22,7 @@ signal metric of :mod:`nniquad.sim.metrics` with these verdicts into a
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, fields
+from dataclasses import MISSING, asdict, dataclass, fields
 from typing import Any, Mapping
 
 import numpy as np
@@ -255,7 +255,7 @@ class Metrics:
     horizon_s: float
     altitude_lost: bool | None = None
     blew_up: bool | None = None
-    follows_reference: bool | None = False
+    follows_reference: bool = False
 
     @property
     def failure(self) -> str | None:
@@ -286,7 +286,8 @@ class Metrics:
         unknown = sorted(set(data) - names)
         if unknown:
             raise SimulationError(f"unknown metrics field '{unknown[0]}'")
-        return cls(**{n: data.get(n) for n in names})
+        # a field missing from an older record takes its default (None for the fields without one)
+        return cls(**{f.name: data.get(f.name, None if f.default is MISSING else f.default) for f in fields(cls)})
 
 
 def _opt(x: float) -> float | None:
