@@ -55,6 +55,9 @@ _export("nniquad.certificates.certificate", "Certificate", "read_certificate", "
 _export("nniquad.certificates.verify", "Verification", "Check")
 _export("nniquad.analysis.reduced_loop", "ReducedLoop", "PolesDamping")
 _export("nniquad.sim", "SimOptions", "SimulationResult", "Trajectory", "paper_figure_runs", "PAPER_FIGURE_HORIZON_S")
+_export("nniquad.control.references", "Reference", "Circle", "FigureEight", "MinimumJerk", "SetpointSteps",
+        "TimeShifted")
+_export("nniquad.control.reference_files", "parse_reference")
 _export("nniquad.tuning.tune", "TuneOptions", "TuneResult", "search_box", "decode", "encode",
         "attitude_accel_headroom", "attitude_wn_cap", "required_hold_s", "settling_shown", "TILT_SLACK_DEG")
 _export("nniquad.study", "ScenarioRanges", "DEFAULT_RANGES", "StudySetup", "study_setup_from", "pareto_front")
