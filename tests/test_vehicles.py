@@ -32,10 +32,10 @@ def _write_vehicle(path: Path, vehicle) -> Path:
 
 
 def test_committed_vehicle_files_state_their_sources():
-    assert FILES == ["crazyflie2", "iris"]
+    assert FILES == ["crazyflie2", "iris", "iris_x"]
     readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
     for name, sources in (("crazyflie2", ("Foerster", "cf2x.urdf", "crazyflie2.xacro")),
-                          ("iris", ("iris.sdf", "iris.xacro"))):
+                          ("iris", ("iris.sdf", "iris.xacro")), ("iris_x", ("iris.sdf", "iris.xacro", "Crazyflie"))):
         text = (VEHICLES / f"{name}.toml").read_text()
         for s in sources:
             assert s in text, (name, s)

@@ -171,7 +171,8 @@ def _closed_loop(model: str, X: ca.SX, e: ca.SX, p: ca.SX, controller: str = "nn
     J_nom = ca.vertcat(P["nominal.Jx"], P["nominal.Jy"], P["nominal.Jz"])
     tau = IL.attitude_torques(eta, rates, phi_d, theta_d, J_nom, P["inner.attitude_wn_rad_s"], P["inner.attitude_zeta"],
                               P["inner.yaw_wn_rad_s"], P["inner.yaw_zeta"], P["inner.attitude_gain_scale"], P["inner.attitude_accel_limit_rad_s2"])
-    w_cmd, _ = IL.allocate(u1, tau, P["nominal.l"], P["nominal.b"], P["nominal.d"], P["plant.omega_max"])
+    p_nom = ca.vertcat(*[P[f"nominal.{name}"] for name in PARAM_NAMES])
+    w_cmd, _ = IL.allocate(u1, tau, p_nom, P["plant.omega_max"])
     lag = P["run.motor_lag"] > 0.5
     w_act = ca.if_else(lag, ca.fmin(ca.fmax(w_state, 0), P["plant.omega_max"]), w_cmd)
     w_dot = ca.if_else(lag, (w_cmd - w_state) / P["plant.tau_motor"], ca.SX.zeros(4))
