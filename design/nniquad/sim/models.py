@@ -14,7 +14,8 @@ Models
     The 12-state vehicle (:func:`nniquad.model.numeric.dynamics_function` ``"exact"``,
     NED, rotor gyroscopic terms; with motor lag also the rotor spin-up reaction torque
     ``-Jr dΩ_r/dt`` about ``z_B``, :func:`nniquad.model.symbolic.rotor_reaction_torque`)
-    with rotor-speed saturation, and the loops of
+    with rotor-speed saturation, the mixer of the vehicle's frame ('+' or 'x', selected by the
+    parameter vector: :func:`nniquad.model.numeric.mixer_function`), and the loops of
     :mod:`nniquad.control.inner_loops` (altitude PID, yaw hold, attitude PD with gyro
     rates, tilt limit, saturation-aware allocation).  The horizontal command is
     the paper's ``a_h = -K_p ξ_m + z/m̂``.  No horizontal velocity is used.
