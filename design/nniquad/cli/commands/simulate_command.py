@@ -336,8 +336,8 @@ def _compare(flight, m) -> list[str]:
     got = run_metrics(m)
     bad = flight.differences(got, TOLERANCES)
     what = f"performance.{flight.model}"
-    print(f"{what + ' (stated)':<26} " + ", ".join(f"{k} {_full(flight.stated.get(k))}" for k in got))
-    print(f"{'re-simulated':<26} " + ", ".join(f"{k} {_full(got[k])}" for k in got))
+    print(f"{what + ' (stated)':<28} " + ", ".join(f"{k} {_full(flight.stated.get(k))}" for k in got))
+    print(f"{'re-simulated':<28} " + ", ".join(f"{k} {_full(got[k])}" for k in got))
     within = ", ".join(f"{k} {TOLERANCES[t]:g}" for k, t in METRIC_TOLERANCES.items())
     print(f"reproduces {what}: " + (f"yes (within {within})" if not bad else
                                    f"NO: {', '.join(bad)} differ beyond {within}"))
