@@ -235,7 +235,7 @@ def run(args: argparse.Namespace) -> int:
     flight, base, overridden, note = _the_run(args)
     vehicle, gains, options = flight.vehicle, flight.gains, flight.options
     # lazily: `nniquad --help` loads every command module, and its cold start stays under 0.5 s
-    from nniquad.sim import SimParams
+    from nniquad.sim import SimParams, simulate
     from nniquad.sim.step_check import check_step
 
     traj_path = args.trajectory
@@ -254,7 +254,7 @@ def run(args: argparse.Namespace) -> int:
 
     progress = Progress("simulate")
     progress.note(f"{options.model} model, {options.horizon_s:g} s simulated")
-    traj = flight.simulate(progress.fraction)[0]
+    traj = simulate(**flight.kwargs(), progress=progress.fraction)[0]  # looked up now: the tests stub it
     progress.close()
     m = traj.metrics()
 
