@@ -81,8 +81,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_controller_option(g, law_names(), "nni", "horizontal law to simulate")
     add_gain_options(g)
     g.add_argument("--certificate", metavar="FILE", default=None,
-                   help="take the gains and inner loops from a certificate (form and digest checked; "
-                        "'nniquad verify' checks the rest)")
+                   help="fly a certificate's reference run (its vehicle, gains, inner loops, rate, motor lag, start "
+                        "and horizon; form and digest checked) and compare it with what the certificate states")
     add_vehicle_option(parser)
     s = parser.add_argument_group("run (with --certificate every default is the certificate's reference run)")
     add_xi0_option(s)
