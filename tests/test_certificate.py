@@ -470,7 +470,7 @@ def test_fail_fast_stops_at_the_first_failure_and_cheap_checks_run_first(cert):
 
 
 def test_re_simulation_is_cached_by_its_exact_inputs(cert, monkeypatch):
-    import nniquad.certificates.recheck_runs as sim  # the module whose simulate the re-check calls
+    import nniquad.certificates.reference_run as sim  # the module whose simulate the re-check calls (ReferenceRun)
     from nniquad.certificates.verify import clear_cache
 
     calls = []

@@ -23,6 +23,7 @@ from nniquad.certificates.certificate import (
     Certificate,
     reference_run_options,
 )
+from nniquad.certificates.reference_run import ReferenceRun, run_metrics
 from nniquad.config import (
     CASCADE_GRID_POINTS_PER_AXIS,
     CONTROL_RATE_HZ,
@@ -40,7 +41,6 @@ from nniquad.laws.base import GainBlock
 from nniquad.laws.classes import DEFAULT_LAW_CLASS, law_class as law_class_of, within_sector_bound
 from nniquad.laws.registry import law_named, ni_law_names
 from nniquad.model.vehicle import Vehicle
-from nniquad.sim import simulate
 from nniquad.sim.options import check_rate_hz
 from nniquad.tuning.objective import required_hold_s, settling_shown
 
@@ -85,12 +85,12 @@ def performance_runs(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, 
 
     out = {}
     for model in ("reduced", "full"):
-        # the one definition verify compares the stated settings against
-        opts = reference_run_options(model, inner, tilt_limit_deg=tilt_limit_deg, xi0=xi0, horizon_s=horizon_s,
-                                     motor_lag=motor_lag, rate_hz=rate_hz)
-        met = simulate(vehicle, gains, opts)[0].metrics()
-        out[model] = {"settling_s": met.settling_s, "overshoot_pct": met.overshoot_pct,
-                      "peak_tilt_deg": met.peak_tilt_deg, "diverged": met.diverged, "settings": opts.to_json()}
+        # the one definition verify compares the stated settings against; the run is the object
+        # Certificate.run_settings reads back from the recorded settings
+        run = ReferenceRun(vehicle, gains, reference_run_options(model, inner, tilt_limit_deg=tilt_limit_deg, xi0=xi0,
+                                                                 horizon_s=horizon_s, motor_lag=motor_lag,
+                                                                 rate_hz=rate_hz))
+        out[model] = {**run_metrics(run.simulate()[0].metrics()), "settings": run.options.to_json()}
     return out
 
 

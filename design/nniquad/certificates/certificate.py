@@ -459,6 +459,29 @@ class Certificate:
         """The certified law's name (the type of :attr:`gains`)."""
         return self.gains.controller
 
+    def run_settings(self, model: str = "full") -> Any:
+        """Everything the reference run ``performance.<model>`` was flown with, to fly it again.
+
+        The vehicle, the gains (the law), and the complete simulation options (inner
+        loops, rate and controller sampling, motor lag, start, horizon, tilt limit, step
+        and output period), read back from the run's recorded ``settings``:
+        ``run.simulate()`` or ``nniquad.simulate(**run.kwargs())`` reproduces the stated
+        numbers (``run.stated``) within :attr:`tolerances`.
+
+        Parameters
+        ----------
+        model
+            ``"full"`` (default) or ``"reduced"``.
+
+        Returns
+        -------
+        nniquad.certificates.reference_run.ReferenceRun
+        """
+        # lazily: the run's options live in nniquad.sim, and reading a certificate needs no CasADi
+        from nniquad.certificates.reference_run import reference_run_of
+
+        return reference_run_of(self, model)
+
     @property
     def certified_reach_m(self) -> float:
         """The certified displacement from rest [m] (``region_of_attraction.max_displacement_m``)."""

@@ -66,7 +66,7 @@ __all__ = ["main", "COMMANDS", "build_parser", "EXIT_STATUS_HELP"]
 #: The exit-status scheme, shown at the end of every ``--help``.
 EXIT_STATUS_HELP = (
     f"exit status: {EXIT_OK} done (every check passed); {EXIT_CHECK_FAILED} a check failed or was not proven (verify, a certificate "
-    f"digest mismatch, prove --strict); {EXIT_USER_ERROR} user error (bad option, input file or output path, "
+    f"digest mismatch, prove --strict, simulate --certificate not reproducing its run); {EXIT_USER_ERROR} user error (bad option, input file or output path, "
     f"request too large; nothing written); {EXIT_INTERNAL_ERROR} internal error (a bug, with traceback); "
     f"{EXIT_STUDY_FAILED} montecarlo stopped by a fault of its workers or cluster (finished scenarios saved); "
     f"{EXIT_INTERRUPTED} interrupted (Ctrl-C); {EXIT_TERMINATED} terminated (SIGTERM, handled like Ctrl-C)."
