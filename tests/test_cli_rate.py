@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import inspect
 import json
+import re
 
 import numpy as np
 import pytest
@@ -98,6 +99,9 @@ def test_certify_rate_reaches_the_margins(run_cli, tmp_path):
                              "--out", str(out_path))
     assert code == 0, err
     assert json.loads(out_path.read_text())["margins"]["rate_hz"] == 100.0
+    # the progress lines show real percentages: one per step, rising, ending at 100
+    percents = [int(p) for p in re.findall(r"^\[certify +[\d.]+ s\] +(\d+) %", err, re.M)]
+    assert len(percents) >= 6 and percents == sorted(set(percents)) and percents[0] == 0 and percents[-1] == 100, err
     code, out, err = run_cli("verify", str(out_path))
     assert code == 0, out + err
 
