@@ -91,7 +91,21 @@ def sni2_with_start() -> dict:
 
 
 @pytest.fixture(scope="module")
-def verified(sni2_with_start):
+def fast_cascade():
+    """The cascade section's own re-check (seconds, tested in test_robust_cascade and test_cascade_check) stubbed: one
+    row, the one whose requirement verify states (the start in the cascade's region)."""
+    import nniquad.certificates.recheck_reduced_loop as recheck
+    from nniquad.certificates.verify import clear_cache
+
+    clear_cache()
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(recheck, "check_cascade_rows", lambda *a, **k: [("start certified", True, "stub", ())])
+        yield
+    clear_cache()  # verify's in-process cache holds the stub's rows: no later test may read them
+
+
+@pytest.fixture(scope="module")
+def verified(sni2_with_start, fast_cascade):
     return verify_certificate(sni2_with_start, simulate=False)
 
 
@@ -119,7 +133,7 @@ def _refused(doc: dict) -> bool:
         return True
 
 
-def test_every_re_signed_edit_of_the_start_is_refused(sni2_with_start):
+def test_every_re_signed_edit_of_the_start_is_refused(sni2_with_start, fast_cascade):
     """Each leaf of 'start' and the top-level word, changed alone and re-signed (the tamper loop's recipe)."""
     for path in [("start_certified",)] + [("start",) + p for p in _leaves(sni2_with_start["start"])]:
         doc = copy.deepcopy(sni2_with_start)
@@ -204,3 +218,58 @@ def test_nothing_close_gets_no_suggestion(run_cli, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     code, _, err = run_cli("verify", "--zzzzzzzz", "c.json")
     assert code == 2 and "did you mean" not in err and len(err.strip().splitlines()) == 1
+
+
+# ----------------------------------------------------------------------------- progress
+
+
+def test_certify_steps_rise_from_zero_to_a_hundred():
+    """Progress.steps on a plain stream: one line per step at once (no rate limit), rising percentages; the job
+    reports 100 % at its end (certify_steps counts the certificate's steps, and the tune's when it ran)."""
+    import io
+
+    from nniquad.jobs.certify import certify_steps
+    from nniquad.progress import Progress
+
+    for tuned in (False, True):
+        stream = io.StringIO()
+        p = Progress("certify", stream=stream, every_s=1e9)
+        if tuned:
+            p.message("tuning")
+        step = p.steps(certify_steps(tuned), done=int(tuned))
+        for k in range(certify_steps(tuned) - int(tuned)):
+            step(f"step {k}")
+        p(1.0, "done")
+        got = [int(v) for v in re.findall(r"\] +(\d+) %", stream.getvalue())]
+        total = certify_steps(tuned)
+        assert got == [round(100 * k / total) for k in range(total)] + [100], stream.getvalue()
+
+
+# ----------------------------------------------------------------------------- the report's side-by-side table
+
+
+def test_the_paper_law_beside_the_certified_law():
+    """Each figure computed by code: the certified column is its certificate's sections, the paper column the paper's
+    gains computed with the certificate's settings (its DC loop gain is 1/(m kp delta) by hand; its cascade region is
+    said to be not computed, never certified)."""
+    from nniquad.control.inner_gains import DEFAULT_INNER_LOOP_GAINS
+    from nniquad.laws.nni import PAPER_GAINS
+    from nniquad.reporting.comparison import certificate_column, comparison_table, computed_column
+
+    cert = read_certificate(DATA / "full_model_certificate.json")
+    certified = certificate_column(cert)
+    assert certified["runs"]["full"]["settling_s"] == cert.performance["full"]["settling_s"]
+    assert certified["regions"][CASCADE]["reach_m"] == cert.cascade["region_of_attraction"]["max_displacement_m"]
+    assert certified["regions"][REDUCED_LOOP]["reach_m"] == cert.certified_reach_m
+    paper = computed_column(cert.vehicle, PAPER_GAINS, DEFAULT_INNER_LOOP_GAINS, tilt_limit_deg=cert.tilt_limit_deg,
+                            gamma_max=cert.sector["gamma_max"], xi0=cert.xi0_m, rate_hz=100.0, horizon_s=20.0)
+    assert paper["gamma"] == pytest.approx(1 / (cert.vehicle.m * PAPER_GAINS.kp * PAPER_GAINS.delta), rel=1e-12)
+    reach = paper["regions"][REDUCED_LOOP]["reach_m"]
+    assert reach > 0 and paper["regions"][REDUCED_LOOP]["inside"] is (_distance(cert) <= reach)
+    assert paper["regions"][CASCADE] == {"method": "not computed", "reach_m": None, "inside": None}
+    header, rows = comparison_table({"paper's law": paper, "certified law": certified})
+    assert header == ["figure", "paper's law", "certified law"] and all(len(r) == 3 for r in rows)
+    cells = {r[0]: r[1:] for r in rows}
+    assert cells["certified reach, cascade region"][0] == "not computed"
+    assert cells["certified reach, cascade region"][1].startswith("2.82 m (lure): start inside")
+    assert "FAILS PM >= 45 deg" in cells["margins (horizontal)"][1]
