@@ -195,6 +195,7 @@ def test_a_margin_string_parses_back_to_three_digits():
     for shown, value in zip(map(float, m.groups()), (gm, low, pm)):
         assert abs(shown - value) <= 0.5 * 10 ** (math.floor(math.log10(abs(value))) - 2)
     assert margin_text("inf", "-inf", 30.0) == "GM +inf/-inf dB, PM 30 deg"
+    assert margin_text("nan", "nan", -2.8189) == "GM n/a, PM -2.82 deg"  # an unstable loop has no gain margin
 
 
 # ----------------------------------------------------------------------------- a mistyped option

@@ -61,9 +61,13 @@ def margin_text(gm_db: Any, gm_lower_db: Any, pm_deg: Any) -> str:
     gm_db, gm_lower_db, pm_deg
         The upper and lower gain margins [dB] and the phase margin [deg] (numbers, or ``"inf"``-style text).
     """
-    up = fmt(_number(gm_db), digits=3)
-    return (f"GM {'' if up.startswith('-') else '+'}{up}/{fmt(_number(gm_lower_db), digits=3)} dB, "
-            f"PM {fmt(_number(pm_deg), 'deg', digits=3)}")
+    up, low = _number(gm_db), _number(gm_lower_db)
+    if math.isnan(up) and math.isnan(low):  # no gain margin computed (python-control gives none on an unstable loop)
+        gm = "GM n/a"
+    else:
+        shown = fmt(up, digits=3, none="n/a")
+        gm = f"GM {'' if shown.startswith(('-', 'n')) else '+'}{shown}/{fmt(low, digits=3, none='n/a')} dB"
+    return f"{gm}, PM {fmt(_number(pm_deg), 'deg', digits=3, none='n/a')}"
 
 
 def failing_margins(gm_db: Any, gm_lower_db: Any, pm_deg: Any, required_gm_db: float,

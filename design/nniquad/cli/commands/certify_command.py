@@ -42,7 +42,8 @@ and gamma_max), the stability margin and poles, the LMI matrices (plant and
 controller NI certificates, closed-loop Lyapunov P with its decay rate, the
 parameter-dependent P0 + P1/m over the mass interval, the region-of-attraction
 ellipsoid under tilt saturation with its multipliers), whether the start state
-lies in the certified region, the performance on the reduced and full models
+lies in each certified region (the reduced loop's and the cascade's, each with
+its method and reach; start_certified only if in every one), the performance on the reduced and full models
 with their simulation settings, the classical margins at --rate, the time-optimal bound, software versions and
 a SHA-256 digest.  It states its law class (--law-class) and the theorem that
 certifies it: 'paper' (default) refuses gains outside the sector bound (exit
