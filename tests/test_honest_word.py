@@ -64,8 +64,13 @@ _EVERY = re.compile(r"^start certified by every method \(([^)]*)\): (yes|no)$")
 def test_certify_prints_no_two_lines_that_contradict_each_other(path):
     """Every line certify prints about the start: one per method, and a verdict that is their conjunction over the
     methods it names; no other line speaks of the start being certified; a linear-zone fallback says why."""
-    cert = read_certificate(path)
-    lines = summary_lines(cert)
+    assert_no_contradiction(summary_lines(read_certificate(path)), read_certificate(path))
+
+
+def assert_no_contradiction(lines: list[str], cert: Certificate) -> None:
+    """What ``certify`` printed about the start (``lines``, without their indent) agrees with itself and with the
+    certificate: one line per method, one verdict that is their conjunction, no other line on the start being
+    certified, and the Lur'e fallback's reason exactly when the cascade region is the linear zone."""
     per = {m.group(3): m.group(2) == "inside" for m in map(_INSIDE.match, lines) if m}
     every = [m for m in map(_EVERY.match, lines) if m]
     assert per == {k: m["inside"] for k, m in start_methods(cert)["methods"].items()}
@@ -74,7 +79,7 @@ def test_certify_prints_no_two_lines_that_contradict_each_other(path):
     talk = [line for line in lines if "certified" in line and "start" in line]
     assert talk == [every[0].group(0)], talk  # the old "start state certified: yes" line is gone
     fallback = [line for line in lines if "linear zone, not the Lur'e region" in line]
-    assert len(fallback) == (cert.cascade["region_of_attraction"]["method"] == "linear_zone")
+    assert len(fallback) == (cert.cascade is not None and cert.cascade["region_of_attraction"]["method"] == "linear_zone")
 
 
 # ----------------------------------------------------------------------------- verify: a certificate with a start
