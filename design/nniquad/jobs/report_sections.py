@@ -303,6 +303,9 @@ def _build(vehicle: Vehicle, options: ReportOptions, tune_opts: Any, out: Path, 
         },
         "certified": {
             "gains": gains.as_dict(),
+            "law": gains.controller,
+            # every law's gains (the NNI law's kp, Gamma, delta; sni2's kp, k, omega, zeta), as report.md prints them
+            "gains_text": gains_text(gains, sep=", ", number=fmt),
             "inner_loop": cert.get("inner_loop"),
             "gamma": cert["sector"]["gamma"],
             "gamma_max": cert["sector"]["gamma_max"],
@@ -368,7 +371,6 @@ def _unique_poles(poles: Any) -> list[list[float]]:
 
 def _markdown(d: dict[str, Any], audit_txt: str, verify_txt: str) -> str:
     v, b, pg, c = d["vehicle"], d["bound"], d["paper_gains"], d["certified"]
-    g = c["gains"]
     lines = [
         "# nniquad design report",
         "",
@@ -407,7 +409,7 @@ def _markdown(d: dict[str, Any], audit_txt: str, verify_txt: str) -> str:
         "",
         "## The certified gain set",
         "",
-        f"kp = {fmt(g['kp'])} 1/s^2, Gamma = {fmt(g['Gamma'])}, delta = {fmt(g['delta'])}; "
+        f"{c['law']} law, {c['gains_text']}; "
         f"smallest sector gamma = {fmt(c['gamma'])} (gamma_max = {fmt(c['gamma_max'])}). "
         f"Law class **{c['law_class']['name']}**: certified by {c['law_class']['theorem']}. "
         f"Certified region of attraction of the reduced loop under the tilt limit: displacements from rest up to "
