@@ -16,6 +16,7 @@ from nniquad.certificates.certificate import Certificate
 from nniquad.certificates.check_record import Check, close, fmt_value, gains_key, memo
 from nniquad.certificates.reference_run import METRIC_TOLERANCES, run_metrics
 from nniquad.errors import CertificateError
+from nniquad.format import margin_text, margin_verdict
 
 __all__ = ["same_margin", "meets_within", "margins_check", "performance_check"]
 
@@ -100,13 +101,13 @@ def margins_check(cert: Certificate, tol: Mapping[str, float]) -> Check:
     ok = ok and isinstance(stated.get("required"), Mapping) and dict(stated["required"]) == fresh["required"]
     ok = ok and close(stated.get("horizontal_pm_ceiling_deg"), sector_pm_ceiling_deg(gamma_max, cert.controller),
                        1e-12)
-    h, a = fresh["break_points"]["horizontal"], fresh["break_points"]["attitude"]
-    detail = (f"horizontal GM +{h['gm_db']}/{h['gm_lower_db']} dB PM {h['pm_deg']} deg; attitude GM +{a['gm_db']}/"
-              f"{a['gm_lower_db']} dB PM {a['pm_deg']} deg at {rate:g} Hz; meets GM >= {fresh['required']['gm_db']:g} dB, "
-              f"PM >= {fresh['required']['pm_deg']:g} deg: {fresh['meets_requirement']}")
+    req = fresh["required"]
+    detail = "; ".join(f"{name} {margin_text(p['gm_db'], p['gm_lower_db'], p['pm_deg'])}: "
+                       f"{margin_verdict(p, req['gm_db'], req['pm_deg'])}"
+                       for name, p in fresh["break_points"].items()) + f" (at {rate:g} Hz)"
     if bad:
         detail += "; differs: " + ", ".join(bad[:3])
-    return Check("margins", ok, detail)
+    return Check("margins", ok, detail, requirement_met=fresh["meets_requirement"])
 
 
 def performance_check(cert: Certificate, tol: Mapping[str, float], model: str) -> Check:
