@@ -20,7 +20,7 @@ T_MAX = V.b * V.omega_max**2
 
 def _alloc() -> ca.Function:
     u1, tau = ca.SX.sym("u1"), ca.SX.sym("tau", 3)
-    w, T = IL.allocate(u1, tau, V.l, V.b, V.d, V.omega_max)
+    w, T = IL.allocate(u1, tau, param_vector(V), V.omega_max)
     return ca.Function("alloc", [u1, tau], [w, T])
 
 

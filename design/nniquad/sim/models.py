@@ -14,7 +14,8 @@ Models
     The 12-state vehicle (:func:`nniquad.model.numeric.dynamics_function` ``"exact"``,
     NED, rotor gyroscopic terms; with motor lag also the rotor spin-up reaction torque
     ``-Jr dΩ_r/dt`` about ``z_B``, :func:`nniquad.model.symbolic.rotor_reaction_torque`)
-    with rotor-speed saturation, and the loops of
+    with rotor-speed saturation, the mixer of the vehicle's frame ('+' or 'x', selected by the
+    parameter vector: :func:`nniquad.model.numeric.mixer_function`), and the loops of
     :mod:`nniquad.control.inner_loops` (altitude PID, yaw hold, attitude PD with gyro
     rates, tilt limit, saturation-aware allocation).  The horizontal command is
     the paper's ``a_h = -K_p ξ_m + z/m̂``.  No horizontal velocity is used.
@@ -197,7 +198,8 @@ def _closed_loop(model: str, X: ca.SX, e: ca.SX, p: ca.SX, controller: str = "nn
     J_nom = ca.vertcat(P["nominal.Jx"], P["nominal.Jy"], P["nominal.Jz"])
     tau = IL.attitude_torques(eta, rates, phi_d, theta_d, J_nom, P["inner.attitude_wn_rad_s"], P["inner.attitude_zeta"],
                               P["inner.yaw_wn_rad_s"], P["inner.yaw_zeta"], P["inner.attitude_gain_scale"], P["inner.attitude_accel_limit_rad_s2"])
-    w_cmd, _ = IL.allocate(u1, tau, P["nominal.l"], P["nominal.b"], P["nominal.d"], P["plant.omega_max"])
+    p_nom = ca.vertcat(*[P[f"nominal.{name}"] for name in PARAM_NAMES])
+    w_cmd, _ = IL.allocate(u1, tau, p_nom, P["plant.omega_max"])
     lag = P["run.motor_lag"] > 0.5
     w_act = ca.if_else(lag, ca.fmin(ca.fmax(w_state, 0), P["plant.omega_max"]), w_cmd)
     w_dot = ca.if_else(lag, (w_cmd - w_state) / P["plant.tau_motor"], ca.SX.zeros(4))

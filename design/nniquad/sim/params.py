@@ -40,7 +40,7 @@ from nniquad.control.inner_gains import InnerLoopGains
 from nniquad.errors import SimulationError
 from nniquad.laws.base import GainBlock, field_unit
 from nniquad.laws.registry import law_named, law_names, to_gains as _registry_gains
-from nniquad.model.layout import STATE_ORDER
+from nniquad.model.layout import DEFAULT_FRAME, FRAMES, STATE_ORDER
 from nniquad.model.vehicle import DESCRIPTIONS, UNITS, Vehicle
 
 __all__ = [
@@ -120,19 +120,28 @@ def check_controller(controller: str) -> str:
 
 # =============================================================================== typed blocks
 
-#: Vehicle fields that are numbers (the vehicle's name is not a parameter).
-_VEHICLE_FIELDS: tuple[str, ...] = tuple(f.name for f in fields(Vehicle) if f.name != "name")
+#: Vehicle parameters that are numbers: the numeric fields and the frame as its index in
+#: :data:`nniquad.model.layout.FRAMES` (the vehicle's name is not a parameter).
+_VEHICLE_FIELDS: tuple[str, ...] = tuple(f.name for f in fields(Vehicle) if f.name not in ("name", "frame")) + (
+    "frame_index",)
+_VEHICLE_META: dict[str, tuple[str, str]] = {
+    **{n: (UNITS[n], DESCRIPTIONS[n]) for n in _VEHICLE_FIELDS if n in UNITS},
+    "frame_index": ("-", f"rotor layout, index in {FRAMES} ({DESCRIPTIONS['frame']})"),
+}
 
 VehicleParams = make_dataclass(
     "VehicleParams",
-    [(n, float, field(metadata={"unit": UNITS[n], "meaning": DESCRIPTIONS[n]})) for n in _VEHICLE_FIELDS],
+    [(n, float, field(metadata={"unit": _VEHICLE_META[n][0], "meaning": _VEHICLE_META[n][1]}))
+     for n in _VEHICLE_FIELDS],
     frozen=True,
     namespace={
-        "__doc__": "The numeric fields of a :class:`nniquad.model.vehicle.Vehicle`, unvalidated "
-                   "(a perturbed plant may be one that cannot hover).",
+        "__doc__": "The numeric fields of a :class:`nniquad.model.vehicle.Vehicle` and its frame's index, "
+                   "unvalidated (a perturbed plant may be one that cannot hover).",
         "from_vehicle": classmethod(lambda cls, v: cls(**{n: float(getattr(v, n)) for n in _VEHICLE_FIELDS})),
         "values": lambda self: {n: getattr(self, n) for n in _VEHICLE_FIELDS},
-        "from_values": classmethod(lambda cls, d: cls(**{n: d[n] for n in _VEHICLE_FIELDS})),
+        # a table written before frames existed has no frame_index: a '+' vehicle
+        "from_values": classmethod(lambda cls, d: cls(**{n: d.get(n, float(FRAMES.index(DEFAULT_FRAME))) if n == "frame_index" else d[n]
+                                                          for n in _VEHICLE_FIELDS})),
     },
 )
 VehicleParams.__module__ = __name__
