@@ -44,6 +44,7 @@ import numpy as np
 
 from nniquad import (
     MinimumJerk,
+    notebook_data,
     parse_reference,
     PDGains,
     read_certificate,
@@ -53,10 +54,10 @@ from nniquad import (
     simulate,
 )
 
-CERTS = {"NNI (cascade certificate)": "data/cascade_model_certificate.json",
-         "NNI (full-model certificate)": "data/full_model_certificate.json",
-         "SNI2 (cascade certificate)": "data/sni2_cascade_certificate.json"}
-PD = PDGains(**json.load(open("data/designs/pd_velocity.json"))["gains"])
+CERTS = {"NNI (cascade certificate)": notebook_data("cascade_model_certificate.json"),
+         "NNI (full-model certificate)": notebook_data("full_model_certificate.json"),
+         "SNI2 (cascade certificate)": notebook_data("sni2_cascade_certificate.json")}
+PD = PDGains(**json.loads(notebook_data("designs", "pd_velocity.json").read_text())["gains"])
 RATE_HZ = 100.0
 
 
