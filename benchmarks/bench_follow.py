@@ -1,6 +1,8 @@
 """Following a reference (issue 45): the figure-eight with and without feedforward, and the waypoint square.
 
-For each committed certificate (two of the NNI law, one of ``sni2``) on the
+For each committed certificate (two of the NNI law and one of ``sni2`` for the
+paper's vehicle; the quick-budget NNI certificate of the 3DR Iris in
+``tests/data``, a second public vehicle) on the
 ``full`` model with the certificate's inner loop, tilt limit, motor lag and its
 law in discrete time at the certified rate, started on the reference with its
 velocity (:mod:`nniquad.sim.tracking` defines every number):
@@ -9,8 +11,10 @@ velocity (:mod:`nniquad.sim.tracking` defines every number):
   8 s), two periods; RMS tracking error over the second period (the start
   transient of the attitude loop, which starts level, left out) with
   feedforward, against the PD law with the true velocity (the tuned design
-  ``notebooks/data/designs/pd_velocity.json``) with the same feedforward on the
-  same runs: target ratio <= 1.2; the same without feedforward, stated;
+  ``notebooks/data/designs/pd_velocity.json``, tuned for the paper's vehicle;
+  its gains are accelerations per metre and per m/s, so the Iris flies the same
+  law, not one tuned for it) with the same feedforward on the same runs: target
+  ratio <= 1.2; the same without feedforward, stated;
   The same with the feedforward read ahead by the certificate's attitude lag
   ``2 ζ_a/ω_a`` plus half a sample period (``SimOptions.feedforward_lead_s``).
 * the waypoint square, 2 m sides, rest-to-rest minimum-jerk legs of 3 s and a
@@ -32,7 +36,8 @@ __all__ = ["run"]
 ROOT = Path(__file__).resolve().parent.parent
 CERTIFICATES = {"nni full": ROOT / "notebooks/data/full_model_certificate.json",
                 "nni cascade": ROOT / "notebooks/data/cascade_model_certificate.json",
-                "sni2 cascade": ROOT / "notebooks/data/sni2_cascade_certificate.json"}
+                "sni2 cascade": ROOT / "notebooks/data/sni2_cascade_certificate.json",
+                "nni iris": ROOT / "tests/data/iris_certificate.json"}
 PD_DESIGN = ROOT / "notebooks/data/designs/pd_velocity.json"
 EIGHT_SPEC = "figure8:2,1,8"
 #: Target: the velocity-free law's RMS with feedforward at most this multiple of the PD's with the true velocity.
