@@ -121,7 +121,7 @@ def export_functions(ctrl: "DiscreteLaw", limit_m: float = EXPORT_POSITION_ERROR
     p, r = ca.SX.sym("position", 2), ca.SX.sym("setpoint", 2)
     psi, a_z, a_ff = ca.SX.sym("psi"), ca.SX.sym("a_z"), ca.SX.sym("a_ff", 2)
     xi = _limited(p - r, limit_m)
-    z_next, a_h, tilt = ctrl.casadi_step("law_step")(z, xi, psi, a_z, a_ff)
+    z_next, a_h, tilt = ctrl.casadi_step("law_step", feedforward=True)(z, xi, psi, a_z, a_ff)
     g_z = IL.vertical_specific_force(ctrl.g, a_z)
     step = ca.Function("step", [z, p, r, psi, a_z, a_ff], [z_next, a_h, tilt, g_z],
                        ["z", "position", "setpoint", "psi", "a_z", "a_ff"], ["z_next", "a_h", "tilt_sp", "g_z"])

@@ -237,23 +237,33 @@ class DiscreteLaw:
         return {"z": z, "a_h": ah, "tilt_sp": sp}
 
     # ------------------------------------------------------------------ CasADi / C
-    def casadi_step(self, name: str = "nniquad_nni_step") -> ca.Function:
-        """The step as a CasADi function (inputs :attr:`step_inputs`, outputs :attr:`step_outputs`; the last input,
-        the feedforward ``a_ff``, defaults to zero).
+    def casadi_step(self, name: str = "nniquad_nni_step", *, feedforward: bool = False) -> ca.Function:
+        """The step as a CasADi function (inputs :attr:`step_inputs`, outputs :attr:`step_outputs`).
 
         Built from the same matrices and the simulator's own output stage
         (:func:`nniquad.control.inner_loops.limit_norm`, :func:`~nniquad.control.inner_loops.tilt_setpoints`).
+        Without ``feedforward`` the function has the first four inputs (``z, xi, psi, a_z``: the step of the
+        first release); with it, also ``a_ff``, added to the command before the tilt limit.
+
+        Parameters
+        ----------
+        name
+            The function's name.
+        feedforward
+            Take the acceleration feedforward ``a_ff`` as a fifth input.
         """
-        z, xi, psi, a_z, a_ff = (ca.SX.sym(n, k) for n, k, _, _ in self.step_inputs)
-        a = ca.mtimes(ca.DM(self.C), z) + ca.mtimes(ca.DM(self.D), xi) + a_ff
+        inputs = self.step_inputs if feedforward else self.step_inputs[:4]
+        syms = [ca.SX.sym(n, k) for n, k, _, _ in inputs]
+        z, xi, psi, a_z = syms[:4]
+        a = ca.mtimes(ca.DM(self.C), z) + ca.mtimes(ca.DM(self.D), xi)
+        if feedforward:
+            a = a + syms[4]
         g_z = IL.vertical_specific_force(self.g, a_z)
         a = IL.limit_norm(a, g_z * math.tan(self.tilt_limit_rad))
         phi_d, theta_d, _ = IL.tilt_setpoints(a, g_z, psi)
         z_next = ca.mtimes(ca.DM(self.A), z) + ca.mtimes(ca.DM(self.B), xi)
-        # a_ff defaults to zero: a call by name without it is the step without feedforward
-        return ca.Function(name, [z, xi, psi, a_z, a_ff], [z_next, a, ca.vertcat(phi_d, theta_d)],
-                           [n for n, *_ in self.step_inputs], [n for n, *_ in self.step_outputs],
-                           {"default_in": [0.0] * len(self.step_inputs)})
+        return ca.Function(name, syms, [z_next, a, ca.vertcat(phi_d, theta_d)],
+                           [n for n, *_ in inputs], [n for n, *_ in self.step_outputs])
 
     def to_json(self) -> dict[str, Any]:
         """Matrices with units and the discretisation, for a flight stack."""
