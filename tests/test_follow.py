@@ -189,3 +189,17 @@ def test_the_feedforward_is_read_with_the_measurement_and_its_lead():
     np.testing.assert_allclose(E[:, [col["ff_x"], col["ff_y"]]], EIGHT.sample(t + 0.5 * o.dt_s)[2], rtol=0, atol=1e-15)
     with pytest.raises(SimulationError, match="lead needs the feedforward"):
         o.with_(feedforward=False)
+
+
+def test_a_setpoint_step_is_the_regulation_run_shifted():
+    """Reduced model, discrete sni2 law: a setpoint at (1, 0.5) m from t = 0 (then another at 2 s), flown from the
+    origin at rest, is the plain regulation run from (-1, -0.5) m shifted by the setpoint, until the next step."""
+    from nniquad.control.references import SetpointSteps
+
+    steps = SetpointSteps((0.0, 2.0), ((1.0, 0.5), (-1.0, 0.0)))
+    o = SimOptions(model="reduced", horizon_s=3.0, controller_sampling="discrete")
+    followed, plain = simulate(PAPER_VEHICLE, [LAWS["sni2"]] * 2,
+                               [o.with_(reference=steps, xi0=(0.0, 0.0)), o.with_(xi0=(-1.0, -0.5))])
+    before = followed.t < 2.0
+    np.testing.assert_allclose(followed.xy[before] - [1.0, 0.5], plain.xy[before], atol=1e-12)
+    assert np.hypot(*(followed.xy[-1] - plain.xy[-1])) > 0.1  # the second step moved it
