@@ -161,7 +161,13 @@ class Schedule(Reference):
 
 @dataclass(frozen=True)
 class SetpointSteps(Schedule):
-    """Setpoint ``points[i]`` from ``times[i]`` on; ``points[0]`` before (module docstring)."""
+    """Setpoint ``points[i]`` from ``times[i]`` on; ``points[0]`` before (module docstring).
+
+    Parameters
+    ----------
+    times, points, spec
+        As :class:`Schedule`: waypoint times [s], waypoints (north, east) [m], how it was given.
+    """
 
     def sample(self, t: Any) -> Samples:
         t = _times(t)
@@ -175,7 +181,13 @@ class SetpointSteps(Schedule):
 
 @dataclass(frozen=True)
 class MinimumJerk(Schedule):
-    """Rest-to-rest minimum-jerk legs through ``points``, reached at ``times`` (module docstring)."""
+    """Rest-to-rest minimum-jerk legs through ``points``, reached at ``times`` (module docstring).
+
+    Parameters
+    ----------
+    times, points, spec
+        As :class:`Schedule`: waypoint times [s], waypoints (north, east) [m], how it was given.
+    """
 
     def _leg(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Per time: the leg's start point, its displacement, its duration and ``τ`` clipped to [0, 1]."""

@@ -209,22 +209,23 @@ def reaction_torque_function() -> ca.Function:
                       lambda frame: {"tau": S.rotor_reaction_torque(frame)})
 
 
-@lru_cache(maxsize=None)
-def _matrix_numpy(which: str, frame: str) -> Callable[..., np.ndarray]:
-    from nniquad.model import symbolic as S  # lazily: sympy costs 0.3 s, and a cached build needs none
+def _mixer_at(p: np.ndarray) -> np.ndarray:
+    """The 4x4 mixer of the parameter vector ``p`` (its frame too), column ``i`` the thrust/torques of ``w_i = 1``.
 
-    s = S.symbols()
-    return numpy_function(list(s.params), getattr(S, which)(frame))
+    From the cached CasADi :func:`mixer_function` (``u = A w²`` is linear in ``w²``), so no sympy once cached.
+    """
+    mixer = mixer_function()
+    return np.column_stack([np.asarray(mixer(np.eye(4)[i], p)[0], dtype=float).ravel() for i in range(4)])
 
 
 def mixer_numpy(vehicle: Vehicle) -> np.ndarray:
     """The 4x4 mixer matrix ``A`` (``u = A w^2``) of a vehicle and its frame, as numpy."""
-    return np.asarray(_matrix_numpy("mixer_matrix", vehicle.frame)(*param_vector(vehicle)), dtype=float)
+    return _mixer_at(param_vector(vehicle))
 
 
 def allocation_numpy(vehicle: Vehicle) -> np.ndarray:
     """The 4x4 allocation matrix ``B`` (rotor thrusts ``= B (u1, τ)``) of a vehicle and its frame, as numpy."""
-    return np.asarray(_matrix_numpy("allocation_matrix", vehicle.frame)(*param_vector(vehicle)), dtype=float)
+    return np.asarray(allocation_function()(param_vector(vehicle)), dtype=float)
 
 
 @lru_cache(maxsize=None)
@@ -235,10 +236,11 @@ def rotor_modes(frame: str) -> np.ndarray:
     coordinates feed one subsystem each (:func:`nniquad.analysis.cascade.family.mode_transform`).
     They do not depend on the parameters' values, only on the geometry.
     """
-    from nniquad.model import symbolic as S  # lazily: sympy costs 0.3 s, and a cached build needs none
-
-    A = np.asarray(_matrix_numpy("mixer_matrix", frame)(*np.ones(len(PARAM_NAMES))), dtype=float)
-    S.check_frame(frame)
+    if frame not in FRAMES:
+        raise ValueError(f"frame must be one of {', '.join(repr(f) for f in FRAMES)}, got {frame!r}")
+    p = np.ones(len(PARAM_NAMES))
+    p[PARAM_NAMES.index("frame_index")] = FRAMES.index(frame)
+    A = _mixer_at(p)
     return A / np.linalg.norm(A, axis=1, keepdims=True)
 
 
