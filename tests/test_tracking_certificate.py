@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from nniquad.analysis.tracking_section import tracking_section
+from nniquad.analysis.tracking_section import COVERS, TRACKING_KEYS, tracking_section
 from nniquad.certificates import canonical_digest, verify_certificate
 from nniquad.certificates.certificate import Certificate
 from nniquad.certificates.recheck_tracking import NOT_STATED, tracking_check
@@ -65,3 +65,12 @@ def test_a_certificate_without_the_section_notes_it_as_not_stated():
     cert = Certificate.from_json(doc)
     assert cert.tracking is None
     assert NOT_STATED in coverage_notes(cert)
+
+
+def test_the_builder_states_the_section_for_the_nominal_vehicle(shared_json):
+    from tests.test_certificate import build_small_certificate  # the shared small certificate (built once)
+
+    doc = shared_json("small-certificate", build_small_certificate)
+    assert set(doc["tracking"]) == TRACKING_KEYS and doc["tracking"]["covers"] == COVERS[0]
+    assert doc["tracking"]["rate_hz"] == doc["cascade"]["rate_hz"]
+    assert tracking_check(Certificate.from_json(doc)).ok

@@ -67,7 +67,7 @@ region are outside it, as they are outside the cascade certificate.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, replace
 from typing import Any, Sequence
 
 import numpy as np
@@ -149,7 +149,19 @@ class AxisLoop:
     def hybrid(self, feedforward: bool) -> tuple[HybridLoop, np.ndarray]:
         """The error loop as a :class:`HybridLoop` driven by ``ẍ_d`` (without) or ``x⃛_d`` (with feedforward).
 
-        Returns the loop and ``w`` (zero without feedforward).
+        State: the plant (``p̃`` or ``p̂``), with feedforward the hold's mismatch ``d``, the law's state, the held
+        command ``a_h``.  At a sample the law reads ``e_k``, holds ``u_k = C_k z_k + D_k e_k`` and updates ``z``;
+        ``d`` restarts at 0 (module docstring).
+
+        Parameters
+        ----------
+        feedforward
+            With the held acceleration feedforward.
+
+        Returns
+        -------
+        loop, w
+            The loop and ``w`` (zero without feedforward).
         """
         n_p, n_k = len(self.B_p), self.A_kd.shape[0]
         nd = 1 if feedforward else 0
@@ -315,7 +327,6 @@ class TrackingBound:
     fine_steps: int = FINE_STEPS
     contraction: float = math.nan
     periods: int = 0
-    extra: dict[str, Any] = field(default_factory=dict)
 
     @property
     def euclidean_factor(self) -> float:
@@ -407,10 +418,9 @@ def tracking_bound(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, *,
     tb = TrackingBound(accel_limit_m_s2=A, jerk_limit_m_s3=J, bound_m={}, per_axis_m={}, gains=worst,
                        axes_identical=identical, command_bound_m_s2={}, zone_limit_m_s2=L, rate_hz=float(rate_hz),
                        covers=covers, points=pts.tolist(), fine_steps=fine_steps, contraction=rho, periods=periods)
-    b = tb.bound_for(A, J, A)
-    per_axis = {k: v / tb.euclidean_factor for k, v in b.items()}
-    return TrackingBound(**{**tb.__dict__, "bound_m": b, "per_axis_m": per_axis,
-                            "command_bound_m_s2": tb.command_for(A, J, A)})
+    b = tb.bound_for(A, J, A)   # the worst start of the class: ‖ẍ_d(t0)‖ = A
+    return replace(tb, bound_m=b, per_axis_m={k: v / tb.euclidean_factor for k, v in b.items()},
+                   command_bound_m_s2=tb.command_for(A, J, A))
 
 
 @dataclass(frozen=True)
