@@ -185,6 +185,12 @@ def test_a_reference_above_the_class_is_reported_outside_and_one_inside_inside(d
     assert big.max_accel_m_s2 > tb.accel_limit_m_s2
     assert big.inside == {"no_feedforward": False, "feedforward": False}
     assert any("acceleration" in r for r in big.reasons["feedforward"])
+    # the issue's figure-eight (2 m x 1 m, 8 s) is of the class, but without feedforward its command may reach the
+    # tilt limit (outside the linear zone: outside); with feedforward it stays in the zone
+    issue = classify_reference(tb, t, *eight(2.0, 1.0))
+    assert issue.max_accel_m_s2 <= tb.accel_limit_m_s2 and issue.max_jerk_m_s3 <= tb.jerk_limit_m_s3
+    assert issue.inside == {"no_feedforward": False, "feedforward": True}
+    assert issue.reasons["no_feedforward"][0].startswith("command up to")
     # jerk estimated from the acceleration's differences when not given
     est = classify_reference(tb, t, *eight(4.0, 2.0)[:3])
     assert est.max_jerk_m_s3 == pytest.approx(big.max_jerk_m_s3, rel=1e-3)
