@@ -454,6 +454,9 @@ def classify_reference(bound: TrackingBound, t: Sequence[float], x_d: Any, v_d: 
                        jerk: Any | None = None) -> ReferenceClass:
     """Whether a sampled reference is of the bound's class and keeps the command in the linear zone.
 
+    The bound also assumes its start (:data:`nniquad.analysis.tracking_section.START`: the run begins on the
+    reference, level, the law at rest); that is the run's, not the reference's, and is not checked here.
+
     Parameters
     ----------
     bound
