@@ -328,6 +328,15 @@ class TrackingBound:
         """Whether every reference of the class keeps the command below the tilt limit, per case."""
         return {k: v <= self.zone_limit_m_s2 for k, v in self.command_bound_m_s2.items()}
 
+    @property
+    def zone_accel_limit_m_s2(self) -> dict[str, float]:
+        """The largest acceleration limit ``A`` [m/s²] for which the command stays below the tilt limit (for the
+        stated ``J`` with feedforward; the start ``‖ẍ_d(t0)‖ <= A``): :meth:`command_for` solved for ``A``."""
+        g, f, L = self.gains, self.euclidean_factor, self.zone_limit_m_s2
+        ff = (L - f * g["command_jerk_per_s"] * self.jerk_limit_m_s3) / (
+            1.0 + f * (g["dc_mismatch"] * g["command_accel"] + g["command_initial"]))
+        return {"no_feedforward": L / (f * g["command_accel"]), "feedforward": max(ff, 0.0)}
+
     def bound_for(self, accel: float, jerk: float, initial_accel: float) -> dict[str, float]:
         """The Euclidean bounds [m] for a reference with these peaks (``‖ẍ_d‖``, ``‖x⃛_d‖``, ``‖ẍ_d(t0)‖``)."""
         g, f = self.gains, self.euclidean_factor

@@ -11,6 +11,7 @@ Layout (every number recomputed by ``verify``; units in the names)::
     command_bound_m_s2   {no_feedforward, feedforward}     bound on the command's norm before the tilt limit
     zone_limit_m_s2      the tilt limit as a command norm (lowest mass covered)
     zone_holds           {no_feedforward, feedforward}     command bound <= zone limit
+    zone_accel_limit_m_s2 {no_feedforward, feedforward}    the largest A for which the zone holds (at the stated J)
     rate_hz, controller, feedforward, covers, model, method, fine_steps
 """
 
@@ -33,7 +34,7 @@ __all__ = ["TRACKING_KEYS", "COVERS", "START", "MODEL", "TRACKING_RTOL", "tracki
 #: The keys of the section.
 TRACKING_KEYS: frozenset[str] = frozenset((
     "class", "bound_m", "per_axis_m", "gains", "euclidean_factor", "command_bound_m_s2", "zone_limit_m_s2",
-    "zone_holds", "rate_hz", "controller", "feedforward", "covers", "model", "method", "fine_steps"))
+    "zone_holds", "zone_accel_limit_m_s2", "rate_hz", "controller", "feedforward", "covers", "model", "method", "fine_steps"))
 #: What a section may cover: the nominal vehicle, or also the corners of the cascade section's box.
 COVERS: tuple[str, ...] = ("nominal", "nominal and box corners")
 #: The initial condition every bound assumes.
@@ -55,7 +56,8 @@ def section_of_bound(tb: TrackingBound, covers: str) -> dict[str, Any]:
         "class": {"accel_limit_m_s2": tb.accel_limit_m_s2, "jerk_limit_m_s3": tb.jerk_limit_m_s3, "start": START},
         "bound_m": dict(tb.bound_m), "per_axis_m": dict(tb.per_axis_m), "gains": dict(tb.gains),
         "euclidean_factor": tb.euclidean_factor, "command_bound_m_s2": dict(tb.command_bound_m_s2),
-        "zone_limit_m_s2": tb.zone_limit_m_s2, "zone_holds": dict(tb.zone_holds), "rate_hz": tb.rate_hz,
+        "zone_limit_m_s2": tb.zone_limit_m_s2, "zone_holds": dict(tb.zone_holds),
+        "zone_accel_limit_m_s2": dict(tb.zone_accel_limit_m_s2), "rate_hz": tb.rate_hz,
         "controller": "discrete", "feedforward": "held", "covers": covers, "model": MODEL, "method": METHOD,
         "fine_steps": tb.fine_steps,
     }
@@ -145,9 +147,13 @@ def check_tracking_section(section: Mapping[str, Any], vehicle: Vehicle, gains: 
         return False, "differs from the recomputation: " + "; ".join(bad[:4]) + (" ..." if len(bad) > 4 else "")
     b, c = computed["bound_m"], computed["command_bound_m_s2"]
     A, J = computed["class"]["accel_limit_m_s2"], computed["class"]["jerk_limit_m_s3"]
-    zone = computed["zone_holds"]
-    return True, (f"|a_d| <= {A:g} m/s²: |e| <= {b['no_feedforward']:.4g} m without feedforward (command "
-                  f"<= {c['no_feedforward']:.3g} m/s², zone {'holds' if zone['no_feedforward'] else 'NOT certified'}); "
-                  f"with |jerk| <= {J:g} m/s³ and held feedforward |e| <= {b['feedforward']:.4g} m (command <= "
-                  f"{c['feedforward']:.3g} m/s², zone {'holds' if zone['feedforward'] else 'NOT certified'}; "
-                  f"tilt limit {computed['zone_limit_m_s2']:.3g} m/s²); {covers}, {rate_hz:g} Hz")
+    zone, za = computed["zone_holds"], computed["zone_accel_limit_m_s2"]
+
+    def zone_text(case: str) -> str:
+        return (f"command <= {c[case]:.3g} m/s², linear zone {'holds' if zone[case] else 'NOT certified'} for the "
+                f"class, holds for |a_d| <= {za[case]:.3g} m/s²")
+
+    return True, (f"|a_d| <= {A:g} m/s²: |e| <= {b['no_feedforward']:.4g} m without feedforward "
+                  f"({zone_text('no_feedforward')}); with |jerk| <= {J:g} m/s³ and held feedforward |e| <= "
+                  f"{b['feedforward']:.4g} m ({zone_text('feedforward')}); tilt limit "
+                  f"{computed['zone_limit_m_s2']:.3g} m/s², {covers}, {rate_hz:g} Hz")
