@@ -234,7 +234,7 @@ def peak_gain(loop: HybridLoop, output: np.ndarray, held: np.ndarray | None = No
     Phi = np.linalg.inv(Ph)
     c_tail = float(np.sum(np.linalg.norm(V @ Ph.T, axis=1))
                    + eps * sum(np.linalg.norm(Ph @ Wst[j], 2) for j in range(fine_steps)))
-    m, tail = 0, np.inf
+    m = 0
     while True:
         acc += np.abs(Q @ V.T).sum(axis=1) + eps * np.linalg.norm((Q @ Wcat).reshape(-1, fine_steps, n), axis=2).sum(1)
         Q = Q @ X
@@ -250,9 +250,7 @@ def peak_gain(loop: HybridLoop, output: np.ndarray, held: np.ndarray | None = No
     coef = np.array([delta ** ell / math.factorial(ell) for ell in range(order)])
     rem = delta ** order / math.factorial(order) * float(np.linalg.norm(taylor_rows[-1] @ A)) \
         * math.exp(np.linalg.norm(A, 2) * delta)
-    rb = [r]
-    for _ in range(order):
-        rb.append(rb[-1] @ A)
+    rb = taylor_rows + [taylor_rows[-1] @ A]
     # the input during [t_i, t]: δ max_σ |r e^{Aσ} b|, by the same Taylor expansion (rem already holds ‖r A^L‖)
     direct = delta * (sum(coef[ell] * abs(float(rb[ell] @ b)) for ell in range(order)) + rem * float(np.linalg.norm(b)))
     cont = coef @ L1_taylor + rem * L1_state.sum(axis=0) + direct
