@@ -4,6 +4,8 @@
 # make mutation [MODULE=metrics] [SURVIVORS=1]: mutation score of the verdict modules (tests/mutation/, mutmut);
 #   SURVIVORS=1 runs again only the last full run's survivors, against the current tests
 # make planted: the planted bugs, each in a staged copy, must fail the tests meant to catch them
+# make notebooks: the notebooks executed and rendered to HTML into notebooks/_build/html ([NNIQUAD_VEHICLE=FILE]
+#   studies another vehicle; NNIQUAD_NOTEBOOK_SIZE=smoke runs the coarse grids of the tests)
 # make docs: the docs site (docs/*.md and the API reference from the docstrings) into docs/_build/html
 PYTHON ?= python3
 VENV   ?= .venv
@@ -45,6 +47,9 @@ docs: $(STAMP)
 
 notebooks: $(STAMP)
 	$(VENV)/bin/jupytext --to ipynb notebooks/*.py
+	MPLBACKEND=Agg $(VENV)/bin/jupyter nbconvert --to html --execute --ExecutePreprocessor.timeout=3600 \
+		--output-dir notebooks/_build/html notebooks/*.ipynb
+	@echo "notebooks: notebooks/_build/html/*.html (NNIQUAD_VEHICLE=FILE studies another vehicle)"
 
 clean:
 	rm -rf $(VENV) out build *.egg-info benchmarks/results docs/_build docs/api

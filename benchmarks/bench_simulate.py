@@ -49,7 +49,7 @@ def _accuracy() -> float:
     tr = simulate(PAPER_VEHICLE, PAPER_GAINS, o)[0]
     P = SimParams.from_options(PAPER_VEHICLE, PAPER_GAINS, o).vector()
     f = sim.rhs_function("full")
-    e = np.zeros(5)
+    e = np.zeros(len(sim.EXO_FIELDS))
     sol = solve_ivp(lambda t, x: np.asarray(f(x, e, P)).ravel(), (0, 4.0), tr.state[0], method="DOP853",
                     rtol=1e-11, atol=1e-12, t_eval=tr.t)
     return float(np.max(np.abs(tr.xy - sol.y[[0, 2]].T)))

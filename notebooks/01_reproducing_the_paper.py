@@ -55,6 +55,7 @@ from nniquad import (
     PAPER_FIGURE_HORIZON_S,
     paper_figure_runs,
     PAPER_GAINS,
+    notebook_vehicle,
     PAPER_VEHICLE,
     ReducedLoop,
     region_of_attraction,
@@ -67,7 +68,11 @@ from nniquad import (
 )
 
 T_START = time.perf_counter()
+# reproducing the paper means its vehicle: this notebook does not take $NNIQUAD_VEHICLE (notebooks 02-04 do)
 V = PAPER_VEHICLE
+if notebook_vehicle() != V:
+    print(f"note: $NNIQUAD_VEHICLE names {notebook_vehicle().name!r}; this notebook reproduces the paper, "
+          "on the paper's vehicle")
 G = PAPER_GAINS
 OUT = Path(tempfile.mkdtemp(prefix="nniquad-nb01-"))
 

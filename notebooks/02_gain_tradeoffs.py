@@ -42,7 +42,7 @@ from nniquad import (
     certified_reach as _reach,
     Gains,
     notebook_size,
-    PAPER_VEHICLE,
+    notebook_vehicle,
     ReducedLoop,
     search_box,
     show_figure as show,
@@ -61,7 +61,7 @@ def certified_reach(vehicle, gains, tilt):
     return _reach(ReducedLoop.from_vehicle(vehicle, gains), tilt)
 
 T_START = time.perf_counter()
-V = PAPER_VEHICLE
+V = notebook_vehicle()  # the file $NNIQUAD_VEHICLE names (TOML or JSON); unset: the paper's vehicle
 M = V.m
 GAMMA_PAPER = 0.8  # the paper's γ (also TuneOptions' default gamma_max)
 assert TuneOptions().gamma_max == GAMMA_PAPER

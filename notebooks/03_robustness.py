@@ -40,8 +40,9 @@ from nniquad import (
     attitude_wn_cap,
     certified_reach,
     max_horizontal_acceleration,
-    PAPER_VEHICLE,
-    read_certificate,
+    notebook_vehicle,
+    notebook_certificate,
+    notebook_data,
     ReducedLoop,
     required_hold_s,
     show_figure as show,
@@ -54,7 +55,7 @@ from nniquad import (
 
 
 T_START = time.perf_counter()
-V = PAPER_VEHICLE
+V = notebook_vehicle()  # the file $NNIQUAD_VEHICLE names (TOML or JSON); unset: the paper's vehicle
 GAMMA_MAX = TuneOptions().gamma_max
 XI0_NORM = math.hypot(*XI0_M)
 HORIZON_S = 20.0
@@ -79,14 +80,12 @@ def fmt(x, spec=".2f", none="—"):
 # reach and the nominal settling time.
 
 # %%
-from pathlib import Path
-
 # tuned and written by `nniquad certify --model full --out notebooks/data/full_model_certificate.json`,
 # re-certified with the current code (same gains and tuning record) by `nniquad certify --model full
 # --gains-from notebooks/data/full_model_certificate.json --out notebooks/data/full_model_certificate.json`;
-# load_certificate checks its schema and SHA-256 digest
-CERT = read_certificate(Path("data") / "full_model_certificate.json" if Path("data").is_dir()
-                        else Path("notebooks") / "data" / "full_model_certificate.json")
+# notebook_certificate reads notebooks/data whatever the working folder, checks the schema and SHA-256 digest,
+# and refuses a certificate of another vehicle than V
+CERT = notebook_certificate("full_model_certificate.json", vehicle=V)
 GAINS = CERT.gains
 INNER = CERT.inner_loop
 BASE = SimOptions(model="full", horizon_s=HORIZON_S, motor_lag=True, inner=INNER)
@@ -105,6 +104,12 @@ print(f"sector bound: smallest γ = {gamma_used:.4f} ≤ γ_max = {GAMMA_MAX:g}:
 print(f"nominal full model with motor lag (τ = {1000 * tau0:g} ms): settles in {nom.settling_s:.3f} s, overshoot "
       f"{nom.overshoot_pct:.1f} %, peak tilt {nom.peak_tilt_deg:.1f}°, peak rotor speed {nom.peak_rotor_speed_rad_s:.0f} "
       f"of {V.omega_max:g} rad/s, altitude deviation {100 * nom.altitude_dev_m:.1f} cm; reduced model: {nom_reduced.settling_s:.3f} s")
+# the certificate's own reference run (its rate, start and output period: cert.run_settings()) is what it states
+REF = CERT.run_settings()
+ref = REF.simulate()[0].metrics()
+print(f"the certificate's reference run performance.full ({REF.options.sampling} law at {REF.options.rate_hz:g} Hz): "
+      f"settles in {ref.settling_s:.4f} s (stated {REF.stated['settling_s']:.4f} s); the runs below use the "
+      f"{BASE.sampling} law of the paper's model")
 
 # %% [markdown]
 # **What the tuner guards against.**  One condition explains what follows in
@@ -423,7 +428,7 @@ import json
 
 from nniquad import InnerLoopGains, pareto_front, PDFilteredGains
 
-DATA = Path("data") if Path("data").is_dir() else Path("notebooks") / "data"
+DATA = notebook_data()  # notebooks/data of this checkout (or $NNIQUAD_NOTEBOOK_DATA), never the working folder
 FAMILIES = json.loads((DATA / "families.json").read_text())
 LAWS = tuple(FAMILIES["designs"])
 LAW_LABEL = {"nni": "NNI, paper class (certified)", "nni_cascade": "NNI, cascade class (certified)",
@@ -436,11 +441,11 @@ for law, d in FAMILIES["designs"].items():  # a families file computed from othe
     assert hashlib.sha256((DATA / d["file"]).read_bytes()).hexdigest() == d["sha256"], \
         f"{DATA / 'families.json'} is older than {d['file']}: run make_data.py families"
 # written by `nniquad certify --model full --warm-start designs/pd_filtered_paper.json ...` (make_data.py, nni_paper)
-PAPER_CERT = read_certificate(DATA / "paper_model_certificate.json")
+PAPER_CERT = notebook_certificate("paper_model_certificate.json", vehicle=V)
 # written by `nniquad certify --model full --law-class cascade ...` (make_data.py, step nni_cascade)
-CASCADE_CERT = read_certificate(DATA / "cascade_model_certificate.json")
+CASCADE_CERT = notebook_certificate("cascade_model_certificate.json", vehicle=V)
 # written by `nniquad certify --model full --controller sni2 --law-class cascade ...` (step sni2_cascade)
-SNI2_CERT = read_certificate(DATA / "sni2_cascade_certificate.json")
+SNI2_CERT = notebook_certificate("sni2_cascade_certificate.json", vehicle=V)
 N_MC, MC_SEED = FAMILIES["samples"], FAMILIES["seed"]
 family = [{"law": r["law"], "lam": r["lam"], "gains": r["gains"], "nominal_s": r["nominal_s"],
            "tilt": r["peak_tilt_deg"], "success": r["success"], "ci": tuple(r["success_ci"]), "p95": r["p95_s"]}
@@ -565,7 +570,7 @@ from nniquad.laws import law_named
 LIM = gain_limits(V, TILT)
 GD_MAX = LIM["gamma_delta_max"]
 # written by `nniquad certify --law-class cascade --gains-from designs/pd_filtered.json` (make_data.py, pd_image)
-IMAGE_CERT = read_certificate(DATA / "designs" / "pd_filtered_image_certificate.json")
+IMAGE_CERT = notebook_certificate("designs", "pd_filtered_image_certificate.json", vehicle=V)
 
 
 def design_record(name):
@@ -587,9 +592,9 @@ for label, name in (("filtered PD, no class", "pd_filtered"), ("filtered PD, pap
     rows6.append({"label": label, "nni": nni_from_filtered_pd(pd_g, V.m), "inner": pd_inner, "p95": rec["settling_s"],
                   "pd": pd_g, "cert": IMAGE_CERT if name == "pd_filtered" else None})
 # written by `nniquad certify --law-class cascade --no-margins ...` (make_data.py, step nni_cascade_no_margins)
-NO_MARGINS_CERT = read_certificate(DATA / "designs" / "nni_cascade_no_margins_certificate.json")
+NO_MARGINS_CERT = notebook_certificate("designs", "nni_cascade_no_margins_certificate.json", vehicle=V)
 # written by `nniquad certify --law-class cascade --warm-start designs/pd_filtered.json ...` (step nni_cascade_seeded)
-SEEDED_CERT = read_certificate(DATA / "designs" / "nni_cascade_seeded_certificate.json")
+SEEDED_CERT = notebook_certificate("designs", "nni_cascade_seeded_certificate.json", vehicle=V)
 for label, cert in (("NNI, paper class (certified, seeded)", PAPER_CERT),
                     ("NNI, cascade class (certified)", CASCADE_CERT),
                     ("NNI, cascade class, no GM requirement (certified)", NO_MARGINS_CERT),
@@ -657,7 +662,7 @@ print(f"the speed study's filtered PD (robust p95 {held_rec['settling_s']:.3f} s
             f"(the others are not run after a failed corner; cost {held_eval['cost']:.2f} s, the penalty)"))
 # written by `nniquad certify --controller sni2 --law-class cascade --warm-start designs/pd_filtered.json ...`
 # (make_data.py, step sni2_cascade_seeded)
-SNI2_SEEDED_CERT = read_certificate(DATA / "designs" / "sni2_cascade_seeded_certificate.json")
+SNI2_SEEDED_CERT = notebook_certificate("designs", "sni2_cascade_seeded_certificate.json", vehicle=V)
 for label, sc in (("SNI2, cascade class (certified)", SNI2_CERT),
                   ("SNI2, cascade class, seeded with the PD's image (certified)", SNI2_SEEDED_CERT)):
     sni2_ms = design_margins(V, sc.gains, sc.inner_loop, tilt_limit_deg=TILT)
@@ -719,7 +724,7 @@ md_table(["design", "tuned on noise σ [cm]", "p95, default set [s]", "p95, no n
            f"{r['kp_hf']:.3g}"] for n, r in noise_rows.items()])
 # written by `nniquad certify --law-class cascade --scenario-noise-range 0 0 --gains-from
 # designs/pd_filtered_quiet.json` (make_data.py, step pd_image_quiet)
-QUIET_IMAGE_CERT = read_certificate(DATA / "designs" / "pd_filtered_quiet_image_certificate.json")
+QUIET_IMAGE_CERT = notebook_certificate("designs", "pd_filtered_quiet_image_certificate.json", vehicle=V)
 quiet_gap = noise_rows["pd_filtered_quiet"]["quiet"] / noise_rows["pd_velocity_quiet"]["quiet"] - 1.0
 noisy_gap = noise_rows["pd_filtered"]["default"] / noise_rows["pd_velocity"]["default"] - 1.0
 print(f"without noise the filtered PD is {100 * quiet_gap:+.1f} % from the PD with true velocity "

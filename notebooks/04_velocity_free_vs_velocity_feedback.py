@@ -60,10 +60,10 @@ from nniquad import (
     decode,
     DEFAULT_TAU_F_S,
     notebook_size,
-    PAPER_VEHICLE,
+    notebook_vehicle,
     PDFilteredGains,
     PDGains,
-    read_certificate,
+    notebook_certificate,
     ReducedLoop,
     rms_after,
     show_figure as show,
@@ -80,7 +80,7 @@ from nniquad.analysis.reduced_loop import reduced_loop
 from nniquad.laws.classes import within_sector_bound
 
 T_START = time.perf_counter()
-V = PAPER_VEHICLE
+V = notebook_vehicle()  # the file $NNIQUAD_VEHICLE names (TOML or JSON); unset: the paper's vehicle
 GAMMA_MAX = TuneOptions().gamma_max
 HORIZON_S = 8.0
 JITTER_FROM_S = HORIZON_S / 2  # tilt jitter is measured over [JITTER_FROM_S, HORIZON_S] ...
@@ -110,22 +110,20 @@ CTRL_COLOR = {"nni": "tab:blue", "nni_cascade": "tab:purple", "sni2": "tab:red",
 # alternatives to them, below).
 
 # %%
-from pathlib import Path
-
 # tuned and written by `nniquad certify --model full --out notebooks/data/full_model_certificate.json`,
 # re-certified with the current code (same gains and tuning record) by `nniquad certify --model full
 # --gains-from notebooks/data/full_model_certificate.json --out notebooks/data/full_model_certificate.json`;
-# load_certificate checks its schema and SHA-256 digest
-DATA = Path("data") if Path("data").is_dir() else Path("notebooks") / "data"
-CERT = read_certificate(DATA / "full_model_certificate.json")
+# notebook_certificate reads notebooks/data whatever the working folder, checks the schema and SHA-256 digest,
+# and refuses a certificate of another vehicle than V
+CERT = notebook_certificate("full_model_certificate.json", vehicle=V)
 # written by `nniquad certify --model full --law-class cascade ...` (notebooks/data/make_data.py)
-CASCADE_CERT = read_certificate(DATA / "cascade_model_certificate.json")
+CASCADE_CERT = notebook_certificate("cascade_model_certificate.json", vehicle=V)
 NNI_REF = CERT.gains
 NNI_CASCADE_REF = CASCADE_CERT.gains
 # written by `nniquad certify --model full --controller sni2 --law-class cascade ...` (make_data.py, sni2_cascade)
-SNI2_REF = read_certificate(DATA / "sni2_cascade_certificate.json").gains
+SNI2_REF = notebook_certificate("sni2_cascade_certificate.json", vehicle=V).gains
 # written by `nniquad certify --model full --controller sni2 ...` (make_data.py, sni2_paper): the paper class
-SNI2_PAPER_REF = read_certificate(DATA / "designs" / "sni2_paper_certificate.json").gains
+SNI2_PAPER_REF = notebook_certificate("designs", "sni2_paper_certificate.json", vehicle=V).gains
 INNER = CERT.inner_loop
 BASE = SimOptions(model="full", horizon_s=HORIZON_S, motor_lag=True, inner=INNER)
 TILT_CAP = BASE.tilt_limit_deg + TILT_SLACK_DEG

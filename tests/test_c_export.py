@@ -20,6 +20,7 @@ from nniquad.certificates.certificate import read_certificate
 from nniquad.certificates.export import controller_from_certificate, export_controller, export_prefix
 from nniquad.config import EXPORT_POSITION_ERROR_LIMIT_M
 from nniquad.control.inner_loops import G_Z_MIN_FRACTION
+from nniquad.control.references import FigureEight
 from nniquad.sim import SimOptions, simulate
 
 DATA = Path(__file__).resolve().parents[1] / "notebooks" / "data"
@@ -36,7 +37,8 @@ FLOAT_TILT_BOUND_RAD = 2e-5
 
 pytestmark = pytest.mark.skipif(CC is None, reason="needs a C compiler")
 
-#: A driver of one export: one command a line (i init, r reset, s start, t step; then position, setpoint, yaw, a_z),
+#: A driver of one export: one command a line (i init, r reset, s start, t step; then position, setpoint, yaw, a_z,
+#: the feedforward),
 #: printing the status, whether the state and the outputs stayed byte-identical, the state and the outputs.
 DRIVER = r"""
 #include <stdio.h>
@@ -52,15 +54,16 @@ int main(void) {
     memset(&s, 0, sizeof s);
     memset(&out, 0, sizeof out);
     while (fgets(line, sizeof line, stdin)) {
-        double v[6] = {0, 0, 0, 0, 0, 0};
+        double v[8] = {0, 0, 0, 0, 0, 0, 0, 0};
         char *p = line + 1;
         PFX_state s0 = s;
         PFX_output o0 = out;
         op = line[0];
-        for (i = 0; i < 6; ++i) v[i] = strtod(p, &p);
+        for (i = 0; i < 8; ++i) v[i] = strtod(p, &p);
         in.position_m[0] = (PFX_real)v[0]; in.position_m[1] = (PFX_real)v[1];
         in.setpoint_m[0] = (PFX_real)v[2]; in.setpoint_m[1] = (PFX_real)v[3];
         in.yaw_rad = (PFX_real)v[4]; in.a_z_m_s2 = (PFX_real)v[5];
+        in.accel_ff_m_s2[0] = (PFX_real)v[6]; in.accel_ff_m_s2[1] = (PFX_real)v[7];
         if (op == 'i') st = PFX_init(&s);
         else if (op == 'r') st = PFX_reset(&s);
         else if (op == 's') st = PFX_start(&s, &in);
@@ -104,8 +107,8 @@ def _drive(exe: Path, lines: list[str]) -> tuple[np.ndarray, np.ndarray, np.ndar
     return rows[:, 0].astype(int), rows[:, 1].astype(bool), rows[:, 2:]
 
 
-def _cmd(op: str, pos, ref, psi: float, a_z: float) -> str:
-    return f"{op} {pos[0]:.17g} {pos[1]:.17g} {ref[0]:.17g} {ref[1]:.17g} {psi:.17g} {a_z:.17g}"
+def _cmd(op: str, pos, ref, psi: float, a_z: float, ff=(0.0, 0.0)) -> str:
+    return f"{op} {pos[0]:.17g} {pos[1]:.17g} {ref[0]:.17g} {ref[1]:.17g} {psi:.17g} {a_z:.17g} {ff[0]:.17g} {ff[1]:.17g}"
 
 
 def _recorded_run(cert, law: str):
@@ -117,8 +120,8 @@ def _recorded_run(cert, law: str):
     return tr.xy + ref, ref, rng.uniform(-math.pi, math.pi, len(tr.xy)), rng.uniform(-3.0, 3.0, len(tr.xy))
 
 
-def _reference(ctrl, xi, psi, a_z, z0=None):
-    run = ctrl.run(xi, psi, a_z, z0=z0)
+def _reference(ctrl, xi, psi, a_z, z0=None, a_ff=None):
+    run = ctrl.run(xi, psi, a_z, z0=z0, a_ff=a_ff)
     g_z = np.array([max(ctrl.g - a, G_Z_MIN_FRACTION * ctrl.g) for a in a_z])  # the clamp as the docs state it
     return np.column_stack([run["z"][1:], run["tilt_sp"], run["a_h"], g_z])
 
@@ -138,6 +141,32 @@ def test_c_step_equals_the_numpy_controller_over_a_run(exports, law):
     np.testing.assert_allclose(got[1, :ctrl.n_state], ctrl.start(pos[0] - ref), rtol=0, atol=1e-12)
 
 
+@pytest.mark.parametrize("law", sorted(CERTS))
+def test_c_step_with_a_moving_setpoint_and_feedforward_equals_the_numpy_controller(exports, law):
+    """The figure-eight as the setpoint and its acceleration as the feedforward, sampled at 100 Hz, over a
+    reduced-model run that follows it: the C step against :meth:`DiscreteLaw.step` with ``a_ff``."""
+    d, ex = exports
+    prefix, cert = ex[law]
+    ctrl = controller_from_certificate(cert, 100.0)
+    eight = FigureEight(2.0, 1.0, 8.0)
+    p0, v0, _ = eight.sample(0.0)
+    o = SimOptions(model="reduced", horizon_s=3.0, output_dt_s=0.01, controller_sampling="discrete",
+                   reference=eight, feedforward=True, xi0=tuple(p0[0] + [0.3, -0.2]), v0=tuple(v0[0]))
+    tr = simulate(cert.vehicle, cert.gains, o)[0]
+    ref, _, ff = eight.sample(tr.t)
+    rng = np.random.default_rng(7)
+    psi, a_z = rng.uniform(-math.pi, math.pi, len(tr.t)), rng.uniform(-3.0, 3.0, len(tr.t))
+    pos = tr.xy
+    lines = ["i", _cmd("s", pos[0], ref[0], 0.0, 0.0)] + [_cmd("t", *row) for row in zip(pos, ref, psi, a_z, ff)]
+    status, _, got = _drive(_compile(d, prefix), lines)
+    assert np.all(status == STATUS["OK"])
+    want = _reference(ctrl, pos - ref, psi, a_z, a_ff=ff)
+    scale = np.maximum(1.0, np.max(np.abs(want), axis=0))
+    assert np.max(np.abs(got[2:] - want) / scale) < 1e-12
+    # the feedforward is really in the command: without it the numpy controller differs
+    assert np.max(np.abs(_reference(ctrl, pos - ref, psi, a_z) - want)) > 0.1
+
+
 def test_two_exports_link_into_one_program_and_both_step(exports):
     d, ex = exports
     (p1, c1), (p2, c2) = ex["nni"], ex["sni2"]
@@ -147,8 +176,8 @@ def test_two_exports_link_into_one_program_and_both_step(exports):
 #include "{p1}.h"
 #include "{p2}.h"
 int main(void) {{
-    {p1}_state s1; {p1}_input i1 = {{{{1.0, -0.5}}, {{0.0, 0.0}}, 0.3, 0.0}}; {p1}_output o1;
-    {p2}_state s2; {p2}_input i2 = {{{{1.0, -0.5}}, {{0.0, 0.0}}, 0.3, 0.0}}; {p2}_output o2;
+    {p1}_state s1; {p1}_input i1 = {{{{1.0, -0.5}}, {{0.0, 0.0}}, 0.3, 0.0, {{0.0, 0.0}}}}; {p1}_output o1;
+    {p2}_state s2; {p2}_input i2 = {{{{1.0, -0.5}}, {{0.0, 0.0}}, 0.3, 0.0, {{0.0, 0.0}}}}; {p2}_output o2;
     if ({p1}_init(&s1) || {p1}_start(&s1, &i1) || {p1}_step(&s1, &i1, &o1)) return 1;
     if ({p2}_init(&s2) || {p2}_start(&s2, &i2) || {p2}_step(&s2, &i2, &o2)) return 2;
     printf("%.17g %.17g %.17g %.17g\\n", o1.tilt_rad[0], o1.tilt_rad[1], o2.tilt_rad[0], o2.tilt_rad[1]);

@@ -50,7 +50,7 @@ def _failed(sec, xi0=(2.0, -1.5)):
 
 def _V(region, fam, X):
     """``V`` of the stated region at states ``X`` (one per point of ``fam``, original 19-state coordinates)."""
-    Tm, _ = RC.mode_transform(fam.state_names)
+    Tm, _ = RC.mode_transform(fam.state_names, fam.frame)
     out = np.zeros(len(fam))
     for a, sl in RF.subsystem_blocks().items():
         if a in RR.HORIZONTAL:

@@ -98,7 +98,11 @@ def test_certificate_verifies_and_states_independent_numbers(cert, tmp_path):
     assert cert["sector"]["gamma"] == pytest.approx(1.0 / (V.m * GAINS.kp * GAINS.delta), rel=1e-12)
     poles = np.roots([1, GAINS.Gamma * GAINS.delta, GAINS.kp, GAINS.Gamma * (GAINS.kp * GAINS.delta - 1 / V.m)])
     assert cert["stability_margin"]["max_real_part_1_s"] == pytest.approx(max(poles.real), rel=1e-9)
-    assert cert["start_certified"] == (np.hypot(2.0, -1.5) <= cert["region_of_attraction"]["max_displacement_m"])
+    # the start per method, each against its own region's stated reach; the top level never claims more than both
+    reaches = [cert["region_of_attraction"]["max_displacement_m"],
+               cert["cascade"]["region_of_attraction"]["max_displacement_m"]]
+    assert [m["inside"] for m in cert["start"]["methods"].values()] == [np.hypot(2.0, -1.5) <= r for r in reaches]
+    assert cert["start_certified"] == all(np.hypot(2.0, -1.5) <= r for r in reaches)
     assert [p.name for p in tmp_path.iterdir()] == ["c.json"]
 
 
@@ -470,7 +474,7 @@ def test_fail_fast_stops_at_the_first_failure_and_cheap_checks_run_first(cert):
 
 
 def test_re_simulation_is_cached_by_its_exact_inputs(cert, monkeypatch):
-    import nniquad.certificates.recheck_runs as sim  # the module whose simulate the re-check calls
+    import nniquad.certificates.reference_run as sim  # the module whose simulate the re-check calls (ReferenceRun)
     from nniquad.certificates.verify import clear_cache
 
     calls = []
@@ -554,6 +558,8 @@ def test_schema_2_cascade_section_is_checked_by_robust_cascade(certificate, monk
 
     monkeypatch.setattr(recheck, "check_cascade_rows", stub)
     section = {"rate_hz": 100.0, "region_of_attraction": {"tilt_limit_deg": 30.0}}
+    # no 'start' section (as a certificate from before it): the stub's region states no reach to compare the start with
+    certificate = dataclasses.replace(certificate, start=None)
     two = dataclasses.replace(certificate, cascade=section).signed()
     res = verify_certificate(two, simulate=False)
     assert res.ok, res.table()

@@ -9,15 +9,18 @@ from __future__ import annotations
 
 import inspect
 import json
+import re
 
 import numpy as np
 import pytest
 
+from nniquad.certificates import read_certificate
 from nniquad.config import CONTROL_RATE_HZ
 from nniquad.laws.nni import Gains
 from nniquad.control.inner_gains import InnerLoopGains
 from nniquad.model.vehicle import PAPER_VEHICLE as V
 from nniquad.sim import SimOptions, simulate
+from tests.test_honest_word import assert_no_contradiction
 
 GAINS = Gains(13.148341568334407, 25.27258951977003, 0.19046572101699574)
 INNER = InnerLoopGains(attitude_wn_rad_s=101.56, attitude_zeta=1.132, attitude_accel_limit_rad_s2=31.14)
@@ -98,6 +101,11 @@ def test_certify_rate_reaches_the_margins(run_cli, tmp_path):
                              "--out", str(out_path))
     assert code == 0, err
     assert json.loads(out_path.read_text())["margins"]["rate_hz"] == 100.0
+    # the progress lines show real percentages: one per step, rising, ending at 100
+    percents = [int(p) for p in re.findall(r"^\[certify +[\d.]+ s\] +(\d+) %", err, re.M)]
+    assert len(percents) >= 6 and percents == sorted(set(percents)) and percents[0] == 0 and percents[-1] == 100, err
+    # what certify printed about the start: one word, no two lines that contradict each other
+    assert_no_contradiction([line.strip() for line in out.splitlines()], read_certificate(out_path))
     code, out, err = run_cli("verify", str(out_path))
     assert code == 0, out + err
 

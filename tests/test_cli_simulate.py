@@ -56,6 +56,10 @@ def test_certificate_gains(run_cli, tmp_path):
                              "--json", str(js))
     assert code == 0, err
     assert json.loads(js.read_text())["gains"]["Gamma"] == 12.0
+    # not a complete certificate: its gains fly with the command's options, and it says so in one line
+    notes = [line for line in out.splitlines() if line.startswith("certificate:")]
+    assert len(notes) == 1 and "states no reference run" in notes[0] and "nothing is compared" in notes[0]
+    assert json.loads(js.read_text())["certificate"]["reproduced"] is None
 
 
 @pytest.mark.parametrize(

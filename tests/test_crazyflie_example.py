@@ -58,6 +58,7 @@ int main(void) {
     stabilizerStep_t tick;
     sp.mode.x = sp.mode.y = sp.mode.z = modeAbs;
     sp.position.x = SPX; sp.position.y = SPY; sp.position.z = 1.0f;
+    sp.acceleration.x = AX; sp.acceleration.y = AY;
     st.position.x = X; st.position.y = Y; st.position.z = 1.0f; st.attitude.yaw = YAW_DEG;
     controllerOutOfTreeInit();
     if (!controllerOutOfTreeTest()) return 1;
@@ -79,8 +80,9 @@ def test_crazyflie_example_compiles_and_gives_the_laws_setpoints_in_the_firmware
     p = export_prefix(cert)
     assert (tmp_path / f"{p}_crazyflie.c").exists()
     x, y, spx, spy, yaw_deg, hover = 0.4, 0.3, 0.1, -0.05, 30.0, 36000.0  # the example's default hover thrust
+    ax, ay = -0.2, 0.15  # the setpoint's acceleration (m/s^2, z-up frame): the feedforward
     defines = [f"-DX={x}f", f"-DY={y}f", f"-DSPX={spx}f", f"-DSPY={spy}f", f"-DYAW_DEG={yaw_deg}f",
-               f"-DHOVER={hover}f"]
+               f"-DHOVER={hover}f", f"-DAX={ax}f", f"-DAY={ay}f"]
     (tmp_path / "firmware_stub.c").write_text(FIRMWARE_STUB)
     exe = tmp_path / "cf"
     flags = ["-std=gnu11", "-Wall", "-Wextra", "-Werror", "-Wdouble-promotion", "-Wmissing-prototypes",
@@ -96,7 +98,9 @@ def test_crazyflie_example_compiles_and_gives_the_laws_setpoints_in_the_firmware
     # the law in NED: north = x, east = -y, psi = -yaw; error measured minus setpoint
     ctrl = controller_from_certificate(cert, 100.0)
     xi = np.array([[x - spx, -(y - spy)]])
-    tilt = ctrl.run(xi, np.array([-math.radians(yaw_deg)]))["tilt_sp"][0]
+    tilt = ctrl.run(xi, np.array([-math.radians(yaw_deg)]), a_ff=np.array([[ax, -ay]]))["tilt_sp"][0]
+    without = ctrl.run(xi, np.array([-math.radians(yaw_deg)]))["tilt_sp"][0]
+    assert np.max(np.abs(np.degrees(tilt - without))) > 0.1  # the feedforward reached the law
     np.testing.assert_allclose([roll_deg, pitch_deg], np.degrees(tilt), rtol=1e-4, atol=1e-4)
     # signs by the firmware's convention: the vehicle is ahead (+x body) and left (+y body) of the setpoint,
     # so it must accelerate back and right: pitch > 0 (legacy pitch = -PID(vx)), roll > 0 (roll = -PID(vy))

@@ -20,7 +20,7 @@ T_MAX = V.b * V.omega_max**2
 
 def _alloc() -> ca.Function:
     u1, tau = ca.SX.sym("u1"), ca.SX.sym("tau", 3)
-    w, T = IL.allocate(u1, tau, V.l, V.b, V.d, V.omega_max)
+    w, T = IL.allocate(u1, tau, param_vector(V), V.omega_max)
     return ca.Function("alloc", [u1, tau], [w, T])
 
 
@@ -99,7 +99,7 @@ def _euler_residual(omega_r_sign: float = 1.0, rates=(0.0, 0.0, 0.0)) -> tuple[n
     w = np.array([x[ix[f"w{i}"]] for i in range(1, 5)]) * np.array([1.15, 0.9, 1.05, 0.8])
     for i in range(4):
         x[ix[f"w{i + 1}"]] = w[i]
-    xdot = np.asarray(sim.rhs_function("full")(x, np.zeros(5), p)).ravel()
+    xdot = np.asarray(sim.rhs_function("full")(x, np.zeros(len(sim.EXO_FIELDS)), p)).ravel()
     eta = x[[ix["phi"], ix["theta"], ix["psi"]]]
     eta_d = x[[ix["phi_dot"], ix["theta_dot"], ix["psi_dot"]]]
     eta_dd = xdot[[ix["phi_dot"], ix["theta_dot"], ix["psi_dot"]]]

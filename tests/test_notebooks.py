@@ -1,7 +1,9 @@
 """Every notebook (jupytext py:percent source in notebooks/) executes without error.
 
 Each notebook is converted in memory and run with nbclient in the project's own
-Python (its ipykernel), from the notebooks/ folder.  A cell that runs longer
+Python (its ipykernel), from an empty temporary folder: a notebook reads its data
+through ``nniquad.notebook_data`` (the checkout's notebooks/data), never the
+working folder, so it runs the same from anywhere.  A cell that runs longer
 than ``CELL_TIMEOUT_S`` is a hang and fails the test; how long the notebooks
 take is a speed target, measured in ``benchmarks/bench_notebooks.py`` (timed
 tests on a shared machine measure the machine, not the notebook).
@@ -27,14 +29,17 @@ CELL_TIMEOUT_S = 600
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
 def test_notebook_executes(path, tmp_path, monkeypatch):
     from nniquad.reporting.display import NOTEBOOK_SIZE_ENV
+    from nniquad.reporting.notebooks import NOTEBOOK_DATA_ENV, NOTEBOOK_VEHICLE_ENV
 
     monkeypatch.setenv(NOTEBOOK_SIZE_ENV, "smoke")  # the kernel inherits the environment
+    monkeypatch.delenv(NOTEBOOK_VEHICLE_ENV, raising=False)  # the paper's vehicle, whatever the caller's shell says
+    monkeypatch.delenv(NOTEBOOK_DATA_ENV, raising=False)
     jupytext = pytest.importorskip("jupytext")
     nbclient = pytest.importorskip("nbclient")
     nb = jupytext.read(path)
     nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
     client = nbclient.NotebookClient(
-        nb, timeout=CELL_TIMEOUT_S, kernel_name="python3", resources={"metadata": {"path": str(path.parent)}}
+        nb, timeout=CELL_TIMEOUT_S, kernel_name="python3", resources={"metadata": {"path": str(tmp_path)}}
     )
     client.execute()
     # The notebook ends in a written conclusion built from the numbers it computed:

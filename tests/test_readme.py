@@ -47,3 +47,11 @@ def test_readme_python_api_block_runs(tmp_path, monkeypatch, capsys):
     opts = nq.SimOptions(model="reduced", horizon_s=settings["horizon_s"], output_dt_s=settings["output_dt_s"])
     got = nq.simulate(vehicle, g, opts)[0].metrics().settling_s
     assert got == pytest.approx(stated, abs=2e-3)
+    # the flight is the certificate's full-model run: it reproduces what the certificate states, and a design tuned
+    # on the full model keeps the tilt limit there (the reduced model's design flew 40.8 deg on a 1.2 kg vehicle)
+    flown = namespace["flight"][0].metrics()
+    full = cert.performance["full"]
+    assert flown.settling_s == pytest.approx(full["settling_s"], abs=cert.tolerances["settling_abs_s"])
+    assert flown.peak_tilt_deg == pytest.approx(full["peak_tilt_deg"], abs=cert.tolerances["tilt_abs_deg"])
+    assert flown.peak_tilt_deg <= cert.tilt_limit_deg + nq.TILT_SLACK_DEG and not flown.diverged
+    assert namespace["run"].options.to_json() == cert.to_json()["performance"]["full"]["settings"]

@@ -173,7 +173,7 @@ def test_dropped_couplings_vanish():
     assert RC.coupling(fam) < RC.COUPLING_TOL
     # and the coupling measure sees a coupling when there is one: mix a state of y into x
     bad = RF.take_points(fam, np.arange(len(fam)))
-    Tm, names = RC.mode_transform(fam.state_names)
+    Tm, names = RC.mode_transform(fam.state_names, fam.frame)
     A = bad.A_d.copy()
     A[:, fam.state_names.index("x"), fam.state_names.index("phi")] += 1e-3
     assert RC.coupling(replace(bad, A_d=A)) > 1e-6
@@ -205,7 +205,7 @@ def test_grid_numbers_vs_direct_rebuild(section):
                                  spectral_radius=0, T=0.01, decay_rate_1_s=0, min_eig_P=0, status="", ok=True)
             for n in RC.SUBSYSTEMS}
     fam = RC.sampled_family(V, GAINS, INNER, pts, tilt_limit_deg=TILT, rate_hz=RATE)
-    P = RL.assemble_P(lyap, dims, BOX, pts, fam.state_names)
+    P = RL.assemble_P(lyap, dims, BOX, pts, fam.state_names, fam.frame)
     ours = RC.contraction_batch(fam.A_d, P)
     for i, p in enumerate(pts):
         cas = linearise_cascade(V, GAINS, replace(INNER, attitude_gain_scale=p[4]), tilt_limit_deg=TILT,

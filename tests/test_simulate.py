@@ -103,7 +103,7 @@ def test_full_rk4_matches_solve_ivp(lag):
         assert np.max(w) == pytest.approx(V.omega_max) or np.min(w) == pytest.approx(0.0, abs=1e-9)
     P = SimParams.from_options(V, PAPER_GAINS, o).vector()
     f = sim.rhs_function("full")
-    e = np.zeros(5)
+    e = np.zeros(len(sim.EXO_FIELDS))
     sol = solve_ivp(lambda t, x: np.asarray(f(x, e, P)).ravel(), (0, 4.0), tr.state[0], method="DOP853",
                     rtol=1e-11, atol=1e-12, t_eval=tr.t)
     assert sol.success
@@ -189,7 +189,7 @@ def test_attitude_loop_converges_with_saturated_rotors():
 def test_allocation_inverts_the_mixer_and_keeps_priorities():
     """Below saturation the allocation is the mixer's exact inverse; at saturation yaw gives way first."""
     u1s, tau = ca.SX.sym("u1"), ca.SX.sym("tau", 3)
-    w, T = allocate(u1s, tau, V.l, V.b, V.d, V.omega_max)
+    w, T = allocate(u1s, tau, param_vector(V), V.omega_max)
     alloc = ca.Function("alloc", [u1s, tau], [w, T])
     mixer = mixer_function()
     p = param_vector(V)
@@ -288,7 +288,7 @@ def test_simulated_settling_matches_independent_fine_grid():
 def test_noise_is_seeded_sampled_and_held():
     o = SimOptions(model="linear", horizon_s=1.0, noise_sigma_m=0.01, noise_rate_hz=50.0)
     E = sim.exogenous_inputs(o)
-    assert E.shape == (1000, 5) and np.count_nonzero(E[:, 2]) == 50  # a new sample every 20 steps
+    assert E.shape == (1000, len(sim.EXO_FIELDS)) and np.count_nonzero(E[:, 2]) == 50  # a new sample every 20 steps
     assert np.all(E[1:20, 0] == E[0, 0]) and E[20, 0] != E[0, 0]
     np.testing.assert_array_equal(E, sim.exogenous_inputs(o))
     assert not np.array_equal(E, sim.exogenous_inputs(o.with_(seed=1)))
@@ -552,7 +552,8 @@ def test_parameter_layout_is_generated_from_the_typed_blocks():
     from nniquad.laws.registry import LAWS
     from nniquad.model.vehicle import UNITS, Vehicle
 
-    vehicle = [f.name for f in fields(Vehicle) if f.name != "name"]
+    # the frame enters as its index (a number) after the numeric fields
+    vehicle = [f.name for f in fields(Vehicle) if f.name not in ("name", "frame")] + ["frame_index"]
     inner = [f.name for f in fields(InnerLoopGains)]
     for controller, block in ((name, law.gains_type) for name, law in LAWS.items()):
         layout = sim.param_layout(controller)
@@ -562,7 +563,7 @@ def test_parameter_layout_is_generated_from_the_typed_blocks():
                     + [f"run.{f.name}" for f in fields(sim.RunSettings)])
         assert names == expected and len(set(names)) == len(names)
         units = {f.name: f.unit for f in layout}
-        assert all(units[f"plant.{n}"] == UNITS[n] == units[f"nominal.{n}"] for n in vehicle)
+        assert all(units[f"plant.{n}"] == UNITS[n] == units[f"nominal.{n}"] for n in vehicle[:-1])
         assert units["run.dt"] == "s" and units["run.tilt_limit"] == "rad"
     assert sim.param_layout("nni")[0].unit == "1/s^2" and sim.param_layout("pd_filtered")[2].unit == "s"
     # the vector holds the typed values at their names

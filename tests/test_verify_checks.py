@@ -47,13 +47,14 @@ def test_the_result_object_by_hand():
         v["d"]
     assert repr(v) == "Verification(ok=False, checks=3, failed=['b', 'c'])"
     lines = v.table().splitlines()
-    assert lines[:5] == ["check  result      method                    detail",
-                         "-----  ----------  ------------------------  ------",
-                         "a      pass        recomputed                one",
-                         "b      FAIL        recomputed                two",
-                         "c      FAIL        recomputed                three"]
-    assert lines[5].startswith("note: result 'proven'") and lines[6] == "note: a note"
-    row = {"outcome": None, "method": "recomputed", "margin": None, "proofs": []}
+    assert lines[:5] == ["check  result      requirement  method                    detail",
+                         "-----  ----------  -----------  ------------------------  ------",
+                         "a      pass        -            recomputed                one",
+                         "b      FAIL        -            recomputed                two",
+                         "c      FAIL        -            recomputed                three"]
+    assert lines[5].startswith("note: result 'proven'") and lines[6].startswith("note: the result says")
+    assert lines[7] == "note: a note"
+    row = {"outcome": None, "method": "recomputed", "margin": None, "proofs": [], "requirement_met": None}
     assert v.to_json() == {"ok": False, "outcome": "fails",
                            "checks": [{"name": "a", "ok": True, "detail": "one"} | row | {"outcome": "pass"},
                                       {"name": "b", "ok": False, "detail": "two"} | row | {"outcome": "fails"},
@@ -62,8 +63,9 @@ def test_the_result_object_by_hand():
     json.dumps(v.to_json())
     good = Verification(checks=[Check("a", True, "one")])
     assert good.ok and good.first_failure is None and good.outcome == "proven"
-    assert good.table().splitlines()[2] == "a      pass        recomputed                one"
-    assert not Verification().ok and Verification().table().splitlines()[0].split() == ["check", "result", "method",
+    assert good.table().splitlines()[2] == "a      pass        -            recomputed                one"
+    assert not Verification().ok and Verification().table().splitlines()[0].split() == ["check", "result",
+                                                                                          "requirement", "method",
                                                                                           "detail"]
 
 

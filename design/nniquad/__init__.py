@@ -17,7 +17,8 @@ Use it as python-control is used::
 Every job is one function returning a result object with a readable
 ``repr`` and ``to_json()``: :func:`derive`, :func:`audit`, :func:`lmis`,
 :func:`bound`, :func:`simulate`, :func:`tune`, :func:`certify`,
-:func:`verify`, :func:`montecarlo`, :func:`report`.  The command line
+:func:`verify`, :func:`simulate_certificate` (a certificate's reference run,
+:meth:`~nniquad.certificates.certificate.Certificate.run_settings`), :func:`montecarlo`, :func:`report`.  The command line
 (``nniquad --help``) calls exactly these functions.
 
 Names are loaded on first use (PEP 562), so ``import nniquad`` stays cheap:
@@ -53,8 +54,12 @@ _export("nniquad.laws.pd_filtered", "nni_from_filtered_pd", "filtered_pd_from_nn
         "filtered_pd_gamma", "filtered_pd_in_sector")
 _export("nniquad.certificates.certificate", "Certificate", "read_certificate", "write_certificate")
 _export("nniquad.certificates.verify", "Verification", "Check")
+_export("nniquad.certificates.reference_run", "ReferenceRun")
 _export("nniquad.analysis.reduced_loop", "ReducedLoop", "PolesDamping")
 _export("nniquad.sim", "SimOptions", "SimulationResult", "Trajectory", "paper_figure_runs", "PAPER_FIGURE_HORIZON_S")
+_export("nniquad.control.references", "Reference", "Circle", "FigureEight", "MinimumJerk", "SetpointSteps",
+        "TimeShifted")
+_export("nniquad.control.reference_files", "parse_reference")
 _export("nniquad.tuning.tune", "TuneOptions", "TuneResult", "search_box", "decode", "encode",
         "attitude_accel_headroom", "attitude_wn_cap", "required_hold_s", "settling_shown", "TILT_SLACK_DEG")
 _export("nniquad.study", "ScenarioRanges", "DEFAULT_RANGES", "StudySetup", "study_setup_from", "pareto_front")
@@ -66,6 +71,7 @@ _export("nniquad.analysis.bound", "BoundResult", "max_horizontal_acceleration", 
 _export("nniquad.sim", "simulate")
 _export("nniquad.tuning.tune", "tune")
 _export("nniquad.jobs.certify", "certify", "verify")
+_export("nniquad.jobs.certificate_run", "simulate_certificate")
 _export("nniquad.jobs.montecarlo", "montecarlo", "MonteCarloResult")
 _export("nniquad.jobs.report", "report", "Report")
 # the LMIs and metrics a notebook calls directly
@@ -76,6 +82,7 @@ _export("nniquad.sim.verdicts", "Metrics", "compute_metrics")
 # figures and tables (matplotlib and IPython are imported only when these are used)
 _export("nniquad.sim.plots", "paper_figure", "trajectory_plot")
 _export("nniquad.reporting.display", "show_figure", "show_table", "markdown_table", "notebook_size", "sized")
+_export("nniquad.reporting.notebooks", "notebook_vehicle", "notebook_data", "notebook_certificate")
 _export("nniquad.format", "fmt")
 _export("nniquad.progress", "Progress")
 # errors, by kind

@@ -11,6 +11,8 @@ the callback conventions of the jobs are adapters of the same object:
     a simulation's completed fraction (:func:`nniquad.sim.simulate`);
 ``progress.message(text)``
     a status line (:func:`nniquad.tune`, :func:`nniquad.certify`);
+``progress.steps(total)``
+    a callback announcing each of a known number of steps (:func:`nniquad.certify`);
 ``progress.count(done, total)``
     finished units of work (:func:`nniquad.montecarlo`);
 ``progress.stage(stage, fraction, detail="")``
@@ -135,6 +137,30 @@ class Progress:
             Units in all.
         """
         self(done / max(total, 1), f"{done}/{total}")
+
+    def steps(self, total: int, done: int = 0) -> Callable[[str], None]:
+        """Callback for a job of ``total`` known steps, each announced by a status line (:func:`nniquad.certify`).
+
+        Each call starts the next step: its line is printed at once with the fraction of the steps finished
+        before it (``done`` of them before the first call), so the percentages rise from step to step; the
+        caller reports 100 % when the job is done.
+
+        Parameters
+        ----------
+        total
+            Steps in all.
+        done
+            Steps finished before the first call (e.g. a tuning run before the certificate's steps).
+        """
+        count = [done]
+
+        def step(text: str) -> None:
+            fraction = min(count[0] / max(total, 1), 1.0)
+            count[0] += 1
+            self._last = -float("inf")  # a new step is shown at once, whatever the rate limit
+            self(fraction, text)
+
+        return step
 
     def stage(self, stage: str, fraction: float, detail: str = "") -> None:
         """Callback for a pipeline: a new ``stage`` is printed at once, a ``detail`` at the usual rate.

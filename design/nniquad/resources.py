@@ -29,6 +29,7 @@ from nniquad.io import format_bytes
 
 __all__ = [
     "STEPS_PER_S",
+    "EXO_COLUMNS",
     "MC_BYTES_PER_SCENARIO",
     "WORKER_PROCESS_BYTES",
     "Estimate",
@@ -49,7 +50,8 @@ WORKER_PROCESS_BYTES: int = 150 * 2**20
 #: Number of states and outputs per model (as in :data:`nniquad.sim.STATE_NAMES` / ``OUTPUT_NAMES``;
 #: a test checks they agree, so this module needs no CasADi import).
 MODEL_SIZES: dict[str, tuple[int, int]] = {"linear": (8, 5), "reduced": (8, 5), "full": (21, 8)}
-_EXO_FIELDS = 5
+#: Per-step exogenous inputs (:data:`nniquad.sim.EXO_FIELDS`; a test checks they agree).
+EXO_COLUMNS = 11
 _FLOAT = 8
 
 
@@ -103,7 +105,7 @@ def simulation_estimate(model: str, horizon_s: float, dt_s: float, output_dt_s: 
     """Memory and time of ``runs`` simulations of ``model`` (see the module docstring)."""
     nx, ny = MODEL_SIZES[model]
     n_out, n_steps = _steps(horizon_s, dt_s, output_dt_s)
-    memory = runs * n_out * (nx + ny) * _FLOAT + (1 if shared_exo else runs) * n_steps * _EXO_FIELDS * _FLOAT
+    memory = runs * n_out * (nx + ny) * _FLOAT + (1 if shared_exo else runs) * n_steps * EXO_COLUMNS * _FLOAT
     seconds = runs * n_steps / STEPS_PER_S[model] / max(1, workers)
     return Estimate(f"{model} simulation of {horizon_s:g} s", memory, seconds)
 

@@ -76,6 +76,7 @@ from nniquad.control import inner_loops as IL
 from nniquad.control.inner_gains import DEFAULT_INNER_LOOP_GAINS, InnerLoopGains
 from nniquad.errors import CascadeError
 from nniquad.laws.base import GainBlock
+from nniquad.model.layout import PARAM_NAMES
 from nniquad.model.vehicle import Vehicle
 from nniquad.sim import SimOptions, SimParams
 
@@ -383,7 +384,7 @@ def allocation_jacobian(params: SimParams) -> np.ndarray:
     Parameters
     ----------
     params
-        Parameter set; the controller's nominal ``m, g, l, b, d`` and the plant's ``ω_max``
+        Parameter set; the controller's nominal ``m, g, l, b, d`` and frame and the plant's ``ω_max``
         (the limit the simulator's allocation uses) are read.
 
     Returns
@@ -393,7 +394,7 @@ def allocation_jacobian(params: SimParams) -> np.ndarray:
     """
     u = ca.SX.sym("u", 4)
     nom = params.nominal
-    w, _ = IL.allocate(u[0], u[1:4], nom.l, nom.b, nom.d, params.plant.omega_max)
+    w, _ = IL.allocate(u[0], u[1:4], [getattr(nom, name) for name in PARAM_NAMES], params.plant.omega_max)
     jac = ca.Function("alloc_jac", [u], [ca.jacobian(w, u)])
     hover = np.array([nom.m * nom.g, 0.0, 0.0, 0.0])
     return np.asarray(jac(hover), float)

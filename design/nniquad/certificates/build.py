@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 import platform
 from importlib import metadata
 from typing import Any, Callable, Mapping, Sequence
@@ -17,6 +16,7 @@ from nniquad.analysis.lmi import certified_region, closed_loop_decay, ni_lemma_d
 from nniquad.analysis.margins import cascade_margins
 from nniquad.analysis.reduced_loop import ReducedLoop, reduced_loop
 from nniquad.analysis.tracking_section import tracking_section
+from nniquad.certificates.start import start_section
 from nniquad.certificates.certificate import (
     NI_FORM,
     PERFORMANCE_HORIZON_S,
@@ -25,6 +25,7 @@ from nniquad.certificates.certificate import (
     Certificate,
     reference_run_options,
 )
+from nniquad.certificates.reference_run import ReferenceRun, run_metrics
 from nniquad.config import (
     CASCADE_GRID_POINTS_PER_AXIS,
     CONTROL_RATE_HZ,
@@ -42,11 +43,10 @@ from nniquad.laws.base import GainBlock
 from nniquad.laws.classes import DEFAULT_LAW_CLASS, law_class as law_class_of, within_sector_bound
 from nniquad.laws.registry import law_named, ni_law_names
 from nniquad.model.vehicle import Vehicle
-from nniquad.sim import simulate
 from nniquad.sim.options import check_rate_hz
 from nniquad.tuning.objective import required_hold_s, settling_shown
 
-__all__ = ["build_certificate", "unsettled_reference_run", "performance_runs", "margins_section", "MARGIN_FIELDS", "sector_pm_ceiling_deg",
+__all__ = ["build_certificate", "BUILD_STEPS", "unsettled_reference_run", "performance_runs", "margins_section", "MARGIN_FIELDS", "sector_pm_ceiling_deg",
            "sector_section"]
 
 
@@ -84,14 +84,18 @@ def performance_runs(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, 
 
     out = {}
     for model in ("reduced", "full"):
-        # the one definition verify compares the stated settings against
-        opts = reference_run_options(model, inner, tilt_limit_deg=tilt_limit_deg, xi0=xi0, horizon_s=horizon_s,
-                                     motor_lag=motor_lag, rate_hz=rate_hz)
-        met = simulate(vehicle, gains, opts)[0].metrics()
-        out[model] = {"settling_s": met.settling_s, "overshoot_pct": met.overshoot_pct,
-                      "peak_tilt_deg": met.peak_tilt_deg, "diverged": met.diverged, "settings": opts.to_json()}
+        # the one definition verify compares the stated settings against; the run is the object
+        # Certificate.run_settings reads back from the recorded settings
+        run = ReferenceRun(vehicle, gains, reference_run_options(model, inner, tilt_limit_deg=tilt_limit_deg, xi0=xi0,
+                                                                 horizon_s=horizon_s, motor_lag=motor_lag,
+                                                                 rate_hz=rate_hz))
+        out[model] = {**run_metrics(run.simulate()[0].metrics()), "settings": run.options.to_json()}
     return out
 
+
+#: The progress messages :func:`build_certificate` sends with a cascade section (one per step: the LMIs, the
+#: margins, the reference runs, the cascade; one fewer without a cascade section).
+BUILD_STEPS = 4
 
 #: The per-break-point numbers of the ``margins`` section (units in the names).
 MARGIN_FIELDS = ("gm_db", "gm_lower_db", "pm_deg", "w_gc_rad_s", "w_pc_rad_s", "stable", "meets_requirement")
@@ -307,8 +311,7 @@ def build_certificate(vehicle: Vehicle, gains: GainBlock, *, inner: InnerLoopGai
         except (CascadeError, SolverError) as exc:
             raise CertificateError(f"the sampled-data cascade is not certified at {rate_hz:g} Hz: {exc}") from None
     track = None
-    if section is not None and tracking:
-        say("bounding the tracking error")
+    if section is not None and tracking:  # a second: part of the cascade step (BUILD_STEPS)
         box_used = ParameterBox.from_json(section["box"]) if tracking_corners else None
         try:
             track = tracking_section(vehicle, gains, inner, rate_hz=rate_hz, tilt_limit_deg=tilt_limit_deg,
@@ -316,6 +319,9 @@ def build_certificate(vehicle: Vehicle, gains: GainBlock, *, inner: InnerLoopGai
         except CascadeError as exc:
             raise CertificateError(f"the tracking-error bound is not certified: {exc}") from None
     bound = time_optimal_bound(vehicle, xi0=xi0, tilt_limit_deg=tilt_limit_deg)
+    roa_section = {"max_displacement_m": reach, "u0_m_s2": u0, "tilt_limit_deg": float(tilt_limit_deg), "model": ROA_MODEL}
+    # the start per method; start_certified never claims more than the weakest of them
+    start = start_section(xi0, roa_section, section)
     ratios = {k: (None if v["settling_s"] is None else v["settling_s"] / bound.enter_band_s) for k, v in perf.items()}
     cert = Certificate(
         model=model,
@@ -343,9 +349,8 @@ def build_certificate(vehicle: Vehicle, gains: GainBlock, *, inner: InnerLoopGai
                                      "T": _mat(roa.matrices["T"]), "u0_m_s2": u0,
                                      "max_displacement_m": reach},
         },
-        region_of_attraction={"max_displacement_m": reach, "u0_m_s2": u0, "tilt_limit_deg": float(tilt_limit_deg),
-                              "model": ROA_MODEL},
-        start_certified=bool(math.hypot(*xi0) <= reach),
+        region_of_attraction=roa_section,
+        start_certified=start["every_method"],
         performance=perf,
         bound={"enter_band_s": bound.enter_band_s, "rest_to_rest_s": bound.rest_to_rest_s,
                "a_max_m_s2": bound.a_max_m_s2},
@@ -356,6 +361,7 @@ def build_certificate(vehicle: Vehicle, gains: GainBlock, *, inner: InnerLoopGai
         margins=margins,
         cascade=section,
         law_class={"name": cls.name, "theorem": cls.theorem},
+        start=start,
         tracking=track,
     )
     return cert.signed()

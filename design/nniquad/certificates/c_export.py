@@ -105,7 +105,7 @@ def export_functions(ctrl: "DiscreteLaw", limit_m: float = EXPORT_POSITION_ERROR
                      ) -> tuple[ca.Function, ca.Function]:
     """The exported step and start as CasADi functions (what the C code computes, in the API's argument order).
 
-    ``step(z, position, setpoint, psi, a_z) -> (z_next, a_h, tilt_sp, g_z)`` and
+    ``step(z, position, setpoint, psi, a_z, a_ff) -> (z_next, a_h, tilt_sp, g_z)`` and
     ``start(position, setpoint) -> z0``, both on the limited error
     ``ξ = sat(position − setpoint)``; ``g_z`` is the vertical specific force the law
     used (:func:`nniquad.control.inner_loops.vertical_specific_force`).
@@ -119,12 +119,12 @@ def export_functions(ctrl: "DiscreteLaw", limit_m: float = EXPORT_POSITION_ERROR
     """
     z = ca.SX.sym("z", ctrl.n_state)
     p, r = ca.SX.sym("position", 2), ca.SX.sym("setpoint", 2)
-    psi, a_z = ca.SX.sym("psi"), ca.SX.sym("a_z")
+    psi, a_z, a_ff = ca.SX.sym("psi"), ca.SX.sym("a_z"), ca.SX.sym("a_ff", 2)
     xi = _limited(p - r, limit_m)
-    z_next, a_h, tilt = ctrl.casadi_step("law_step")(z, xi, psi, a_z)
+    z_next, a_h, tilt = ctrl.casadi_step("law_step", feedforward=True)(z, xi, psi, a_z, a_ff)
     g_z = IL.vertical_specific_force(ctrl.g, a_z)
-    step = ca.Function("step", [z, p, r, psi, a_z], [z_next, a_h, tilt, g_z],
-                       ["z", "position", "setpoint", "psi", "a_z"], ["z_next", "a_h", "tilt_sp", "g_z"])
+    step = ca.Function("step", [z, p, r, psi, a_z, a_ff], [z_next, a_h, tilt, g_z],
+                       ["z", "position", "setpoint", "psi", "a_z", "a_ff"], ["z_next", "a_h", "tilt_sp", "g_z"])
     start = ca.Function("start", [p, r], [ctrl.casadi_start("law_start")(xi)], ["position", "setpoint"], ["z0"])
     return step, start
 
@@ -247,6 +247,10 @@ def _header(ctrl: "DiscreteLaw", cert: "Certificate", p: str, rate_certified: bo
      The law acts on xi = position - setpoint (longer than {limit_m:g} m: scaled down to it, direction kept).
    - yaw_rad: the measured yaw psi [rad], NED (clockwise from north seen from above).
    - a_z_m_s2: the altitude loop's vertical acceleration command [m/s^2], NED: positive DOWN, 0 at hover.
+   - accel_ff_m_s2: the acceleration feedforward (north, east) [m/s^2]: the reference's own acceleration (a moving
+     setpoint_m), added to the law's command before the tilt limit; 0 without feedforward.  It is an input of the
+     loop, not part of it: the stability claims stand, but it uses tilt authority, and the certificate's
+     nonlinear-region claims cover a run only while atan(|accel_ff|/g) leaves a margin below the tilt limit.
    - tilt_rad = (phi_d, theta_d): roll and pitch setpoints [rad], ZYX Euler angles R = Rz(psi) Ry(theta) Rx(phi)
      of a body frame x forward, y right, z down, taken relative to the given yaw psi.  |tilt| <= the tilt limit.
    - a_h_m_s2: the horizontal acceleration command (north, east) [m/s^2] after the tilt limit.
@@ -291,6 +295,7 @@ typedef struct {{
   {p}_real setpoint_m[2];  /* reference position (north, east) [m] */
   {p}_real yaw_rad;        /* measured yaw psi [rad] (NED) */
   {p}_real a_z_m_s2;       /* altitude loop's vertical acceleration command, NED positive down [m/s^2] */
+  {p}_real accel_ff_m_s2[2];  /* acceleration feedforward (north, east) [m/s^2], 0 without */
 }} {p}_input;
 
 /* The outputs of one sample, held until the next. */
@@ -346,7 +351,8 @@ static int {p}_all_finite(const {p}_real *v, int n) {{
 
 static int {p}_input_finite(const {p}_input *in) {{
   return {p}_all_finite(in->position_m, 2) && {p}_all_finite(in->setpoint_m, 2)
-      && {p}_all_finite(&in->yaw_rad, 1) && {p}_all_finite(&in->a_z_m_s2, 1);
+      && {p}_all_finite(&in->yaw_rad, 1) && {p}_all_finite(&in->a_z_m_s2, 1)
+      && {p}_all_finite(in->accel_ff_m_s2, 2);
 }}
 
 int {p}_init({p}_state *state) {{
@@ -380,7 +386,7 @@ int {p}_start({p}_state *state, const {p}_input *in) {{
 
 int {p}_step({p}_state *state, const {p}_input *in, {p}_output *out) {{
   {p}_real z_next[{P}_STATE_SIZE], a_h[2], tilt[2], g_z;
-  const {p}_real *arg[5];
+  const {p}_real *arg[6];
   {p}_real *res[4];
   int i;
   if (!state || !in || !out) return {P}_ERR_NULL;
@@ -391,6 +397,7 @@ int {p}_step({p}_state *state, const {p}_input *in, {p}_output *out) {{
   arg[2] = in->setpoint_m;
   arg[3] = &in->yaw_rad;
   arg[4] = &in->a_z_m_s2;
+  arg[5] = in->accel_ff_m_s2;
   res[0] = z_next;
   res[1] = a_h;
   res[2] = tilt;

@@ -22,8 +22,14 @@ A certificate is one JSON document (:data:`SCHEMA`, :data:`SCHEMA_VERSION`):
     Lyapunov ``P`` with its decay rate, the parameter-dependent ``P0 + P1/m``
     over the mass interval (thrust sized with the nominal mass), and the
     saturation region-of-attraction ellipsoid ``P`` with its multipliers ``G, T``.
-``region_of_attraction``, ``start_certified``
-    The largest certified displacement from rest, and whether ``xi0_m`` is inside.
+``region_of_attraction``
+    The reduced loop's largest certified displacement from rest.
+``start``, ``start_certified``
+    Whether ``xi0_m`` lies in each certified region, method by method (the reduced loop's, and in schema 2 the
+    cascade's: model, method, reach, ``inside``; :mod:`nniquad.certificates.start`), and ``every_method``.
+    ``start_certified`` is ``start.every_method``: true only if every method named covers the start.  A
+    certificate written before the ``start`` section has none; its ``start_certified`` states the reduced-loop
+    ellipsoid only (what it meant then; its digest is unchanged, and ``verify`` says which meaning it checked).
 ``performance``
     ``reduced`` and ``full``: settling time, overshoot, peak tilt and the exact
     simulation settings, so that :func:`verify_certificate` can re-simulate.
@@ -270,7 +276,8 @@ class Certificate:
     sector, stability_margin, lmi, region_of_attraction, performance, bound, ratio_to_bound, tolerances, software
         The sections of the document (read-only mappings).
     start_certified
-        Whether ``xi0_m`` lies in the certified region of attraction.
+        Whether ``xi0_m`` lies in the certified regions: with a ``start`` section in every one it names
+        (``start.every_method``); without one (an older certificate), in the reduced loop's region only.
     tuning
         How the gains were found (``None`` if not recorded).
     cascade
@@ -285,6 +292,10 @@ class Certificate:
         ``{"name", "theorem"}`` (:mod:`nniquad.laws.classes`); ``None`` in a
         certificate written before classes existed (of the ``paper`` class, no such
         field, digest unchanged): :attr:`law_class_name` resolves it.
+    start
+        The start's status per method (:func:`nniquad.certificates.start.start_section`); ``None`` in a
+        certificate written before it existed (no such field, digest unchanged):
+        :func:`nniquad.certificates.start.start_methods` derives it.
     tracking
         The certified tracking-error bound (:mod:`nniquad.analysis.tracking_section`); ``None`` in a
         certificate written before it was stated (no such field, digest unchanged).
@@ -316,11 +327,12 @@ class Certificate:
     margins: Mapping[str, Any] | None = None
     cascade: Mapping[str, Any] | None = None
     law_class: Mapping[str, Any] | None = None
+    start: Mapping[str, Any] | None = None
     tracking: Mapping[str, Any] | None = None
 
     def __post_init__(self) -> None:
         for f in fields(self):
-            if f.name in _SECTIONS or f.name in ("tuning", "margins", "cascade", "law_class", "tracking"):
+            if f.name in _SECTIONS or f.name in ("tuning", "margins", "cascade", "law_class", "start", "tracking"):
                 object.__setattr__(self, f.name, _freeze(getattr(self, f.name)))
         object.__setattr__(self, "xi0_m", tuple(float(v) for v in self.xi0_m))
 
@@ -355,6 +367,8 @@ class Certificate:
             body["cascade"] = _thaw(self.cascade)
         if self.law_class is not None:  # optional: older certificates (class paper) have none and keep their digest
             body["law_class"] = _thaw(self.law_class)
+        if self.start is not None:  # optional: older certificates have none and keep their digest
+            body["start"] = _thaw(self.start)
         if self.tracking is not None:  # optional: older certificates have none and keep their digest
             body["tracking"] = _thaw(self.tracking)
         return body
@@ -423,7 +437,7 @@ class Certificate:
             raise CertificateError(f"{where}: {what}")
         for key in _SECTIONS:
             section_of(data, key)
-        for key in ("margins", "law_class", "tracking"):
+        for key in ("margins", "law_class", "start", "tracking"):
             if key in data and not isinstance(data[key], Mapping):
                 raise CertificateError(f"{where}: '{key}' must be an object")
         if data["tuning"] is not None and not isinstance(data["tuning"], Mapping):
@@ -442,7 +456,7 @@ class Certificate:
             inner_loop=certificate_inner_loop(data), tilt_limit_deg=float(data["tilt_limit_deg"]),
             xi0_m=tuple(xi0), start_certified=data["start_certified"], tuning=data["tuning"],
             signature=data["digest"]["value"], margins=data.get("margins"), cascade=data.get("cascade"),
-            law_class=data.get("law_class"), tracking=data.get("tracking"),
+            law_class=data.get("law_class"), start=data.get("start"), tracking=data.get("tracking"),
             **{k: data[k] for k in _SECTIONS},
         )
         # the typed fields must serialise back to exactly what was signed (one comparison of the whole text:
@@ -469,6 +483,29 @@ class Certificate:
     def controller(self) -> str:
         """The certified law's name (the type of :attr:`gains`)."""
         return self.gains.controller
+
+    def run_settings(self, model: str = "full") -> Any:
+        """Everything the reference run ``performance.<model>`` was flown with, to fly it again.
+
+        The vehicle, the gains (the law), and the complete simulation options (inner
+        loops, rate and controller sampling, motor lag, start, horizon, tilt limit, step
+        and output period), read back from the run's recorded ``settings``:
+        ``run.simulate()`` or ``nniquad.simulate(**run.kwargs())`` reproduces the stated
+        numbers (``run.stated``) within :attr:`tolerances`.
+
+        Parameters
+        ----------
+        model
+            ``"full"`` (default) or ``"reduced"``.
+
+        Returns
+        -------
+        nniquad.certificates.reference_run.ReferenceRun
+        """
+        # lazily: the run's options live in nniquad.sim, and reading a certificate needs no CasADi
+        from nniquad.certificates.reference_run import reference_run_of
+
+        return reference_run_of(self, model)
 
     @property
     def certified_reach_m(self) -> float:
@@ -509,7 +546,7 @@ _SECTIONS = ("sector", "stability_margin", "lmi", "region_of_attraction", "perfo
 _ALL_FIELDS = ("model", "vehicle", "gains", "inner_loop", "tilt_limit_deg", "xi0_m", *_SECTIONS, "start_certified",
                "tuning")
 #: Top-level fields besides :data:`_ALL_FIELDS`: the form's own, and the sections a certificate may lack.
-_OPTIONAL_FIELDS = ("schema", "schema_version", "digest", "margins", "cascade", "law_class", "tracking")
+_OPTIONAL_FIELDS = ("schema", "schema_version", "digest", "margins", "cascade", "law_class", "start", "tracking")
 
 
 def _is_number(v: Any) -> bool:

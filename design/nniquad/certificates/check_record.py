@@ -52,6 +52,11 @@ class Check:
         ``proven`` (every inequality proven, every recomputed number within tolerance), ``pass`` (no inequality:
         every recomputed number within tolerance), ``fails`` or ``not proven`` (nothing fails, but an inequality's
         margin is below what floating point can prove: never a pass).  Derived from ``ok`` when not given.
+    requirement_met
+        For a check of a requirement (the classical margins, the start inside a certified region, ...): whether
+        the design meets it, recomputed; ``None`` for a check that states no requirement.  Independent of ``ok``:
+        a certificate that truly states "the phase margin requirement is not met" passes (``ok``) with
+        ``requirement_met`` false.
     """
 
     name: str
@@ -59,6 +64,7 @@ class Check:
     detail: str
     proofs: Sequence[ProofRow] = field(default_factory=tuple)
     outcome: str = ""
+    requirement_met: bool | None = None
 
     def __post_init__(self) -> None:
         self.ok = bool(self.ok)  # numpy comparisons give numpy booleans, which JSON refuses
@@ -68,6 +74,8 @@ class Check:
             raise ValueError(f"unknown outcome {self.outcome!r}")
         self.ok = self.ok and self.outcome in (PROVEN, PASS)
         self.proofs = tuple(self.proofs)
+        if self.requirement_met is not None:
+            self.requirement_met = bool(self.requirement_met)
 
     @property
     def methods(self) -> list[str]:
@@ -82,8 +90,8 @@ class Check:
         return min(m) if m else None
 
     def to_json(self) -> dict[str, Any]:
-        return {"name": self.name, "ok": self.ok, "outcome": self.outcome, "method": "+".join(self.methods),
-                "margin": self.margin, "detail": self.detail, "proofs": [r.to_json() for r in self.proofs]}
+        return {"name": self.name, "ok": self.ok, "requirement_met": self.requirement_met, "outcome": self.outcome,
+                "method": "+".join(self.methods), "margin": self.margin, "detail": self.detail, "proofs": [r.to_json() for r in self.proofs]}
 
 
 def proof_check(name: str, recomputed_ok: bool, detail: str, proofs: Sequence[ProofRow]) -> Check:

@@ -35,6 +35,7 @@ from nniquad.certificates.check_record import (
     stated_part,
     thaw_json,
 )
+from nniquad.certificates.start import CASCADE, start_section
 from nniquad.errors import CertificateError
 from nniquad.laws.classes import LAW_CLASSES, within_sector_bound
 
@@ -95,7 +96,9 @@ def sector_check(cert: Certificate, tol: Mapping[str, float]) -> Check:
              f"{'' if within_sector_bound(gamma, gamma_max) else '; it does not hold'})")
     what = f"the DC loop gain {loop.law.gamma_formula} is"
     return Check("sector", ok, f"{what} gamma = {gamma:.6g} (stated {gamma_stated:.6g}) {claim}; {key} "
-                               f"{limit:.6g} (stated {fmt_value(sec.get(key))})")
+                               f"{limit:.6g} (stated {fmt_value(sec.get(key))})",
+                 # a requirement of the classes that claim the sector bound only (the cascade class drops it)
+                 requirement_met=(0 < gamma_max < 1 and within_sector_bound(gamma, gamma_max)) if bound else None)
 
 
 #: Largest distance of a stated pole from its recomputed match, relative to the largest pole's modulus.
@@ -248,14 +251,14 @@ def roa_check(cert: Certificate) -> Check:
     incl = K.roa_inclusion_margin(Kc, Gm, W, u0)
     level = K.ellipsoid_level(P, r * cert.loop.start_direction())  # the law's start state at the reach
     top = cert.region_of_attraction
-    start = cert.start_certified
-    consistent = (top.get("max_displacement_m") == r and start == bool(math.hypot(*cert.xi0_m) <= r)
+    consistent = (top.get("max_displacement_m") == r
                   and close(part.get("u0_m_s2"), u0, 1e-12) and close(top.get("u0_m_s2"), u0, 1e-12)
                   and top.get("tilt_limit_deg") == cert.tilt_limit_deg)
     ok = positive and T[0, 0] > 0 and incl >= -1e-6 and level <= 1 + 1e-6 and r >= 0 and consistent
     return proof_check("lmi.region_of_attraction", ok,
                        f"decrease max eig {dec_rel:.2e} (relative), inclusion margin {incl:.3g} (recomputed, >= -1e-6), "
-                       f"reach {r:.4g} m at level {level:.6f} <= 1, start_certified = {start} consistent: {consistent}",
+                       f"reach {r:.4g} m at level {level:.6f} <= 1, stated consistently: {consistent} (the start: the "
+                       f"'start' check)",
                        proofs)
 
 
@@ -295,4 +298,7 @@ def cascade_checks(cert: Certificate, fail_fast: bool = False, thorough: bool = 
                                             fail_fast=fail_fast, cache=memo, thorough=thorough))
     checks = [proof_check(f"cascade.{name}", ok, detail, proofs) if proofs else Check(f"cascade.{name}", ok, detail)
               for name, ok, detail, proofs in rows]
+    for c in checks:
+        if c.name == "cascade.start certified":  # a requirement: the start inside the cascade's region
+            c.requirement_met = start_section(cert.xi0_m, cert.region_of_attraction, cert.cascade)["methods"][CASCADE]["inside"]
     return checks or [Check("cascade", False, "the cascade check returned no checks")]

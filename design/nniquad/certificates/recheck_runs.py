@@ -2,8 +2,8 @@
 
 A margin verdict ("meets the required margin") is recomputed and compared
 within the stated tolerances, never bit for bit; the reference runs are
-re-simulated with the certificate's own settings
-(:func:`nniquad.certificates.certificate.reference_run_options`).
+re-simulated as their builder flew them
+(:meth:`nniquad.certificates.certificate.Certificate.run_settings`).
 """
 
 from __future__ import annotations
@@ -13,9 +13,10 @@ from typing import Any, Mapping
 
 from nniquad.certificates.build import MARGIN_FIELDS, margins_section, sector_pm_ceiling_deg
 from nniquad.certificates.certificate import Certificate
-from nniquad.certificates.check_record import Check, close, fmt_value, gains_key, is_number, memo, thaw_json
-from nniquad.errors import CertificateError, NniquadError
-from nniquad.sim import SimOptions, simulate
+from nniquad.certificates.check_record import Check, close, fmt_value, gains_key, memo
+from nniquad.certificates.reference_run import METRIC_TOLERANCES, run_metrics
+from nniquad.errors import CertificateError
+from nniquad.format import margin_text, margin_verdict
 
 __all__ = ["same_margin", "meets_within", "margins_check", "performance_check"]
 
@@ -100,47 +101,26 @@ def margins_check(cert: Certificate, tol: Mapping[str, float]) -> Check:
     ok = ok and isinstance(stated.get("required"), Mapping) and dict(stated["required"]) == fresh["required"]
     ok = ok and close(stated.get("horizontal_pm_ceiling_deg"), sector_pm_ceiling_deg(gamma_max, cert.controller),
                        1e-12)
-    h, a = fresh["break_points"]["horizontal"], fresh["break_points"]["attitude"]
-    detail = (f"horizontal GM +{h['gm_db']}/{h['gm_lower_db']} dB PM {h['pm_deg']} deg; attitude GM +{a['gm_db']}/"
-              f"{a['gm_lower_db']} dB PM {a['pm_deg']} deg at {rate:g} Hz; meets GM >= {fresh['required']['gm_db']:g} dB, "
-              f"PM >= {fresh['required']['pm_deg']:g} deg: {fresh['meets_requirement']}")
+    req = fresh["required"]
+    detail = "; ".join(f"{name} {margin_text(p['gm_db'], p['gm_lower_db'], p['pm_deg'])}: "
+                       f"{margin_verdict(p, req['gm_db'], req['pm_deg'])}"
+                       for name, p in fresh["break_points"].items()) + f" (at {rate:g} Hz)"
     if bad:
         detail += "; differs: " + ", ".join(bad[:3])
-    return Check("margins", ok, detail)
+    return Check("margins", ok, detail, requirement_met=fresh["meets_requirement"])
 
 
 def performance_check(cert: Certificate, tol: Mapping[str, float], model: str) -> Check:
     """Re-simulate one reference run with its stated settings (checked by ``settings``) and compare every number."""
 
-    stated = cert.performance.get(model)
-    if not isinstance(stated, Mapping) or not isinstance(stated.get("settings"), Mapping):
-        raise CertificateError(f"certificate performance.{model} is missing or has no settings")
-    settings = thaw_json(stated["settings"])
-    settings.pop("inner", None)
-    try:
-        opts = SimOptions(**{**settings, "xi0": tuple(settings.get("xi0", cert.xi0_m)),
-                             "zc0": tuple(settings.get("zc0", (0.0, 0.0))),
-                             "wind_N": tuple(settings.get("wind_N", (0.0, 0.0))), "inner": cert.inner_loop})
-    except (TypeError, NniquadError) as exc:
-        raise CertificateError(f"certificate performance.{model}.settings: {exc}") from None
+    run = cert.run_settings(model)  # the run as its builder flew it (a certificate lacking it is refused in one line)
+    stated, opts = cert.performance[model], run.options
 
-    def run() -> dict[str, Any]:
-        met = simulate(cert.vehicle, cert.gains, opts)[0].metrics()
-        return {k: getattr(met, k) for k in ("settling_s", "overshoot_pct", "peak_tilt_deg", "diverged")}
+    def run_() -> dict[str, Any]:
+        return run_metrics(run.simulate()[0].metrics())
 
-    got_all = memo("simulate", [cert.vehicle.as_dict(), gains_key(cert), opts.to_json()], run)
-    diffs = []
-    ok = True
-    for key, tkey in (("settling_s", "settling_abs_s"), ("overshoot_pct", "overshoot_abs_pct"),
-                      ("peak_tilt_deg", "tilt_abs_deg")):
-        want, got = stated.get(key), got_all[key]
-        if want is None or got is None:
-            same = want is None and got is None
-        else:
-            same = is_number(want) and abs(float(want) - float(got)) <= tol[tkey]
-        ok &= same
-        diffs.append(f"{key} {fmt_value(got)} (stated {fmt_value(want)})")
-    same = stated.get("diverged") is bool(got_all["diverged"])
-    ok &= same
+    got_all = memo("simulate", [cert.vehicle.as_dict(), gains_key(cert), opts.to_json()], run_)
+    diffs = [f"{key} {fmt_value(got_all[key])} (stated {fmt_value(stated.get(key))})" for key in METRIC_TOLERANCES]
     diffs.append(f"diverged {bool(got_all['diverged'])} (stated {stated.get('diverged')!r})")
+    ok = not run.differences(got_all, tol)
     return Check(f"performance.{model}", ok, ", ".join(diffs))

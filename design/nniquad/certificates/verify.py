@@ -58,6 +58,7 @@ from nniquad.certificates.recheck_reduced_loop import (
     sector_check,
 )
 from nniquad.certificates.recheck_runs import margins_check, performance_check
+from nniquad.certificates.start import start_check, start_claim
 from nniquad.certificates.recheck_tracking import NOT_STATED, tracking_check
 from nniquad.config import CONTROL_RATE_HZ
 from nniquad.errors import CertificateCheckError, CertificateError, NniquadError
@@ -118,23 +119,33 @@ class Verification:
 
     def table(self) -> str:
         """One row per check: name, outcome (``proven``, ``pass`` for a recomputed number, ``FAIL``,
-        ``NOT PROVEN``), method and detail."""
+        ``NOT PROVEN``), requirement (``met``, ``NOT MET``, ``-`` for a check that states none), method and detail."""
         w = max([len("check")] + [len(c.name) for c in self.checks])
         shown = {PROVEN: "proven", PASS: "pass", FAILS: "FAIL", NOT_PROVEN: "NOT PROVEN"}
-        lines = [f"{'check':<{w}}  {'result':<10}  {'method':<24}  detail", f"{'-' * w}  {'-' * 10}  {'-' * 24}  ------"]
-        lines += [f"{c.name:<{w}}  {shown[c.outcome]:<10}  {'+'.join(c.methods):<24}  {c.detail}" for c in self.checks]
+        lines = [f"{'check':<{w}}  {'result':<10}  {'requirement':<11}  {'method':<24}  detail",
+                 f"{'-' * w}  {'-' * 10}  {'-' * 11}  {'-' * 24}  ------"]
+        lines += [f"{c.name:<{w}}  {shown[c.outcome]:<10}  {REQUIREMENT_SHOWN[c.requirement_met]:<11}  "
+                  f"{'+'.join(c.methods):<24}  {c.detail}" for c in self.checks]
         lines.append("note: result 'proven': every strict matrix inequality of the check is proven in floating point "
                      "(verified Cholesky, Rump 2006) or in exact rational arithmetic, and its other numbers are "
                      "recomputed; 'pass': numbers recomputed within the certificate's tolerances (no inequality); "
                      "'NOT PROVEN': nothing fails, but a margin is below what floating point can prove")
+        lines.append("note: the result says whether the certificate states the truth; 'requirement' says whether the "
+                     "design meets what the check asks of it ('NOT MET': truly stated, and not met; '-': the check "
+                     "states no requirement). The exit status follows the result only")
         lines += [f"note: {n}" for n in self.notes]
         return "\n".join(lines)
 
     def to_json(self) -> dict[str, Any]:
-        """``{'ok', 'outcome', 'checks': [{'name', 'ok', 'outcome', 'method', 'margin', 'detail', 'proofs'}], 'notes'}``."""
+        """``{'ok', 'outcome', 'checks': [{'name', 'ok', 'requirement_met', 'outcome', 'method', 'margin', 'detail',
+        'proofs'}], 'notes'}`` (``requirement_met``: :attr:`Check.requirement_met`, ``None`` when the check states
+        no requirement)."""
         return {"ok": self.ok, "outcome": self.outcome, "checks": [c.to_json() for c in self.checks],
                 "notes": list(self.notes)}
 
+
+#: How the table shows :attr:`Check.requirement_met`.
+REQUIREMENT_SHOWN = {True: "met", False: "NOT MET", None: "-"}
 
 #: Fields that are records, not claims: ``verify`` checks none of them, and they change
 #: no check and nothing ``montecarlo`` simulates (``tests/test_tampering.py`` shows it
@@ -161,6 +172,7 @@ SECTION_KEYS: dict[str, frozenset[str]] = {k: frozenset(v) for k, v in {
     "margins": ("rate_hz", "controller", "pade_order", "method", "required", "break_points", "meets_requirement",
                 "horizontal_pm_ceiling_deg"),
     "law_class": ("name", "theorem"),
+    "start": ("distance_m", "methods", "every_method"),
 }.items()}
 
 
@@ -178,7 +190,7 @@ def sector_keys(cert: Certificate) -> frozenset[str]:
 
 
 #: Sections a certificate may lack (written before they existed): the layout check skips them when absent.
-OPTIONAL_SECTIONS = ("margins", "law_class")
+OPTIONAL_SECTIONS = ("margins", "law_class", "start")
 
 # ----------------------------------------------------------------------------- cache of the expensive recomputations
 
@@ -259,6 +271,9 @@ def coverage_notes(cert: Certificate) -> list[str]:
         notes.append("class cascade: the paper's sector bound is not claimed; the reduced-loop LMIs are stated (they "
                      "hold whenever m kp delta > 1) but the design is certified by the sampled-data cascade section "
                      "alone, over its parameter box and within its region of attraction")
+    if cert.start is None:
+        notes.append(f"start_certified = {cert.start_certified} states {start_claim(cert)}; the 'start' check gives "
+                     "the start's status in every region the certificate states")
     if cert.tracking is None and cert.cascade is not None:  # schema 1 covers no sampled cascade: said above
         notes.append(NOT_STATED)
     notes.append("records, not verified (no check and no Monte Carlo run reads them): "
@@ -283,6 +298,7 @@ def _verify(cert: Certificate, simulate: bool, say: Callable[[str], None], fail_
         lambda: ni_checks(cert, tol, "controller_ni"),
         lambda: closed_loop_check(cert, tol),
         lambda: roa_check(cert),
+        lambda: start_check(cert),
         lambda: robust_mass_check(cert, tol),
         lambda: bound_check(cert),
     ]

@@ -27,7 +27,9 @@ Exit status, the same for every command (:data:`EXIT_STATUS_HELP`, printed by
          finished batches, every other command stops cleanly (no traceback,
          no partial file); see :mod:`nniquad.termination`
 
-Every error ends in one line on stderr, ``nniquad COMMAND: error: ...``.
+Every error ends in one line on stderr, ``nniquad COMMAND: error: ...``; a mistyped
+option or sub-command gets the nearest known one in the same line (``did you
+mean '--box-scale'?``, :func:`suggestion`), exit status 2 as for every usage error.
 Output paths declared by a command (``--json``, ``--out``, ...) are checked
 before its work starts.
 
@@ -39,9 +41,11 @@ module, and a command process runs with one BLAS thread unless
 from __future__ import annotations
 
 import argparse
+import difflib
 import importlib
 import importlib.util
 import os
+import re
 import sys
 import traceback
 from typing import Sequence
@@ -61,12 +65,12 @@ from nniquad.errors import (
 )
 from nniquad.termination import sigterm_as_interrupt, termination_requested
 
-__all__ = ["main", "COMMANDS", "build_parser", "EXIT_STATUS_HELP"]
+__all__ = ["main", "COMMANDS", "build_parser", "EXIT_STATUS_HELP", "suggestion"]
 
 #: The exit-status scheme, shown at the end of every ``--help``.
 EXIT_STATUS_HELP = (
     f"exit status: {EXIT_OK} done (every check passed); {EXIT_CHECK_FAILED} a check failed or was not proven (verify, a certificate "
-    f"digest mismatch, prove --strict); {EXIT_USER_ERROR} user error (bad option, input file or output path, "
+    f"digest mismatch, prove --strict, simulate --certificate not reproducing its run); {EXIT_USER_ERROR} user error (bad option, input file or output path, "
     f"request too large; nothing written); {EXIT_INTERNAL_ERROR} internal error (a bug, with traceback); "
     f"{EXIT_STUDY_FAILED} montecarlo stopped by a fault of its workers or cluster (finished scenarios saved); "
     f"{EXIT_INTERRUPTED} interrupted (Ctrl-C); {EXIT_TERMINATED} terminated (SIGTERM, handled like Ctrl-C)."
@@ -74,11 +78,58 @@ EXIT_STATUS_HELP = (
 
 
 class _Parser(argparse.ArgumentParser):
-    """An argument parser whose usage errors are one line (exit status 2), like every other user error."""
+    """An argument parser whose usage errors are one line (exit status 2), like every other user error, with the
+    nearest option or sub-command when one was mistyped (Python 3.11's argparse has no ``suggest_on_error``)."""
 
     def error(self, message: str) -> None:  # type: ignore[override]
         message = " ".join(str(message).split())
-        self.exit(EXIT_USER_ERROR, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
+        hint = suggestion(message, self.option_strings())
+        self.exit(EXIT_USER_ERROR, f"{self.prog}: error: {message}{hint} (see '{self.prog} --help')\n")
+
+    def option_strings(self) -> list[str]:
+        """Every option of this parser and of its built sub-commands (an unrecognised argument of a sub-command is
+        reported by the top-level parser; only the command that runs has its options built)."""
+        found: list[str] = []
+        # argparse (3.11) has no public list of a parser's actions: _actions is the one it keeps
+        for action in self._actions:
+            found += [o for o in action.option_strings if o.startswith("--")]
+            choices = action.choices if isinstance(action.choices, dict) else {}  # the sub-command parsers
+            for sub in choices.values():
+                if isinstance(sub, _Parser):
+                    found += sub.option_strings()
+        return list(dict.fromkeys(found))
+
+
+#: How close a mistyped word must be to a known one to be suggested (:func:`difflib.get_close_matches`'s cutoff).
+SUGGESTION_CUTOFF = 0.6
+
+
+def suggestion(message: str, options: Sequence[str]) -> str:
+    """``"; did you mean '--box-scale'?"`` for an argparse error about a mistyped option (one of ``options``) or
+    choice (a sub-command, a ``--controller`` name, ...), or ``""`` when nothing known is close.
+
+    Parameters
+    ----------
+    message
+        argparse's error message (one line).
+    options
+        The known long options.
+    """
+    unknown = re.match(r"unrecognized arguments: (.*)", message)
+    if unknown:
+        for token in unknown.group(1).split():
+            if token.startswith("--"):
+                close = difflib.get_close_matches(token.split("=", 1)[0], options, n=1, cutoff=SUGGESTION_CUTOFF)
+                if close:
+                    return f"; did you mean '{close[0]}'?"
+        return ""
+    choice = re.search(r"invalid choice: '([^']*)' \(choose from (.*)\)", message)
+    if choice:
+        choices = re.findall(r"'([^']*)'", choice.group(2))
+        close = difflib.get_close_matches(choice.group(1), choices, n=1, cutoff=SUGGESTION_CUTOFF)
+        if close:
+            return f"; did you mean '{close[0]}'?"
+    return ""
 
 #: sub-command name -> (module under nniquad.cli.commands, one-line help)
 COMMANDS: dict[str, tuple[str, str]] = {

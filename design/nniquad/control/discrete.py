@@ -4,10 +4,11 @@ At the control rate ``f_s = 1/T`` the position ``ξ_k`` (both axes) is sampled
 and the law runs once per sample, the exact ZOH equivalent of its realisation
 (:meth:`nniquad.laws.base.ControlLaw.zoh`):
 
-.. math:: x_{k+1} = A_d x_k + B_d \\xi_k, \\qquad a_k = C x_k + D \\xi_k,
+.. math:: x_{k+1} = A_d x_k + B_d \\xi_k, \\qquad a_k = C x_k + D \\xi_k + a_{ff,k},
 
 the states of both axes interleaved ``(s1_x, s1_y, s2_x, s2_y, ...)`` as in the
-simulator.  The NNI law, ``C(s) = Γ/(s + Γδ)``: ``z_{k+1} = a z_k + b ξ_k``,
+simulator, ``ξ_k`` the position error to the reference and ``a_{ff,k}`` the optional
+acceleration feedforward (zero without).  The NNI law, ``C(s) = Γ/(s + Γδ)``: ``z_{k+1} = a z_k + b ξ_k``,
 ``a = e^{-ΓδT}``, ``b = (1 - a)/δ``, ``a_k = -k_p ξ_k + z_k/m̂`` per axis (its
 closed form); the ``sni2`` law's ``(z, z')`` from ``scipy.linalg.expm``,
 independently of the closed form the simulator uses.
@@ -56,6 +57,8 @@ def step_inputs(n_state: int = 2, unit: str = "N", what: str = "z_k (x, y)") -> 
         ("xi", 2, "m", "measured horizontal position xi_k (north, east) relative to the setpoint"),
         ("psi", 1, "rad", "measured yaw angle"),
         ("a_z", 1, "m/s^2", "vertical acceleration command of the altitude loop (NED, 0 at hover)"),
+        ("a_ff", 2, "m/s^2", "acceleration feedforward (north, east): the reference's acceleration, added before "
+                             "the tilt limit; zero without feedforward"),
     )
 
 
@@ -188,11 +191,18 @@ class DiscreteLaw:
         return (z_next,) + STEP_OUTPUTS[1:]
 
     # ------------------------------------------------------------------ numpy reference
-    def step(self, z: np.ndarray, xi: np.ndarray, psi: float = 0.0, a_z: float = 0.0
-             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """One step in numpy: ``(z_next, a_h, (φ_d, θ_d))`` (see :data:`STEP_OUTPUTS`)."""
+    def step(self, z: np.ndarray, xi: np.ndarray, psi: float = 0.0, a_z: float = 0.0,
+             a_ff: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """One step in numpy: ``(z_next, a_h, (φ_d, θ_d))`` (see :data:`STEP_OUTPUTS`).
+
+        ``xi`` is the error to the reference, ``ξ_k - ξ_d(t_k)``; the feedforward ``a_ff`` (default zero) joins
+        the command before the tilt limit and leaves the state equation alone (:mod:`nniquad.laws.base`,
+        "Reference and feedforward").
+        """
         z, xi = np.asarray(z, float), np.asarray(xi, float)
         a = self.C @ z + self.D @ xi
+        if a_ff is not None:
+            a = a + np.asarray(a_ff, float)
         g_z = float(IL.vertical_specific_force(self.g, a_z))
         limit = g_z * math.tan(self.tilt_limit_rad)
         norm = float(np.hypot(a[0], a[1]))
@@ -205,9 +215,9 @@ class DiscreteLaw:
         return self.A @ z + self.B @ xi, a, np.array([phi_d, theta_d])
 
     def run(self, xi: np.ndarray, psi: np.ndarray | None = None, a_z: np.ndarray | None = None,
-            z0: np.ndarray | None = None) -> dict[str, np.ndarray]:
+            z0: np.ndarray | None = None, a_ff: np.ndarray | None = None) -> dict[str, np.ndarray]:
         """Step through a recorded measurement sequence ``xi`` of shape ``(N, 2)``, from ``z0`` (default:
-        :meth:`start` of the first measurement).
+        :meth:`start` of the first measurement), with the feedforward ``a_ff`` ``(N, 2)`` (default zero).
 
         Returns
         -------
@@ -218,28 +228,42 @@ class DiscreteLaw:
         n = xi.shape[0]
         psi = np.zeros(n) if psi is None else np.asarray(psi, float)
         a_z = np.zeros(n) if a_z is None else np.asarray(a_z, float)
+        a_ff = np.zeros((n, 2)) if a_ff is None else np.asarray(a_ff, float)
         z = np.zeros((n + 1, self.n_state))
         z[0] = (self.start(xi[0]) if n else 0.0) if z0 is None else z0
         ah, sp = np.zeros((n, 2)), np.zeros((n, 2))
         for k in range(n):
-            z[k + 1], ah[k], sp[k] = self.step(z[k], xi[k], psi[k], a_z[k])
+            z[k + 1], ah[k], sp[k] = self.step(z[k], xi[k], psi[k], a_z[k], a_ff[k])
         return {"z": z, "a_h": ah, "tilt_sp": sp}
 
     # ------------------------------------------------------------------ CasADi / C
-    def casadi_step(self, name: str = "nniquad_nni_step") -> ca.Function:
+    def casadi_step(self, name: str = "nniquad_nni_step", *, feedforward: bool = False) -> ca.Function:
         """The step as a CasADi function (inputs :attr:`step_inputs`, outputs :attr:`step_outputs`).
 
         Built from the same matrices and the simulator's own output stage
         (:func:`nniquad.control.inner_loops.limit_norm`, :func:`~nniquad.control.inner_loops.tilt_setpoints`).
+        Without ``feedforward`` the function has the first four inputs (``z, xi, psi, a_z``: the step of the
+        first release); with it, also ``a_ff``, added to the command before the tilt limit.
+
+        Parameters
+        ----------
+        name
+            The function's name.
+        feedforward
+            Take the acceleration feedforward ``a_ff`` as a fifth input.
         """
-        z, xi, psi, a_z = (ca.SX.sym(n, k) for n, k, _, _ in self.step_inputs)
+        inputs = self.step_inputs if feedforward else self.step_inputs[:4]
+        syms = [ca.SX.sym(n, k) for n, k, _, _ in inputs]
+        z, xi, psi, a_z = syms[:4]
         a = ca.mtimes(ca.DM(self.C), z) + ca.mtimes(ca.DM(self.D), xi)
+        if feedforward:
+            a = a + syms[4]
         g_z = IL.vertical_specific_force(self.g, a_z)
         a = IL.limit_norm(a, g_z * math.tan(self.tilt_limit_rad))
         phi_d, theta_d, _ = IL.tilt_setpoints(a, g_z, psi)
         z_next = ca.mtimes(ca.DM(self.A), z) + ca.mtimes(ca.DM(self.B), xi)
-        return ca.Function(name, [z, xi, psi, a_z], [z_next, a, ca.vertcat(phi_d, theta_d)],
-                           [n for n, *_ in self.step_inputs], [n for n, *_ in self.step_outputs])
+        return ca.Function(name, syms, [z_next, a, ca.vertcat(phi_d, theta_d)],
+                           [n for n, *_ in inputs], [n for n, *_ in self.step_outputs])
 
     def to_json(self) -> dict[str, Any]:
         """Matrices with units and the discretisation, for a flight stack."""

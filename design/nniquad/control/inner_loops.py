@@ -54,15 +54,18 @@ Frames: NED inertial frame (z down), FRD body frame, ZYX Euler angles
    sets it from the vehicle's torque headroom at the tilt limit.
 4. **Allocation with rotor saturation** (:func:`allocate`).  Rotor thrusts
    ``T_i = b ω_i²`` are limited to ``[0, T_max = b ω_max²]``.  The demand
-   ``(u1, τ)`` is split into a collective ``c = u1/4``, a roll pair difference
-   ``r = τ_φ/(2l)``, a pitch pair difference ``q = τ_θ/(2l)`` and a yaw share
-   ``y = τ_ψ b/(4d)``, so that ``T1 = c+q-y``, ``T2 = c-r+y``, ``T3 = c-q-y``,
-   ``T4 = c+r+y`` (the inverse of :func:`nniquad.model.symbolic.mixer_matrix` for the
-   '+' layout).  Priority: the collective first (it holds the altitude), then
-   roll/pitch, yaw last:
+   ``(u1, τ)`` is split by the columns of the layout's allocation matrix ``B``
+   (:func:`nniquad.model.symbolic.allocation_matrix`, the exact inverse of the
+   thrust mixer of the vehicle's frame) into a collective ``c = u1/4`` per rotor
+   (every layout spreads it evenly), a roll/pitch part ``D_i = B_i1 τ_φ + B_i2 τ_θ``
+   and a yaw part ``B_i3 τ_ψ``, so that ``T_i = c + D_i + B_i3 τ_ψ``.  For the '+'
+   layout ``D = (q, -r, -q, r)`` with ``r = τ_φ/(2l)``, ``q = τ_θ/(2l)``, and the
+   yaw part is ``∓y``, ``y = τ_ψ b/(4d)``; for the 'x' layout every rotor takes
+   ``±τ_φ/(2√2 l) ± τ_θ/(2√2 l)``.  Priority: the collective first (it holds the
+   altitude), then roll/pitch, yaw last:
 
    a. roll and pitch are scaled together (direction kept) so that
-      ``M = max(|r|, |q|)`` fits around the demanded collective ``c``:
+      ``M = max_i |D_i|`` fits around the demanded collective ``c``:
       ``M ≤ max(min(c, T_max - c), M_res)`` with the reserved attitude
       authority ``M_res = ATTITUDE_RESERVE_FRACTION · T_max/2`` (and always
       ``M ≤ T_max/2``);
@@ -70,8 +73,8 @@ Frames: NED inertial frame (z down), FRD body frame, ZYX Euler angles
       the demand lies within ``M_res`` of a rotor limit (a vehicle near its
       thrust limit keeps a minimum of attitude control, and a vehicle near
       idle a minimum of roll torque);
-   c. the yaw share is clipped to the interval that keeps all four thrusts in
-      ``[0, T_max]`` given ``c, r, q`` (it always contains 0).
+   c. the yaw torque is clipped to the interval that keeps all four thrusts in
+      ``[0, T_max]`` given ``c`` and ``D`` (it always contains 0).
 
    Why the collective comes first (a Monte Carlo finding, docs/notes/robustness.md): the old
    priority (roll/pitch first, ``M ≤ T_max/2``, then the collective shifted
@@ -109,6 +112,8 @@ from typing import Any
 import casadi as ca
 
 from nniquad.errors import SimulationError
+from nniquad.model.layout import PARAM_NAMES
+from nniquad.model.numeric import allocation_function
 
 __all__ = [
     "altitude_command",
@@ -256,7 +261,7 @@ def attitude_torques(
     )
 
 
-def allocate(u1: ca.SX, tau: ca.SX, l: ca.SX, b: ca.SX, d: ca.SX, omega_max: ca.SX) -> tuple[ca.SX, ca.SX]:
+def allocate(u1: ca.SX, tau: ca.SX, p: ca.SX, omega_max: ca.SX) -> tuple[ca.SX, ca.SX]:
     """Rotor speeds [rad/s] for a thrust/torque demand, with the saturation priority of the module docstring.
 
     Parameters
@@ -265,8 +270,9 @@ def allocate(u1: ca.SX, tau: ca.SX, l: ca.SX, b: ca.SX, d: ca.SX, omega_max: ca.
         Collective thrust demand [N].
     tau
         Torque demand ``(τ_φ, τ_θ, τ_ψ)`` [N m].
-    l, b, d
-        Arm length, thrust and drag coefficients the controller assumes.
+    p
+        The vehicle parameters the controller assumes, in the order of
+        :data:`nniquad.model.layout.PARAM_NAMES` (arm, thrust and drag coefficients, frame).
     omega_max
         Rotor-speed limit [rad/s].
 
@@ -277,25 +283,28 @@ def allocate(u1: ca.SX, tau: ca.SX, l: ca.SX, b: ca.SX, d: ca.SX, omega_max: ca.
     T : SX (4,)
         The allocated rotor thrusts ``b w²`` [N].
     """
+    p = p if isinstance(p, (ca.SX, ca.DM)) else ca.DM([float(v) for v in p])
+    b = p[PARAM_NAMES.index("b")]
+    B = allocation_function()(p)
     t_max = b * omega_max**2
     c = u1 / 4
-    r = tau[0] / (2 * l)
-    q = tau[1] / (2 * l)
-    y = tau[2] * b / (4 * d)
+    D = ca.mtimes(B[:, 1:3], tau[0:2])
+    Y = B[:, 3]
     # a. roll/pitch scaled together to fit around the demanded collective (it holds the
     #    altitude), keeping at least the reserved authority M_res near a rotor limit
     c = ca.fmin(ca.fmax(c, 0), t_max)
     allowed = ca.fmin(ca.fmax(ca.fmin(c, t_max - c), ATTITUDE_RESERVE_FRACTION * t_max / 2), t_max / 2)
-    big = ca.fmax(ca.fabs(r), ca.fabs(q))
+    big = ca.mmax(ca.fabs(D))
     k = allowed / ca.fmax(big, allowed)
-    r, q = r * k, q * k
+    D = D * k
     M = big * k
     # b. the collective moves only where the reserve needs it (within M_res of a limit)
     c = ca.fmin(ca.fmax(c, M), t_max - M)
-    # c. yaw share clipped to what is left
-    y_lo = ca.fmax(c - t_max + ca.fabs(q), ca.fabs(r) - c)
-    y_hi = ca.fmin(c - ca.fabs(q), t_max - ca.fabs(r) - c)
-    y = ca.fmin(ca.fmax(y, y_lo), y_hi)
-    T = ca.vertcat(c + q - y, c - r + y, c - q - y, c + r + y)
+    # c. yaw torque clipped to what keeps every rotor in [0, T_max]: T_i = c + D_i + Y_i τ_ψ
+    ends_a, ends_b = (-c - D) / Y, (t_max - c - D) / Y
+    y_lo = ca.mmax(ca.fmin(ends_a, ends_b))
+    y_hi = ca.mmin(ca.fmax(ends_a, ends_b))
+    tau_psi = ca.fmin(ca.fmax(tau[2], y_lo), y_hi)
+    T = c + D + Y * tau_psi
     T = ca.fmin(ca.fmax(T, 0), t_max)  # rounding only
     return ca.sqrt(T / b), T

@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
-from nniquad.certificates.build import build_certificate, unsettled_reference_run
+from nniquad.certificates.build import BUILD_STEPS, build_certificate, unsettled_reference_run
 from nniquad.certificates.certificate import Certificate
 from nniquad.certificates.verify import Verification, verify_certificate
 from nniquad.control.inner_gains import DEFAULT_INNER_LOOP_GAINS, InnerLoopGains
@@ -15,7 +15,19 @@ from nniquad.laws.registry import law_names
 from nniquad.model.vehicle import PAPER_VEHICLE, Vehicle
 from nniquad.tuning.tune import TuneOptions, TuneResult, tune
 
-__all__ = ["certify", "verify"]
+__all__ = ["certify", "verify", "certify_steps"]
+
+
+def certify_steps(tuned: bool) -> int:
+    """The status lines :func:`certify` sends after any tuning (the certificate's steps and its verification), plus
+    one for the tuning when ``tuned``: the ``total`` of :meth:`nniquad.progress.Progress.steps`.
+
+    Parameters
+    ----------
+    tuned
+        Whether the gains are tuned first (one step, whose own messages do not advance the count).
+    """
+    return BUILD_STEPS + 1 + int(tuned)
 
 
 def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLoopGains | None = None,

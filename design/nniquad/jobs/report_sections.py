@@ -53,13 +53,17 @@ from nniquad.certificates import (
     verify_certificate,
     write_certificate,
 )
-from nniquad.config import GAMMA_MAX
+from nniquad.certificates.certificate import Certificate
+from nniquad.certificates.start import start_methods
+from nniquad.config import CONTROL_RATE_HZ, GAMMA_MAX
+from nniquad.control.inner_gains import DEFAULT_INNER_LOOP_GAINS
 from nniquad.errors import CertificateCheckError
 from nniquad.io import atomic_write_json, atomic_write_text
 from nniquad.laws.base import gains_text
 from nniquad.laws.nni import PAPER_GAINS
 from nniquad.model.vehicle import UNITS, Vehicle
 from nniquad.proofs.claims import audit_table, audit_to_json, audit_to_markdown, run_audit
+from nniquad.reporting.comparison import certificate_column, comparison_table, computed_column
 from nniquad.reporting.display import markdown_table
 from nniquad.reporting.folder import MANIFEST, ReportFolder
 from nniquad.sim import SimOptions, paper_figure_runs, plots
@@ -271,6 +275,18 @@ def _build(vehicle: Vehicle, options: ReportOptions, tune_opts: Any, out: Path, 
                                       zoom_s=min(10.0, cert_horizon)))
     cert_rows = _model_rows(cert_runs)
 
+    # 5b. the paper's law and the certified law side by side, each figure computed (the paper's law has no
+    # certificate: its figures are computed with the certificate's settings, over the paper runs' longer horizon)
+    say("the paper's law beside the certified law", 0.95)
+    typed = Certificate.from_json(cert)
+    columns = {
+        "paper's law": computed_column(
+            vehicle, PAPER_GAINS, DEFAULT_INNER_LOOP_GAINS, tilt_limit_deg=typed.tilt_limit_deg,
+            gamma_max=typed.sector["gamma_max"], xi0=typed.xi0_m, horizon_s=options.paper_horizon_s,
+            rate_hz=typed.cascade["rate_hz"] if typed.cascade is not None else CONTROL_RATE_HZ),
+        "certified law": certificate_column(typed),
+    }
+
     # 6. one JSON with every number the markdown prints
     perf = cert["performance"]
     data: dict[str, Any] = {
@@ -287,11 +303,15 @@ def _build(vehicle: Vehicle, options: ReportOptions, tune_opts: Any, out: Path, 
         },
         "certified": {
             "gains": gains.as_dict(),
+            "law": gains.controller,
+            # every law's gains (the NNI law's kp, Gamma, delta; sni2's kp, k, omega, zeta), as report.md prints them
+            "gains_text": gains_text(gains, sep=", ", number=fmt),
             "inner_loop": cert.get("inner_loop"),
             "gamma": cert["sector"]["gamma"],
             "gamma_max": cert["sector"]["gamma_max"],
             "law_class": cert["law_class"],
             "start_certified": cert["start_certified"],
+            "start": start_methods(typed),
             "max_displacement_m": cert["region_of_attraction"]["max_displacement_m"],
             # the reach the tuner demanded; of a given certificate, its tuning record's (None: not recorded)
             "roa_radius_m": tuned.roa_radius_m if tuned is not None else (cert.get("tuning") or {}).get("roa_radius_m"),
@@ -303,6 +323,7 @@ def _build(vehicle: Vehicle, options: ReportOptions, tune_opts: Any, out: Path, 
         },
         # a given certificate's tuning section is its record of how the gains were found (not re-run, not verified)
         "tuning": tuned.to_json() if tuned is not None else cert.get("tuning"),
+        "comparison": columns,
         "tradeoffs": tradeoffs,
         "source": ("tuned and certified by this report" if given is None
                    else f"the given certificate {options.certificate} (verified; not tuned again)"),
@@ -350,7 +371,6 @@ def _unique_poles(poles: Any) -> list[list[float]]:
 
 def _markdown(d: dict[str, Any], audit_txt: str, verify_txt: str) -> str:
     v, b, pg, c = d["vehicle"], d["bound"], d["paper_gains"], d["certified"]
-    g = c["gains"]
     lines = [
         "# nniquad design report",
         "",
@@ -389,12 +409,15 @@ def _markdown(d: dict[str, Any], audit_txt: str, verify_txt: str) -> str:
         "",
         "## The certified gain set",
         "",
-        f"kp = {fmt(g['kp'])} 1/s^2, Gamma = {fmt(g['Gamma'])}, delta = {fmt(g['delta'])}; "
+        f"{c['law']} law, {c['gains_text']}; "
         f"smallest sector gamma = {fmt(c['gamma'])} (gamma_max = {fmt(c['gamma_max'])}). "
         f"Law class **{c['law_class']['name']}**: certified by {c['law_class']['theorem']}. "
-        f"Certified region of attraction under the tilt limit: displacements from rest up to {fmt(c['max_displacement_m'])} m "
+        f"Certified region of attraction of the reduced loop under the tilt limit: displacements from rest up to "
+        f"{fmt(c['max_displacement_m'])} m "
         + (f"(required: {fmt(c['roa_radius_m'])} m)" if c["roa_radius_m"] is not None else "(no reach recorded as required)")
-        + f"; start state certified: {fmt(c['start_certified'])}. Source: {d['source']}.",
+        + "; the start " + "; ".join(f"{'inside' if m['inside'] else 'NOT inside'} the {k} region ({m['method']}, "
+                                     f"reach {fmt(m['reach_m'])} m)" for k, m in c["start"]["methods"].items())
+        + f"; start certified by every method: {fmt(c['start']['every_method'])}. Source: {d['source']}.",
         "",
         *_table(
             ["model", "settling (s)", "overshoot (%)", "peak tilt (deg)", "ratio to enter_band_s"],
@@ -403,6 +426,10 @@ def _markdown(d: dict[str, Any], audit_txt: str, verify_txt: str) -> str:
         ),
         "",
         "![certified gains](certified_gains.png)",
+        "",
+        "### The paper's law beside the certified law",
+        "",
+        *_table(*comparison_table(d["comparison"])),
         "",
         "### Independent verification (`nniquad verify certificate.json`)",
         "",

@@ -19,6 +19,34 @@ the audit).  The controller state of both axes is ordered state-major and
 axis-minor, ``(s1_x, s1_y, s2_x, s2_y, ...)``, the order of the simulator's
 state (:attr:`ControlLaw.sim_state_names`) and of the exported C.
 
+Reference and feedforward
+-------------------------
+To follow a reference ``ξ_d(t)`` (:mod:`nniquad.control.references`) every law is fed the
+error ``e = ξ_m - ξ_d`` in place of ``ξ_m`` (a law that measures the velocity also
+``ξ̇ - ξ̇_d``), and the optional acceleration feedforward ``a_ff = ξ̈_d(t)``, read from the
+reference (nothing is measured), is added to the law's command before the tilt limit:
+``a_h = sat(a_law(e) + a_ff)``.  For every law it enters at that one point, the plant's
+input, outside the controller: ``-k_p e + z/m̂ + a_ff`` for a law of the NI structure,
+``-k_p e - k_d ė + a_ff`` for the PD laws.  The controller's realisation and state are
+unchanged, and in the linear zone the error obeys the same loop the certificate analyses,
+driven by the exogenous input ``r a_ff - ξ̈_d`` (``r = m̂/m``; zero for a perfect
+feedforward on the nominal mass): ``ë = r a_law(e) + r a_ff - ξ̈_d``.  The reference and the
+feedforward are inputs of the loop, not parts of it, so the stability claims (the
+decay-rate and NI certificates, the margins) are untouched.  What the feedforward does
+use is tilt authority: the limit acts on ``a_law + a_ff``, so the certificate's
+nonlinear-region claims, made for a law that has the whole ``g_z tan(T_lim)`` to itself,
+do not cover a run with feedforward unless the tilt the reference demands,
+``atan(‖ξ̈_d‖/g)``, stays within a margin of the limit: only ``g_z tan(T_lim) - max ‖ξ̈_d‖``
+is left to the law, and a region claim carries over only if it holds with that reduced
+limit, which the certificate does not compute.
+
+A start from motion (a velocity at ``t = 0``): a velocity-free law's state is a function
+of the error's past alone, so its consistent state is its take-over state for the error
+at the start, ``e_0 = ξ(0) - ξ_d(0)`` (:meth:`ControlLaw.start_state`: its static state for
+an error held at ``e_0``; zero on the reference); the first command is then the law's static
+command for ``e_0`` plus ``a_ff(0)``, which is the command of a vehicle that was following
+the reference with that error, so the command continues without a jump.
+
 Laws of the NI structure
 ------------------------
 :class:`NILaw` is the paper's structure: a proportional inner loop reshapes

@@ -14,6 +14,7 @@ from typing import Any
 
 from nniquad.errors import NniquadError
 from nniquad.model import symbolic as S
+from nniquad.model.layout import DEFAULT_FRAME, FRAMES
 
 __all__ = ["VARIANTS", "FORMATS", "Equation", "Derivation", "derive"]
 
@@ -88,6 +89,11 @@ class Derivation:
         return "\n".join(parts)
 
 
+def _frame_suffix(frame: str) -> str:
+    """Key suffix of a layout's equations: none for '+' (the keys before frames existed), ``_x`` for 'x'."""
+    return "" if frame == DEFAULT_FRAME else f"_{frame}"
+
+
 def derive(variant: str = "exact") -> Derivation:
     """Derive the vehicle model with sympy from the Lagrangian.
 
@@ -104,7 +110,8 @@ def derive(variant: str = "exact") -> Derivation:
     Derivation
         Rotation ``R``, rate map ``W``, ``M``, ``C``, the translational dynamics
         (NED and z-up), the gyroscopic torque, the rotational dynamics, the mixer
-        and the state order.
+        and rotor-speed sum of each rotor layout (``mixer``, ``Omega_r`` for '+',
+        ``mixer_x``, ``Omega_r_x`` for 'x') and the state order.
     """
     if variant not in VARIANTS:
         raise NniquadError(f"variant must be one of {', '.join(VARIANTS)}, got {variant!r}")
@@ -122,8 +129,11 @@ def derive(variant: str = "exact") -> Derivation:
         ("xi_ddot_zup", "Translational dynamics, z-up: xi'' = -g e3 + (u1/m) R e3", S.translational_dynamics("z-up")),
         ("tau_gyro", "Rotor gyroscopic torque (body frame), -omega x (J_r Omega_r e3)", S.gyroscopic_torque()),
         ("eta_ddot", f"Rotational dynamics eta'' ({variant})", S.rotational_dynamics(variant)),
-        ("mixer", "Mixer: (u1, tau_phi, tau_theta, tau_psi) = A (w1^2, ..., w4^2), '+' layout", S.mixer_matrix()),
-        ("Omega_r", "Signed rotor-speed sum of the gyroscopic term", S.rotor_momentum_sum()),
+        *[eq for frame in FRAMES for eq in (
+            (f"mixer{_frame_suffix(frame)}", f"Mixer: (u1, tau_phi, tau_theta, tau_psi) = A (w1^2, ..., w4^2), "
+                                             f"'{frame}' layout", S.mixer_matrix(frame)),
+            (f"Omega_r{_frame_suffix(frame)}", f"Signed rotor-speed sum of the gyroscopic term, '{frame}' layout",
+             S.rotor_momentum_sum(frame)))],
         ("state", "State order", sp.Matrix(s.state)),
     ]
     return Derivation(variant, tuple(Equation(k, t, e) for k, t, e in eqs))

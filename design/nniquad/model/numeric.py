@@ -8,6 +8,10 @@ a named :class:`casadi.Function`, or onto numpy.
 Vehicle parameters are an *input* of every generated function (vector ``p`` in
 the order of :attr:`nniquad.model.symbolic.Symbols.params`), so one compiled function
 serves every vehicle, including the perturbed vehicles of a Monte Carlo study.
+The rotor layout is one of them (``frame_index``): a function that depends on it
+holds each layout's expressions, generated from its own geometry, and returns the
+one ``p`` selects (:func:`by_frame`), so a '+' and an 'x' vehicle share compiled code
+but never a mixer.
 
 sympy is imported only when a function is generated: the CasADi functions are
 kept between processes by :mod:`nniquad.codecache`, so a process that finds
@@ -23,7 +27,7 @@ import casadi as ca
 import numpy as np
 
 from nniquad.codecache import cached_casadi_function
-from nniquad.model.layout import PARAM_NAMES
+from nniquad.model.layout import FRAMES, PARAM_NAMES
 from nniquad.model.vehicle import Vehicle
 
 if TYPE_CHECKING:
@@ -36,8 +40,12 @@ __all__ = [
     "numpy_function",
     "dynamics_function",
     "dynamics_numpy",
+    "by_frame",
     "mixer_function",
     "mixer_numpy",
+    "allocation_function",
+    "allocation_numpy",
+    "rotor_modes",
     "reaction_torque_function",
     "rotation_function",
 ]
@@ -142,50 +150,96 @@ def dynamics_numpy(variant: str = "exact") -> Callable[..., np.ndarray]:
     return evaluate
 
 
+def by_frame(p: ca.SX, cases: Sequence[ca.SX]) -> ca.SX:
+    """The entry of ``cases`` (one per layout of :data:`FRAMES`, in order) that ``p``'s ``frame_index`` selects.
+
+    An index that names no layout selects the first one; a :class:`Vehicle` cannot hold one.
+    """
+    index = p[PARAM_NAMES.index("frame_index")]
+    out = cases[0]
+    for k, case in enumerate(cases[1:], start=1):
+        out = ca.if_else(ca.fabs(index - k) < 0.5, case, out)
+    return out
+
+
+def _per_frame(name: str, inputs: Mapping[str, Sequence[sp.Symbol]],
+               outputs: Callable[[str], Mapping[str, sp.Matrix | sp.Expr]]) -> ca.Function:
+    """One CasADi function of ``inputs`` (``p`` among them) whose outputs are ``outputs(frame)`` of ``p``'s frame."""
+    sx_in = {key: ca.SX.sym(key, len(syms)) for key, syms in inputs.items()}
+    per_frame = [casadi_function(f"{name}_{k}", inputs, outputs(frame))(**sx_in) for k, frame in enumerate(FRAMES)]
+    names = list(outputs(FRAMES[0]))
+    sx_out = [by_frame(sx_in["p"], [values[key] for values in per_frame]) for key in names]
+    return ca.Function(name, list(sx_in.values()), sx_out, list(sx_in), names)
+
+
 @cached_casadi_function
 def mixer_function() -> ca.Function:
-    """CasADi ``mixer(w[4], p) -> (u[4], Omega_r)``: rotor speeds [rad/s] to thrust/torques."""
+    """CasADi ``mixer(w[4], p) -> (u[4], Omega_r)``: rotor speeds [rad/s] to thrust/torques, for ``p``'s frame."""
     import sympy as sp
     from nniquad.model import symbolic as S  # lazily: sympy costs 0.3 s, and a cached build needs none
 
+    s = S.symbols()
+    w2 = sp.Matrix([w**2 for w in s.rotor])
+    return _per_frame("mixer", {"w": s.rotor, "p": s.params},
+                      lambda frame: {"u": S.mixer_matrix(frame) * w2, "Omega_r": S.rotor_momentum_sum(frame)})
+
+
+@cached_casadi_function
+def allocation_function() -> ca.Function:
+    """CasADi ``allocation(p) -> B[4x4]``: rotor thrusts ``b w²`` [N] per ``(u1, τ)`` for ``p``'s frame.
+
+    :func:`nniquad.model.symbolic.allocation_matrix`, the exact inverse of the thrust mixer.
+    """
+    from nniquad.model import symbolic as S  # lazily: sympy costs 0.3 s, and a cached build needs none
 
     s = S.symbols()
-    A = S.mixer_matrix()
-    w2 = sp.Matrix([w**2 for w in s.rotor])
-    return casadi_function(
-        "mixer",
-        {"w": s.rotor, "p": s.params},
-        {"u": A * w2, "Omega_r": S.rotor_momentum_sum()},
-    )
+    return _per_frame("allocation", {"p": s.params}, lambda frame: {"B": S.allocation_matrix(frame)})
 
 
 @cached_casadi_function
 def reaction_torque_function() -> ca.Function:
-    """CasADi ``reaction(w_dot[4], p) -> tau[3]``: body torque [N m] of the rotor spin-up.
+    """CasADi ``reaction(w_dot[4], p) -> tau[3]``: body torque [N m] of the rotor spin-up, for ``p``'s frame.
 
     :func:`nniquad.model.symbolic.rotor_reaction_torque`, ``-Jr dOmega_r/dt e3_B``.
     """
     from nniquad.model import symbolic as S  # lazily: sympy costs 0.3 s, and a cached build needs none
 
     s = S.symbols()
-    return casadi_function(
-        "rotor_reaction",
-        {"w_dot": S.rotor_acceleration_symbols(), "p": s.params},
-        {"tau": S.rotor_reaction_torque()},
-    )
+    return _per_frame("rotor_reaction", {"w_dot": S.rotor_acceleration_symbols(), "p": s.params},
+                      lambda frame: {"tau": S.rotor_reaction_torque(frame)})
 
 
 @lru_cache(maxsize=None)
-def _mixer_matrix_numpy() -> Callable[..., np.ndarray]:
-
+def _matrix_numpy(which: str, frame: str) -> Callable[..., np.ndarray]:
     from nniquad.model import symbolic as S  # lazily: sympy costs 0.3 s, and a cached build needs none
+
     s = S.symbols()
-    return numpy_function(list(s.params), S.mixer_matrix())
+    return numpy_function(list(s.params), getattr(S, which)(frame))
 
 
 def mixer_numpy(vehicle: Vehicle) -> np.ndarray:
-    """The 4x4 mixer matrix ``A`` (``u = A w^2``) for a vehicle, as numpy."""
-    return np.asarray(_mixer_matrix_numpy()(*param_vector(vehicle)), dtype=float)
+    """The 4x4 mixer matrix ``A`` (``u = A w^2``) of a vehicle and its frame, as numpy."""
+    return np.asarray(_matrix_numpy("mixer_matrix", vehicle.frame)(*param_vector(vehicle)), dtype=float)
+
+
+def allocation_numpy(vehicle: Vehicle) -> np.ndarray:
+    """The 4x4 allocation matrix ``B`` (rotor thrusts ``= B (u1, τ)``) of a vehicle and its frame, as numpy."""
+    return np.asarray(_matrix_numpy("allocation_matrix", vehicle.frame)(*param_vector(vehicle)), dtype=float)
+
+
+@lru_cache(maxsize=None)
+def rotor_modes(frame: str) -> np.ndarray:
+    """The rows of a layout's mixer, each of unit length: collective, roll, pitch and yaw rotor modes.
+
+    Orthonormal for both layouts (tested); at hover the rotor speeds in these
+    coordinates feed one subsystem each (:func:`nniquad.analysis.cascade.family.mode_transform`).
+    They do not depend on the parameters' values, only on the geometry.
+    """
+    from nniquad.model import symbolic as S  # lazily: sympy costs 0.3 s, and a cached build needs none
+
+    A = np.asarray(_matrix_numpy("mixer_matrix", frame)(*np.ones(len(PARAM_NAMES))), dtype=float)
+    S.check_frame(frame)
+    return A / np.linalg.norm(A, axis=1, keepdims=True)
 
 
 @cached_casadi_function

@@ -18,24 +18,42 @@ the north axis, which is a proper rotation (no handedness change):
 ``(x, y, z)_up = (x, -y, -z)_NED`` and ``(phi, theta, psi)_up = (phi, -theta, -psi)_NED``
 (see :func:`ned_to_zup`).  Every function says which frame it returns.
 
-Rotor layout
-------------
-'+' layout in the body FRD frame: rotor 1 front (+x_B), 2 right (+y_B),
-3 back (-x_B), 4 left (-y_B), all at arm length ``l``.  Rotors 1 and 3 spin
-about +z_B (clockwise seen from above), 2 and 4 about -z_B.  Each rotor makes
-thrust ``b w_i^2`` along -z_B and a drag torque ``d w_i^2`` against its spin,
-so (derived in :func:`mixer_matrix`)::
+Rotor layouts
+-------------
+Two layouts (:func:`rotor_geometry`, the vehicle's ``frame``), all rotors at arm
+length ``l`` from the centre, numbered clockwise seen from above:
 
-    u1     = b (w1^2 + w2^2 + w3^2 + w4^2)
-    tau_phi   = l b (w4^2 - w2^2)
-    tau_theta = l b (w1^2 - w3^2)
-    tau_psi   = d (w2^2 + w4^2 - w1^2 - w3^2)
+``'+'``: rotor 1 front (+x_B), 2 right (+y_B), 3 back (-x_B), 4 left (-y_B).
+Rotors 1 and 3 spin about +z_B (clockwise seen from above), 2 and 4 about -z_B.
+
+``'x'``: the '+' turned 45° clockwise seen from above: rotor 1 front-right,
+2 back-right, 3 back-left, 4 front-left, each ``l/√2`` along both body axes.
+Rotors 1 and 3 spin about -z_B (counter-clockwise seen from above), 2 and 4
+about +z_B.  Numbering and spins are the Crazyflie's (bitcraze/crazyflie-firmware,
+``power_distribution_quadrotor.c``: M1 front-right, M2 back-right, M3 back-left,
+M4 front-left; a thrust increase of M1 or M3 gives a clockwise yaw torque seen from
+above, so they spin counter-clockwise); PX4's quad X spins its rotors the same way
+by position but numbers them 1 front-right, 2 back-left, 3 front-left, 4 back-right.
+
+Each rotor makes thrust ``b w_i^2`` along -z_B and a drag torque ``d w_i^2``
+against its spin, so (derived in :func:`mixer_matrix`)::
+
+    '+':  u1        = b (w1^2 + w2^2 + w3^2 + w4^2)
+          tau_phi   = l b (w4^2 - w2^2)
+          tau_theta = l b (w1^2 - w3^2)
+          tau_psi   = d (w2^2 + w4^2 - w1^2 - w3^2)
+
+    'x':  u1        = b (w1^2 + w2^2 + w3^2 + w4^2)
+          tau_phi   = (l/√2) b (w3^2 + w4^2 - w1^2 - w2^2)
+          tau_theta = (l/√2) b (w1^2 + w4^2 - w2^2 - w3^2)
+          tau_psi   = d (w1^2 + w3^2 - w2^2 - w4^2)
 
 and the rotors' net angular momentum is ``Jr * Omega_r * e3_B`` with
-``Omega_r = w1 - w2 + w3 - w4``, which exerts the gyroscopic torque
+``Omega_r = sum_i spin_i w_i`` ('+': ``w1 - w2 + w3 - w4``), which exerts the gyroscopic torque
 ``-omega x (Jr Omega_r e3)`` on the body.  The paper's inputs ``u2, u3`` are
-rotor-thrust differences (its ``b1 = l/Jx``), so ``tau_phi = l u2``,
-``tau_theta = l u3``, ``tau_psi = u4``.
+rotor-thrust differences of the '+' layout (its ``b1 = l/Jx``), so ``tau_phi = l u2``,
+``tau_theta = l u3``, ``tau_psi = u4``.  The rigid-body equations in the torques
+are the same for both layouts; only the map from rotor speeds to torques differs.
 """
 
 from __future__ import annotations
@@ -46,7 +64,7 @@ from typing import Sequence
 
 import sympy as sp
 
-from nniquad.model.layout import STATE_ORDER
+from nniquad.model.layout import DEFAULT_FRAME, FRAMES, STATE_ORDER
 
 __all__ = [
     "Symbols",
@@ -70,7 +88,11 @@ __all__ = [
     "rotor_acceleration_symbols",
     "full_dynamics",
     "paper_full_dynamics",
+    "check_frame",
+    "rotor_geometry",
     "mixer_matrix",
+    "allocation_matrix",
+    "rotor_momentum_sum",
     "ned_to_zup",
     "STATE_ORDER",
 ]
@@ -100,11 +122,16 @@ class Symbols:
     tau: tuple[sp.Symbol, sp.Symbol, sp.Symbol]
     Omega_r: sp.Symbol
     rotor: tuple[sp.Symbol, sp.Symbol, sp.Symbol, sp.Symbol]
+    frame_index: sp.Symbol
 
     @property
     def params(self) -> tuple[sp.Symbol, ...]:
-        """Vehicle parameters in the order numeric code passes them."""
-        return (self.m, self.g, self.Jx, self.Jy, self.Jz, self.Jr, self.l, self.b, self.d)
+        """Vehicle parameters in the order numeric code passes them (:data:`nniquad.model.layout.PARAM_NAMES`).
+
+        ``frame_index`` appears in no expression: the numeric code selects the frame's
+        expressions with it (:func:`nniquad.model.numeric.mixer_function`).
+        """
+        return (self.m, self.g, self.Jx, self.Jy, self.Jz, self.Jr, self.l, self.b, self.d, self.frame_index)
 
     @property
     def q(self) -> tuple[sp.Symbol, ...]:
@@ -149,7 +176,9 @@ def symbols() -> Symbols:
     tau = sp.symbols("tau_phi tau_theta tau_psi", real=True)
     Omega_r = sp.Symbol("Omega_r", real=True)
     rotor = sp.symbols("omega_1:5", real=True)
-    return Symbols(m, g, Jx, Jy, Jz, Jr, l, b, d, xi, xi_dot, xi_ddot, eta, eta_dot, eta_ddot, u1, tau, Omega_r, rotor)
+    frame_index = sp.Symbol("k_frame", integer=True, nonnegative=True)
+    return Symbols(m, g, Jx, Jy, Jz, Jr, l, b, d, xi, xi_dot, xi_ddot, eta, eta_dot, eta_ddot, u1, tau, Omega_r, rotor,
+                   frame_index)
 
 
 # --------------------------------------------------------------------------- kinematics
@@ -439,24 +468,37 @@ def paper_full_dynamics() -> sp.Matrix:
 # --------------------------------------------------------------------------- rotors
 
 
-def rotor_geometry() -> tuple[list[sp.Matrix], list[int]]:
-    """Rotor positions in the body FRD frame and spin signs (+1: spin about +z_B)."""
+def check_frame(frame: str) -> str:
+    """``frame`` if it names a layout of :data:`nniquad.model.layout.FRAMES`, else ``ValueError``."""
+    if frame not in FRAMES:
+        raise ValueError(f"frame must be one of {', '.join(repr(f) for f in FRAMES)}, got {frame!r}")
+    return frame
+
+
+def rotor_geometry(frame: str = DEFAULT_FRAME) -> tuple[list[sp.Matrix], list[int]]:
+    """Rotor positions in the body FRD frame and spin signs (+1: spin about +z_B) of a layout.
+
+    Rotor ``i`` sits at the angle ``a + (i - 1) pi/2`` from the nose, clockwise seen
+    from above (from +x_B towards +y_B), with ``a = 0`` for '+' and ``pi/4`` for 'x'
+    (module docstring); sympy's exact ``cos(pi/4) = sqrt(2)/2`` gives the 'x' arm
+    component ``l/sqrt(2)`` along each body axis.
+    """
     s = symbols()
-    l = s.l
-    positions = [sp.Matrix([l, 0, 0]), sp.Matrix([0, l, 0]), sp.Matrix([-l, 0, 0]), sp.Matrix([0, -l, 0])]
-    spins = [1, -1, 1, -1]
+    offset, spins = {"+": (sp.S.Zero, [1, -1, 1, -1]), "x": (sp.pi / 4, [-1, 1, -1, 1])}[check_frame(frame)]
+    angles = [offset + k * sp.pi / 2 for k in range(4)]
+    positions = [sp.Matrix([s.l * sp.cos(a), s.l * sp.sin(a), 0]) for a in angles]
     return positions, spins
 
 
 @lru_cache(maxsize=None)
-def mixer_matrix() -> sp.Matrix:
+def mixer_matrix(frame: str = DEFAULT_FRAME) -> sp.Matrix:
     """``A`` with ``(u1, tau_phi, tau_theta, tau_psi) = A (w1^2, ..., w4^2)``, derived from the geometry.
 
     Thrust of rotor i is ``b w_i^2`` along -z_B at position ``r_i``, giving the torque
     ``r_i x (-b w_i^2 e3)``; its drag reaction on the body is ``-spin_i d w_i^2 e3``.
     """
     s = symbols()
-    positions, spins = rotor_geometry()
+    positions, spins = rotor_geometry(frame)
     e3 = sp.Matrix([0, 0, 1])
     cols = []
     for r, spin in zip(positions, spins):
@@ -466,10 +508,21 @@ def mixer_matrix() -> sp.Matrix:
     return sp.Matrix.hstack(*cols)
 
 
-def rotor_momentum_sum() -> sp.Expr:
+@lru_cache(maxsize=None)
+def allocation_matrix(frame: str = DEFAULT_FRAME) -> sp.Matrix:
+    """``B`` with the rotor thrusts ``(b w1^2, ..., b w4^2) = B (u1, tau_phi, tau_theta, tau_psi)``.
+
+    The exact inverse of the thrust mixer ``A / b`` (:func:`mixer_matrix`); the
+    allocation of :func:`nniquad.control.inner_loops.allocate` splits its columns.
+    """
+    s = symbols()
+    return (mixer_matrix(frame) / s.b).inv().applyfunc(sp.simplify)
+
+
+def rotor_momentum_sum(frame: str = DEFAULT_FRAME) -> sp.Expr:
     """``Omega_r`` as a function of the rotor speeds: ``sum_i spin_i w_i``."""
     s = symbols()
-    _, spins = rotor_geometry()
+    _, spins = rotor_geometry(frame)
     return sum(spin * w for spin, w in zip(spins, s.rotor))
 
 
@@ -480,7 +533,7 @@ def rotor_acceleration_symbols() -> tuple[sp.Symbol, sp.Symbol, sp.Symbol, sp.Sy
 
 
 @lru_cache(maxsize=None)
-def rotor_reaction_torque() -> sp.Matrix:
+def rotor_reaction_torque(frame: str = DEFAULT_FRAME) -> sp.Matrix:
     """Body-frame torque on the airframe from spinning the rotors up or down: ``-Jr dOmega_r/dt e3_B``.
 
     The rotors' angular momentum relative to the body is ``h = Jr Omega_r e3_B``
@@ -493,7 +546,7 @@ def rotor_reaction_torque() -> sp.Matrix:
     Expressed in the symbols of :func:`rotor_acceleration_symbols`.
     """
     s = symbols()
-    h = s.Jr * rotor_momentum_sum() * sp.Matrix([0, 0, 1])
+    h = s.Jr * rotor_momentum_sum(frame) * sp.Matrix([0, 0, 1])
     rotor_dot = rotor_acceleration_symbols()
     h_dot = sum((h.diff(w) * wd for w, wd in zip(s.rotor, rotor_dot)), sp.zeros(3, 1))
     return -h_dot

@@ -21,6 +21,13 @@ lag is switched on.
 
 Every field has a unit in :data:`UNITS`.  Vehicles can be loaded from TOML or
 JSON files with exactly the field names below.
+
+The rotor layout ``frame`` is ``"+"`` (rotors on the body axes) or ``"x"`` (rotors
+between them, 45° off); ``"X"`` is read as ``"x"``.  A vehicle that states no frame
+is a '+' vehicle, as every vehicle was before frames existed; for the same reason
+:meth:`Vehicle.as_dict` leaves ``frame`` out for a '+' vehicle, so every record
+written before (a certificate's vehicle section and its digest) reads the same.
+:func:`nniquad.model.symbolic.rotor_geometry` states both layouts.
 """
 
 from __future__ import annotations
@@ -32,6 +39,7 @@ from typing import Any, Mapping
 
 from nniquad.errors import VehicleError
 from nniquad.io import load_data_file
+from nniquad.model.layout import DEFAULT_FRAME, FRAMES
 
 __all__ = ["Vehicle", "UNITS", "DESCRIPTIONS", "PAPER_VEHICLE", "load_vehicle", "vehicle_from_mapping"]
 
@@ -48,6 +56,7 @@ UNITS: dict[str, str] = {
     "Jr": "kg m^2",
     "omega_max": "rad/s",
     "tau_motor": "s",
+    "frame": "",
 }
 
 DESCRIPTIONS: dict[str, str] = {
@@ -63,6 +72,7 @@ DESCRIPTIONS: dict[str, str] = {
     "Jr": "rotor (propeller + motor bell) inertia about its spin axis",
     "omega_max": "rotor-speed limit",
     "tau_motor": "first-order motor time constant (used only when motor lag is on)",
+    "frame": f"rotor layout, one of {', '.join(repr(f) for f in FRAMES)} (default {DEFAULT_FRAME!r})",
 }
 
 
@@ -87,12 +97,18 @@ class Vehicle:
     Jr: float
     omega_max: float
     tau_motor: float
+    frame: str = DEFAULT_FRAME
 
     def __post_init__(self) -> None:
+        frame = self.frame.lower() if isinstance(self.frame, str) else self.frame
+        if frame not in FRAMES:
+            raise VehicleError(f"vehicle field 'frame' must be one of {', '.join(repr(f) for f in FRAMES)} "
+                               f"(rotor layout), got {_short(self.frame)}")
+        object.__setattr__(self, "frame", frame)
         for f in fields(self):
-            if f.name == "name":
-                if not isinstance(self.name, str):
-                    raise VehicleError("vehicle field 'name' must be a string")
+            if f.name in ("name", "frame"):
+                if not isinstance(getattr(self, f.name), str):
+                    raise VehicleError(f"vehicle field '{f.name}' must be a string")
                 continue
             value = getattr(self, f.name)
             if isinstance(value, bool) or not isinstance(value, (int, float)):
@@ -149,9 +165,21 @@ class Vehicle:
         """Rotor speed at which four rotors carry the weight, in rad/s."""
         return math.sqrt(self.m * self.g / (4.0 * self.b))
 
+    @property
+    def frame_index(self) -> int:
+        """Position of :attr:`frame` in :data:`nniquad.model.layout.FRAMES` (the generated code's frame entry)."""
+        return FRAMES.index(self.frame)
+
     def as_dict(self) -> dict[str, Any]:
-        """Plain dictionary of the fields (JSON/TOML ready)."""
-        return asdict(self)
+        """Plain dictionary of the fields (JSON/TOML ready); ``frame`` only when it is not '+'.
+
+        A '+' vehicle's dictionary is the one written before frames existed, so a
+        certificate's vehicle section and digest read the same (module docstring).
+        """
+        data = asdict(self)
+        if self.frame == DEFAULT_FRAME:
+            del data["frame"]
+        return data
 
     def with_(self, **changes: Any) -> "Vehicle":
         """Copy with some fields changed (validated again)."""
@@ -163,9 +191,10 @@ class Vehicle:
         """Multi-line table of the parameters with units and the derived ratios."""
         rows = [f"{'field':<10} {'value':>12}  unit      meaning"]
         for key, value in self.as_dict().items():
-            if key == "name":
+            if key in ("name", "frame"):
                 continue
             rows.append(f"{key:<10} {value:>12.6g}  {UNITS[key]:<9} {DESCRIPTIONS[key]}")
+        rows.append(f"{'frame':<10} {self.frame:>12}  {'-':<9} {DESCRIPTIONS['frame']}")
         rows.append(f"{'T/W':<10} {self.thrust_to_weight():>12.4g}  {'-':<9} thrust-to-weight ratio at omega_max")
         rows.append(f"{'omega_hov':<10} {self.hover_rotor_speed():>12.6g}  {'rad/s':<9} hover rotor speed")
         return "\n".join(rows)
@@ -208,7 +237,7 @@ def vehicle_from_mapping(data: Mapping[str, Any], *, source: str = "vehicle") ->
         raise VehicleError(f"{source}: unknown field {_short(str(unknown[0]), 40)} (known fields: {', '.join(known)})")
     values = dict(data)
     values.setdefault("name", source)
-    missing = [k for k in known if k not in values]
+    missing = [k for k in known if k not in values and k != "frame"]
     if missing:
         raise VehicleError(f"{source}: missing field '{missing[0]}' ({DESCRIPTIONS[missing[0]]}, {UNITS[missing[0]]})")
     try:
@@ -254,6 +283,7 @@ def vehicle_to_toml(vehicle: Vehicle) -> str:
     """TOML text of a vehicle with units as comments (a template users can edit)."""
     lines = [f'name = "{vehicle.name}"']
     for key, value in vehicle.as_dict().items():
-        if key != "name":
+        if key not in ("name", "frame"):
             lines.append(f"{key} = {value!r}  # {UNITS[key]}: {DESCRIPTIONS[key]}")
+    lines.append(f'frame = "{vehicle.frame}"  # {DESCRIPTIONS["frame"]}')
     return "\n".join(lines) + "\n"

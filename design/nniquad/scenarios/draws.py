@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from nniquad.control.references import Reference
 from nniquad.errors import MonteCarloError
 from nniquad.laws.base import wind_equilibrium_m
 from nniquad.scenarios.ranges import (
@@ -69,6 +70,9 @@ class Scenario:
         Horizontal law (the layout of :attr:`params`).
     controller_sampling
         ``"discrete"`` or ``"held"`` (:attr:`StudySetup.controller_sampling`).
+    reference, feedforward, feedforward_lead_s
+        The reference followed and its feedforward (:attr:`StudySetup.reference`); with a reference
+        :attr:`xi0_m` is the displacement from its start.
     """
 
     index: int
@@ -86,6 +90,9 @@ class Scenario:
     factors: tuple[tuple[str, float], ...] = ()
     controller: str = "nni"
     controller_sampling: str = "held"
+    reference: Reference | None = None
+    feedforward: bool = False
+    feedforward_lead_s: float = 0.0
 
     @property
     def sim_params(self) -> SimParams:
@@ -187,6 +194,7 @@ def draw_scenario(index: int, seed: int, ranges: ScenarioRanges, setup: StudySet
         band_m=setup.band_m, altitude_limit_m=ranges.altitude_limit_m,
         factors=(("mass", f_m), ("Jx", f_J[0]), ("Jy", f_J[1]), ("Jz", f_J[2]), ("attitude_gain", f_att)),
         controller=setup.controller, controller_sampling=setup.controller_sampling,
+        reference=setup.reference, feedforward=setup.feedforward, feedforward_lead_s=setup.feedforward_lead_s,
     )
 
 

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 from typing import Any, Mapping, Sequence
 
 from nniquad.config import BAND_FRACTION, DT_S, OUTPUT_DT_S, TILT_LIMIT_DEG, XI0_M
+from nniquad.control.references import Reference
 from nniquad.errors import MonteCarloError
 from nniquad.scenarios.ranges import DEFAULT_RANGES, ScenarioRanges, positive_number_or_none
 from nniquad.sim import SimOptions, SimParams, to_gains
@@ -49,6 +50,11 @@ class StudySetup:
         ``"discrete"`` (the law in discrete time at the sample rate, what
         flies) or ``"held"`` (the controller integrated continuously on the held
         measurement): :attr:`nniquad.sim.SimOptions.controller_sampling`.
+    reference, feedforward, feedforward_lead_s
+        The reference every scenario follows (``None``: hold the origin) and its feedforward
+        (:attr:`nniquad.sim.SimOptions.reference`, ...).  A scenario then starts on the reference with its
+        velocity, displaced by its drawn displacement; it succeeds when the vehicle is not lost (settling does not
+        apply) and its tracking error is recorded.
     """
 
     base_params: tuple[float, ...]
@@ -61,6 +67,9 @@ class StudySetup:
     label: str = ""
     controller: str = "nni"
     controller_sampling: str = "held"
+    reference: Reference | None = None
+    feedforward: bool = False
+    feedforward_lead_s: float = 0.0
 
     @property
     def base(self) -> SimParams:
@@ -83,6 +92,9 @@ class StudySetup:
             "output_dt_s": self.output_dt_s,
             "controller_sampling": self.controller_sampling,
             "rate_hz": 1.0 / b.run.sample_period,
+            **({} if self.reference is None else {"reference": self.reference.to_json(),
+                                                  "feedforward": self.feedforward,
+                                                  "feedforward_lead_s": self.feedforward_lead_s}),
         }
 
 

@@ -14,7 +14,8 @@ Models
     The 12-state vehicle (:func:`nniquad.model.numeric.dynamics_function` ``"exact"``,
     NED, rotor gyroscopic terms; with motor lag also the rotor spin-up reaction torque
     ``-Jr dΩ_r/dt`` about ``z_B``, :func:`nniquad.model.symbolic.rotor_reaction_torque`)
-    with rotor-speed saturation, and the loops of
+    with rotor-speed saturation, the mixer of the vehicle's frame ('+' or 'x', selected by the
+    parameter vector: :func:`nniquad.model.numeric.mixer_function`), and the loops of
     :mod:`nniquad.control.inner_loops` (altitude PID, yaw hold, attitude PD with gyro
     rates, tilt limit, saturation-aware allocation).  The horizontal command is
     the paper's ``a_h = -K_p ξ_m + z/m̂``.  No horizontal velocity is used.
@@ -48,6 +49,17 @@ each later sample by the exact ZOH equivalent of the period that ends
 (:meth:`~nniquad.laws.base.ControlLaw.sim_sample`, the law's own closed form
 where it has one), before it latches the new measurement, so ``a_h`` is held
 over the period.
+
+References and feedforward
+--------------------------
+The law acts on the error to the reference, ``ξ_m - ξ_d`` (and a law that measures the
+velocity on ``ξ̇ - ξ̇_d``), the reference read when the measurement is read (latched with
+it when sampled).  The optional acceleration feedforward ``a_ff = ξ̈_d`` is added to the
+law's command *before* the tilt limit, so the limit still bounds the commanded tilt.
+Both are columns of the exogenous input (:data:`EXO_FIELDS`), not parameters: one
+compiled function serves every reference, and with none (zeros) every expression gives
+exactly the numbers it gave before.  Why the feedforward leaves the certificate's claims as
+they are, and where it does not: :mod:`nniquad.laws.base`, "Reference and feedforward".
 
 Every law has its own parameter layout (:func:`nniquad.sim.params.param_layout`,
 the gain entries named after the block's fields), its own state layout
@@ -125,6 +137,17 @@ def vehicle_dynamics() -> ca.Function:
     return ca.Function("quadrotor_exact_factored", [x, u, om, p], [xdot], ["x", "u", "Omega_r", "p"], ["xdot"])
 
 
+#: Pairs of the exogenous input (:data:`EXO_FIELDS`) by what they are.
+_EXO_PAIRS: dict[str, tuple[str, str]] = {"noise": ("noise_x", "noise_y"), "gust": ("gust_x", "gust_y"),
+                                          "ref": ("ref_x", "ref_y"), "ref_v": ("ref_vx", "ref_vy"),
+                                          "ff": ("ff_x", "ff_y")}
+
+
+def _exo(e: ca.SX, pair: str) -> ca.SX:
+    """The two entries of the exogenous input ``e`` named ``pair`` (:data:`_EXO_PAIRS`)."""
+    return e[[EXO_FIELDS.index(n) for n in _EXO_PAIRS[pair]]]
+
+
 def _law_parameters(law: ControlLaw, P: dict) -> dict:
     """The entries the law's expressions read (its gains by field name and ``m_hat``) from the parameter dict."""
     return {**{name: P[f"gains.{name}"] for name in law.gain_names}, "m_hat": P["nominal.m"]}
@@ -134,16 +157,20 @@ def _closed_loop(model: str, X: ca.SX, e: ca.SX, p: ca.SX, controller: str = "nn
     """Continuous closed-loop right-hand side and the output vector of one model and controller (SX)."""
     P = {f.name: p[i] for i, f in enumerate(param_layout(controller))}
     law = law_named(check_controller(controller))
-    noise, gust = e[0:2], e[3:5]
+    noise, gust, ref, ref_v, a_ff = (_exo(e, n) for n in ("noise", "gust", "ref", "ref_v", "ff"))
     wind = ca.vertcat(P["run.wind_x"], P["run.wind_y"]) + gust
     ix = _index(model, controller)
     pos, vel = X[[ix["x"], ix["y"]]], X[[ix["x_dot"], ix["y_dot"]]]
     held = X[[ix["held_x"], ix["held_y"]]]
     xc = [X[ix[n]] for n in law.sim_state_names]
-    meas = ca.if_else(P["run.sample_hold"] > 0.5, held, pos + noise)
+    # the law acts on the error to the reference (held: the error latched at the sample)
+    meas = ca.if_else(P["run.sample_hold"] > 0.5, held, pos + noise - ref)
+    vel_err = vel - ref_v
     discrete = P["run.discrete"] > 0.5
-    a_list, xc_rates = law.sim_rates(_law_parameters(law, P), [meas[0], meas[1]], [vel[0], vel[1]], xc, discrete, ca)
-    a_h = ca.vertcat(*a_list)
+    a_list, xc_rates = law.sim_rates(_law_parameters(law, P), [meas[0], meas[1]], [vel_err[0], vel_err[1]], xc,
+                                     discrete, ca)
+    # the feedforward joins before the tilt limit, so the limit still bounds the commanded tilt
+    a_h = ca.vertcat(*a_list) + a_ff
     # discrete variant: the controller states are constant over the period and advanced by step_function
     zc_dot = ca.if_else(discrete, ca.SX.zeros(len(xc)), ca.vertcat(*xc_rates)) if xc else ca.SX.zeros(0)
     if model in ("linear", "reduced"):
@@ -171,7 +198,8 @@ def _closed_loop(model: str, X: ca.SX, e: ca.SX, p: ca.SX, controller: str = "nn
     J_nom = ca.vertcat(P["nominal.Jx"], P["nominal.Jy"], P["nominal.Jz"])
     tau = IL.attitude_torques(eta, rates, phi_d, theta_d, J_nom, P["inner.attitude_wn_rad_s"], P["inner.attitude_zeta"],
                               P["inner.yaw_wn_rad_s"], P["inner.yaw_zeta"], P["inner.attitude_gain_scale"], P["inner.attitude_accel_limit_rad_s2"])
-    w_cmd, _ = IL.allocate(u1, tau, P["nominal.l"], P["nominal.b"], P["nominal.d"], P["plant.omega_max"])
+    p_nom = ca.vertcat(*[P[f"nominal.{name}"] for name in PARAM_NAMES])
+    w_cmd, _ = IL.allocate(u1, tau, p_nom, P["plant.omega_max"])
     lag = P["run.motor_lag"] > 0.5
     w_act = ca.if_else(lag, ca.fmin(ca.fmax(w_state, 0), P["plant.omega_max"]), w_cmd)
     w_dot = ca.if_else(lag, (w_cmd - w_state) / P["plant.tau_motor"], ca.SX.zeros(4))
@@ -230,8 +258,8 @@ def output_function(model: str, controller: str = "nni") -> ca.Function:
 def step_function(model: str, controller: str = "nni") -> ca.Function:
     """One RK4 step ``step(x, e, p) -> x_next`` of length ``p[dt]``.
 
-    At the start of the step a sample flag ``e[2] >= 1`` latches the measurement
-    ``ξ + n`` into the held states; the step then integrates with it constant.
+    At the start of the step a sample flag ``e[2] >= 1`` latches the measured error
+    ``ξ + n - ξ_d`` into the held states; the step then integrates with it constant.
     With the discrete controller (``run.discrete = 1``) a later sample
     (``e[2] = 2``) first advances the controller state by one period on the
     value held over the period that ends, and then latches ``ξ_{k+1}``; the
@@ -254,11 +282,14 @@ def step_function(model: str, controller: str = "nni") -> ca.Function:
     sample = ca.logic_and(e[2] > 0.5, discrete)
     Xa = X
     if zs:
+        vel_err = X[[ix["x_dot"], ix["y_dot"]]] - _exo(e, "ref_v")
         zc = ca.vertcat(*law.sim_sample(_law_parameters(law, P), [X[i] for i in zs], [X[hs[0]], X[hs[1]]],
-                                        [X[ix["x_dot"]], X[ix["y_dot"]]], P["run.sample_period"], sample, advance, ca))
+                                        [vel_err[0], vel_err[1]], P["run.sample_period"], sample, advance, ca))
         # the controller states and the held measurement are contiguous runs of the state (state_names)
         Xa = ca.vertcat(X[: zs[0]], zc, X[zs[-1] + 1 :])
-    Xs = ca.vertcat(Xa[: hs[0]], ca.if_else(e[2] > 0.5, pos + e[0:2], Xa[hs]), Xa[hs[-1] + 1 :])
+    # the latch takes the error to the reference sampled with the measurement
+    Xs = ca.vertcat(Xa[: hs[0]], ca.if_else(e[2] > 0.5, pos + _exo(e, "noise") - _exo(e, "ref"), Xa[hs]),
+                    Xa[hs[-1] + 1 :])
     f = rhs_function(model, controller)
     h = p[[entry.name for entry in param_layout(controller)].index("run.dt")]
     k1 = f(Xs, e, p)
@@ -271,7 +302,7 @@ def step_function(model: str, controller: str = "nni") -> ca.Function:
 
 @lru_cache(maxsize=None)
 def chunk_function(model: str, K: int, controller: str = "nni") -> ca.Function:
-    """``K`` steps: ``chunk(x, E[5 x K], p) -> (x_K, y_K)``, compiled when possible."""
+    """``K`` steps: ``chunk(x, E[n_exo x K], p) -> (x_K, y_K)`` (:data:`EXO_FIELDS`), compiled when possible."""
     step = step_function(model, controller)
     # MX around the SX step keeps the K steps a loop in the generated C (step emitted once):
     # the same speed as unrolled SX, a tenth of the compile time.

@@ -14,6 +14,7 @@ import numpy as np
 
 from nniquad.config import DT_S, OUTPUT_DT_S, TILT_LIMIT_DEG, XI0_M
 from nniquad.control.inner_gains import DEFAULT_INNER_LOOP_GAINS, InnerLoopGains
+from nniquad.control.references import Reference
 from nniquad.errors import SimulationError
 from nniquad.validate import finite_number
 
@@ -145,6 +146,17 @@ class SimOptions:
         Mass of the plant [kg]; ``None`` means the vehicle's (= the controller's).
     inner
         Gains of the inner loops (``full``).
+    reference
+        The reference ``ξ_d(t)`` the law follows (:mod:`nniquad.control.references`); ``None``: the origin.
+    feedforward
+        Add the reference's acceleration ``ξ̈_d`` to the command before the tilt limit (needs a reference).
+    feedforward_lead_s
+        Read the feedforward this much ahead, ``a_ff(t) = ξ̈_d(t + lead)`` [s] (default 0): the inner loops realise
+        the command late (about ``2 ζ_a/ω_a`` for the attitude loop, plus half a sample period for the hold), and
+        the reference's future is known, so reading it that much ahead cancels most of the lag.  Nothing measured.
+    v0
+        Initial horizontal velocity [m/s] (a start from motion; the law's state is its take-over state for
+        the error ``xi0 - ξ_d(0)``, :mod:`nniquad.laws.base`, "Reference and feedforward").
     """
 
     model: str = "full"
@@ -166,6 +178,10 @@ class SimOptions:
     tau_motor_s: float | None = None
     true_mass_kg: float | None = None
     inner: InnerLoopGains = DEFAULT_INNER_LOOP_GAINS
+    reference: Reference | None = None
+    feedforward: bool = False
+    feedforward_lead_s: float = 0.0
+    v0: tuple[float, float] = (0.0, 0.0)
 
     def __post_init__(self) -> None:
         check_model(self.model)
@@ -211,6 +227,16 @@ class SimOptions:
             set_("true_mass_kg", _finite("true mass", self.true_mass_kg, positive=True))
         if not isinstance(self.inner, InnerLoopGains):
             raise SimulationError("inner must be an InnerLoopGains")
+        if self.reference is not None and not isinstance(self.reference, Reference):
+            raise SimulationError(f"reference must be a Reference, got {type(self.reference).__name__}")
+        if not isinstance(self.feedforward, (bool, np.bool_)):
+            raise SimulationError(f"feedforward must be True or False, got {self.feedforward!r}")
+        if self.feedforward and self.reference is None:
+            raise SimulationError("feedforward needs a reference (it is the reference's acceleration)")
+        set_("feedforward_lead_s", _finite("feedforward lead", self.feedforward_lead_s, nonneg=True))
+        if self.feedforward_lead_s > 0 and not self.feedforward:
+            raise SimulationError("a feedforward lead needs the feedforward")
+        set_("v0", self._pair("initial velocity v0", self.v0))
 
     @staticmethod
     def _pair(name: str, value: Any) -> tuple[float, float]:
@@ -260,4 +286,13 @@ class SimOptions:
         if d["controller_sampling"] is None:
             # unset: the record of a run stays what it was before the field existed (stated certificate settings)
             del d["controller_sampling"]
+        # likewise a run without a reference or motion at the start records what it did before these fields
+        if self.reference is None:
+            del d["reference"], d["feedforward"], d["feedforward_lead_s"]
+        else:
+            d["reference"] = self.reference.to_json()
+        if self.v0 == (0.0, 0.0):
+            del d["v0"]
+        else:
+            d["v0"] = list(self.v0)
         return d

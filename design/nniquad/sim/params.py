@@ -40,7 +40,7 @@ from nniquad.control.inner_gains import InnerLoopGains
 from nniquad.errors import SimulationError
 from nniquad.laws.base import GainBlock, field_unit
 from nniquad.laws.registry import law_named, law_names, to_gains as _registry_gains
-from nniquad.model.layout import STATE_ORDER
+from nniquad.model.layout import DEFAULT_FRAME, FRAMES, STATE_ORDER
 from nniquad.model.vehicle import DESCRIPTIONS, UNITS, Vehicle
 
 __all__ = [
@@ -58,11 +58,15 @@ __all__ = [
     "check_controller",
 ]
 
-#: Per-step exogenous input ``e``: position noise [m], sample flag, gust force [N].  The sample flag is
+#: Per-step exogenous input ``e``: position noise [m], sample flag, gust force [N], and the reference the
+#: controller reads: position ``ξ_d`` [m], velocity ``ξ̇_d`` [m/s] (read only by a law that measures the
+#: velocity) and the acceleration feedforward ``a_ff`` [m/s²] (zero without feedforward).  The sample flag is
 #: 0 between samples, 1 at the first sample of a run (the measurement is latched) and 2 at every later
 #: sample (the discrete controller first advances one period on the previous held value, then the
-#: measurement is latched); the continuous and held variants treat 1 and 2 alike.
-EXO_FIELDS: tuple[str, ...] = ("noise_x", "noise_y", "sample_flag", "gust_x", "gust_y")
+#: measurement is latched); the continuous and held variants treat 1 and 2 alike.  The reference is
+#: an input, not a parameter, so one compiled function serves every reference (and none: zeros).
+EXO_FIELDS: tuple[str, ...] = ("noise_x", "noise_y", "sample_flag", "gust_x", "gust_y",
+                               "ref_x", "ref_y", "ref_vx", "ref_vy", "ff_x", "ff_y")
 
 
 def state_names(model: str, controller: str = "nni") -> tuple[str, ...]:
@@ -116,19 +120,28 @@ def check_controller(controller: str) -> str:
 
 # =============================================================================== typed blocks
 
-#: Vehicle fields that are numbers (the vehicle's name is not a parameter).
-_VEHICLE_FIELDS: tuple[str, ...] = tuple(f.name for f in fields(Vehicle) if f.name != "name")
+#: Vehicle parameters that are numbers: the numeric fields and the frame as its index in
+#: :data:`nniquad.model.layout.FRAMES` (the vehicle's name is not a parameter).
+_VEHICLE_FIELDS: tuple[str, ...] = tuple(f.name for f in fields(Vehicle) if f.name not in ("name", "frame")) + (
+    "frame_index",)
+_VEHICLE_META: dict[str, tuple[str, str]] = {
+    **{n: (UNITS[n], DESCRIPTIONS[n]) for n in _VEHICLE_FIELDS if n in UNITS},
+    "frame_index": ("-", f"rotor layout, index in {FRAMES} ({DESCRIPTIONS['frame']})"),
+}
 
 VehicleParams = make_dataclass(
     "VehicleParams",
-    [(n, float, field(metadata={"unit": UNITS[n], "meaning": DESCRIPTIONS[n]})) for n in _VEHICLE_FIELDS],
+    [(n, float, field(metadata={"unit": _VEHICLE_META[n][0], "meaning": _VEHICLE_META[n][1]}))
+     for n in _VEHICLE_FIELDS],
     frozen=True,
     namespace={
-        "__doc__": "The numeric fields of a :class:`nniquad.model.vehicle.Vehicle`, unvalidated "
-                   "(a perturbed plant may be one that cannot hover).",
+        "__doc__": "The numeric fields of a :class:`nniquad.model.vehicle.Vehicle` and its frame's index, "
+                   "unvalidated (a perturbed plant may be one that cannot hover).",
         "from_vehicle": classmethod(lambda cls, v: cls(**{n: float(getattr(v, n)) for n in _VEHICLE_FIELDS})),
         "values": lambda self: {n: getattr(self, n) for n in _VEHICLE_FIELDS},
-        "from_values": classmethod(lambda cls, d: cls(**{n: d[n] for n in _VEHICLE_FIELDS})),
+        # a table written before frames existed has no frame_index: a '+' vehicle
+        "from_values": classmethod(lambda cls, d: cls(**{n: d.get(n, float(FRAMES.index(DEFAULT_FRAME))) if n == "frame_index" else d[n]
+                                                          for n in _VEHICLE_FIELDS})),
     },
 )
 VehicleParams.__module__ = __name__

@@ -27,6 +27,7 @@ from nniquad.sim.metrics import settling_time_batch, tilt_deg
 from nniquad.sim.options import SimOptions
 from nniquad.sim.params import SimParams
 from nniquad.sim.plots import runs_plot
+from nniquad.sim.tracking import TrackingMetrics, tracking_metrics
 from nniquad.sim.verdicts import Metrics, altitude_lost_batch, compute_metrics, diverged_batch
 
 __all__ = ["Trajectory", "SimulationResult"]
@@ -139,7 +140,23 @@ class Trajectory:
             rotor_speeds=self.rotor_speeds,
             z=self.z_ned,
             z_ref=0.0,
+            follows_reference=self.options.reference is not None,
         )
+
+    def tracking(self, window_s: tuple[float, float] | None = None) -> TrackingMetrics | None:
+        """The tracking metrics (:mod:`nniquad.sim.tracking`) of a run that follows a reference; ``None`` without one.
+
+        Parameters
+        ----------
+        window_s
+            ``(t0, t1)`` of the RMS and the maximum [s]; default the whole run.
+        """
+        ref = self.options.reference
+        if ref is None:
+            return None
+        g = float(self.params.nominal.g) if self.params is not None else float(self.vehicle.g)
+        return tracking_metrics(self.t, self.xy, ref, g=g, tilt_limit_deg=self.options.tilt_limit_deg,
+                                window_s=window_s)
 
     def save(self, path: str | os.PathLike[str]) -> Path:
         """Write the trajectory atomically: ``.npz`` (arrays + names) or ``.csv`` (one column per signal).

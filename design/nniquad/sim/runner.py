@@ -93,7 +93,7 @@ def batch_threads(runs: int) -> int:
 @lru_cache(maxsize=64)
 def _segment_function(model: str, K: int, M: int, B: int, shared_exo: bool, controller: str = "nni") -> ca.Function:
     """``M`` output samples of ``B`` runs, evaluated in turn on the calling thread:
-    ``seg(x0[nx x B], E[5 x K M (B)], p[np x B]) -> (X, Y)``.
+    ``seg(x0[nx x B], E[n_exo x K M (B)], p[np x B]) -> (X, Y)``.
 
     The runs of a batch are spread over threads by :func:`run_batch`, one such function
     per thread, not by CasADi's ``"thread"`` map: CasADi's Python binding releases the GIL
@@ -133,7 +133,11 @@ def _thread_slices(B: int, threads: int) -> list[slice]:
 
 
 def exogenous_inputs(options: SimOptions, n_steps: int | None = None, seed: int | None = None) -> np.ndarray:
-    """Per-step exogenous inputs ``(n_steps, 5)`` (:data:`EXO_FIELDS`) for the options.
+    """Per-step exogenous inputs ``(n_steps, n_exo)`` (:data:`EXO_FIELDS`) for the options.
+
+    Reference (with ``options.reference``): its position and velocity and, with
+    ``options.feedforward``, its acceleration (``feedforward_lead_s`` ahead), read with the
+    measurement (:func:`_reference_columns`).
 
     Noise: ``σ · N(0, 1)`` drawn at each sensor sample instant (the first step at
     or after ``k / rate``), constant until the next.  Gust: first-order
@@ -167,16 +171,43 @@ def exogenous_inputs(options: SimOptions, n_steps: int | None = None, seed: int 
         E[0, 3:5] = g0
         for axis in range(2):  # g_k = a g_{k-1} + c w_k
             E[1:, 3 + axis] = lfilter([c], [1.0, -a], w[1:, axis], zi=[a * g0[axis]])[0]
+    if o.reference is not None and n:
+        _reference_columns(E, o, t, idx)
     return E
 
 
-def initial_state(model: str, params: SimParams, xi0: Sequence[float] = XI0_M,
-                  zc0: Sequence[float] = (0.0, 0.0)) -> np.ndarray:
-    """Initial state: at ``xi0``, at rest, level, ψ = 0, z = 0; motors at the nominal hover speed.
+def _reference_columns(E: np.ndarray, o: SimOptions, t: np.ndarray, idx: np.ndarray) -> None:
+    """Fill the reference's columns of ``E`` (:data:`EXO_FIELDS`): the controller reads the reference when it
+    reads the measurement.  Sampled: at the sample instant, held until the next sample (what a discrete
+    controller is given with ``ξ_k``).  Continuous: at the middle of each step, since every input is held over
+    a step (second order in ``dt``, no half-step lag)."""
+    if o.sampled:
+        instants = idx / o.noise_rate_hz
+        first = np.r_[0, np.flatnonzero(np.diff(idx)) + 1]  # the step of each sample instant
+        which = np.searchsorted(first, np.arange(t.size), side="right") - 1
+        read = instants[first]
+    else:
+        which, read = slice(None), t + 0.5 * o.dt_s
+    pos, vel, _ = o.reference.sample(read)
+    acc = o.reference.sample(read + o.feedforward_lead_s)[2]
+    pos, vel, acc = pos[which], vel[which], acc[which]
+    cols = [EXO_FIELDS.index(n) for n in ("ref_x", "ref_y", "ref_vx", "ref_vy", "ff_x", "ff_y")]
+    E[:, cols[0:2]], E[:, cols[2:4]] = pos, vel
+    if o.feedforward:
+        E[:, cols[4:6]] = acc
 
-    Controller states: the law's start at the measured position
-    (:meth:`nniquad.laws.base.ControlLaw.sim_start_state`: the NNI law at zero, the ``sni2`` law at rest at its DC
-    value ``z = C(0) xi0``, the filtered PD's filter at ``d = xi0``), plus ``zc0`` on each axis's first state.
+
+def initial_state(model: str, params: SimParams, xi0: Sequence[float] = XI0_M,
+                  zc0: Sequence[float] = (0.0, 0.0), v0: Sequence[float] = (0.0, 0.0),
+                  ref0: Sequence[float] = (0.0, 0.0)) -> np.ndarray:
+    """Initial state: at ``xi0`` with the horizontal velocity ``v0`` (default at rest), level, ψ = 0, z = 0;
+    motors at the nominal hover speed.
+
+    Controller states: the law's start for the measured error ``e_0 = xi0 - ref0`` (``ref0`` the reference's
+    position at ``t = 0``; :meth:`nniquad.laws.base.ControlLaw.sim_start_state`: the NNI law at zero, the
+    ``sni2`` law at rest at its DC value ``z = C(0) e_0``, the filtered PD's filter at ``d = e_0``), plus ``zc0``
+    on each axis's first state.  That is the state consistent with a start from motion
+    (:mod:`nniquad.laws.base`, "Reference and feedforward").
     """
     check_model(model)
     controller = params.controller
@@ -184,15 +215,17 @@ def initial_state(model: str, params: SimParams, xi0: Sequence[float] = XI0_M,
     x0 = np.zeros(len(names))
     ix = {n: i for i, n in enumerate(names)}
     x0[ix["x"]], x0[ix["y"]] = xi0
+    x0[ix["x_dot"]], x0[ix["y_dot"]] = v0
+    e0 = np.asarray(xi0, float) - np.asarray(ref0, float)
     law = params.gains.law
     sim_names = law.sim_state_names
     if sim_names:
-        start = law.sim_start_state(params.gains, float(params.nominal.m), xi0)
+        start = law.sim_start_state(params.gains, float(params.nominal.m), e0)
         for name, v in zip(sim_names, start):
             x0[ix[name]] = v
         x0[ix[sim_names[0]]] += zc0[0]
         x0[ix[sim_names[1]]] += zc0[1]
-    x0[ix["held_x"]], x0[ix["held_y"]] = xi0
+    x0[ix["held_x"]], x0[ix["held_y"]] = e0
     if model == "full":
         nom = params.nominal
         w_hover = math.sqrt(nom.m * nom.g / (4 * nom.b))
@@ -237,7 +270,8 @@ def run_batch(
     x0
         ``(B, nx)`` initial states (:func:`initial_state`).
     exo
-        ``(n_steps, 5)`` shared by all runs, or ``(B, n_steps, 5)`` per run, with
+        ``(n_steps, n_exo)`` shared by all runs, or ``(B, n_steps, n_exo)`` per run (``n_exo`` the
+        length of :data:`EXO_FIELDS`), with
         ``n_steps >= steps_per_sample * n_samples``.
     steps_per_sample, n_samples
         ``K`` RK4 steps per output sample, number of output samples.
@@ -273,8 +307,9 @@ def run_batch(
         raise SimulationError("steps_per_sample and n_samples must be at least 1")
     E = np.asarray(exo, float)
     shared = E.ndim == 2
-    if (shared and (E.shape[1] != 5)) or (not shared and (E.ndim != 3 or E.shape[0] != B or E.shape[2] != 5)):
-        raise ValueError(f"exo must have shape (n_steps, 5) or ({B}, n_steps, 5), got {E.shape}")
+    ne = len(EXO_FIELDS)
+    if (shared and (E.shape[1] != ne)) or (not shared and (E.ndim != 3 or E.shape[0] != B or E.shape[2] != ne)):
+        raise ValueError(f"exo must have shape (n_steps, {ne}) or ({B}, n_steps, {ne}), got {E.shape}")
     if E.shape[-2] < K * N:
         raise ValueError(f"exo has {E.shape[-2]} steps, the run needs {K * N}")
     n_seg = max(1, min(N, n_segments if n_segments is not None else 20))
@@ -290,13 +325,13 @@ def run_batch(
         Yall[b, 0] = np.asarray(out_fn(X0[b], e0 if shared else e0[b], P[b])).ravel()
     # Zero-copy calls (FunctionBuffer): CasADi is column-major, so a (rows, cols) CasADi
     # matrix is a C-contiguous numpy array of shape (cols, rows): x0 (nx x B) <-> (B, nx),
-    # E (5 x B M K) <-> (B, M K, 5), outputs (nx x B M) <-> (B, M, nx).  A slice of runs
+    # E (n_exo x B M K) <-> (B, M K, n_exo), outputs (nx x B M) <-> (B, M, nx).  A slice of runs
     # of these arrays is contiguous too: each thread's buffer points into the shared arrays.
     xc = np.array(X0, order="C")  # a copy: it is overwritten in place after every segment
     Pc = np.ascontiguousarray(P)
     Xout = np.empty((B, M, nx))
     Yout = np.empty((B, M, ny))
-    Eseg = np.zeros((M * K, 5)) if shared else np.zeros((B, M * K, 5))
+    Eseg = np.zeros((M * K, ne)) if shared else np.zeros((B, M * K, ne))
     calls = []
     for part in slices:
         buf, trigger = _segment_function(model, K, M, part.stop - part.start, shared, controller).buffer()
@@ -377,7 +412,15 @@ def _broadcast(name: str, items: list, n: int) -> list:
 
 def _exo_key(o: SimOptions) -> tuple:
     return (o.seed, o.noise_sigma_m, o.noise_rate_hz, o.gust_N, o.gust_tau_s, o.dt_s, o.n_samples,
-            o.steps_per_sample)
+            o.steps_per_sample, o.reference, o.feedforward, o.feedforward_lead_s, o.sampled)
+
+
+def _start_of(o: SimOptions) -> tuple[float, float]:
+    """The reference's position at ``t = 0`` (the origin without one)."""
+    if o.reference is None:
+        return (0.0, 0.0)
+    x, y = o.reference.position(0.0)[0]
+    return (float(x), float(y))
 
 
 def simulate(
@@ -462,7 +505,7 @@ def simulate(
                                   f"period 1/{o.noise_rate_hz:g} Hz of the options")
     model = first.model
     P = np.stack([p.vector() for p in plist])
-    X0 = np.stack([initial_state(model, p, o.xi0, o.zc0) for p, o in zip(plist, olist)])
+    X0 = np.stack([initial_state(model, p, o.xi0, o.zc0, o.v0, _start_of(o)) for p, o in zip(plist, olist)])
     keys = {_exo_key(o) for o in olist}
     if len(keys) == 1:
         E = exogenous_inputs(first)

@@ -22,7 +22,7 @@ signal metric of :mod:`nniquad.sim.metrics` with these verdicts into a
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, fields
+from dataclasses import MISSING, asdict, dataclass, fields
 from typing import Any, Mapping
 
 import numpy as np
@@ -237,6 +237,10 @@ class Metrics:
         The run blew up (:func:`blew_up_batch`), the cause :attr:`failure`
         calls "diverged"; ``None`` when not recorded, and then ``diverged``
         stands for it.
+    follows_reference
+        The run follows a reference (:mod:`nniquad.sim.tracking`): settling and overshoot, which measure the
+        regulation to the origin, do not apply (``None``) and "not settled" is no failure; its tracking metrics
+        judge it.
     """
 
     settling_s: float | None
@@ -251,12 +255,14 @@ class Metrics:
     horizon_s: float
     altitude_lost: bool | None = None
     blew_up: bool | None = None
+    follows_reference: bool = False
 
     @property
     def failure(self) -> str | None:
         """:func:`failure_reason` of the run: ``"diverged"``, ``"altitude lost"``, ``"not settled"`` or ``None``."""
         blew_up = self.diverged if self.blew_up is None else self.blew_up
-        return failure_reason(blew_up, self.altitude_lost, self.settling_s is not None and not self.diverged)
+        settled = bool(self.follows_reference) or self.settling_s is not None
+        return failure_reason(blew_up, self.altitude_lost, settled and not self.diverged)
 
     def to_json(self) -> dict[str, Any]:
         """Plain dict; ``None`` and non-finite numbers become JSON ``null``."""
@@ -269,6 +275,8 @@ class Metrics:
             if isinstance(value, float) and not math.isfinite(value):
                 value = None
             out[key] = value
+        if not self.follows_reference:
+            del out["follows_reference"]  # a regulation run's record stays what it was before the field existed
         return out
 
     @classmethod
@@ -278,7 +286,8 @@ class Metrics:
         unknown = sorted(set(data) - names)
         if unknown:
             raise SimulationError(f"unknown metrics field '{unknown[0]}'")
-        return cls(**{n: data.get(n) for n in names})
+        # a field missing from an older record takes its default (None for the fields without one)
+        return cls(**{f.name: data.get(f.name, None if f.default is MISSING else f.default) for f in fields(cls)})
 
 
 def _opt(x: float) -> float | None:
@@ -298,6 +307,7 @@ def compute_metrics(
     z_ref: float = 0.0,
     band_fraction: float = DEFAULT_BAND_FRACTION,
     altitude_limit_m: float = ALTITUDE_LIMIT_M,
+    follows_reference: bool = False,
 ) -> Metrics:
     """Every metric the given signals allow, bundled in :class:`Metrics`.
 
@@ -322,6 +332,8 @@ def compute_metrics(
         Settling band fraction (default 2 %).
     altitude_limit_m
         Altitude deviation counted as altitude loss [m].
+    follows_reference
+        The run follows a reference: no settling or overshoot (:attr:`Metrics.follows_reference`).
 
     Returns
     -------
@@ -333,8 +345,8 @@ def compute_metrics(
     a = np.asarray(xy, dtype=float)
     points_batch(ta, a, batched=False)
     div = diverged(a, z=z, altitude_limit_m=altitude_limit_m, z_ref=z_ref)
-    settling = None if div else settling_time(ta, a, band_fraction)
-    over = None if div else _opt(overshoot_pct(ta, a))
+    settling = None if div or follows_reference else settling_time(ta, a, band_fraction)
+    over = None if div or follows_reference else _opt(overshoot_pct(ta, a))
     tilt = None
     if phi is not None and theta is not None:
         tilt = tilt_deg(phi, theta)
@@ -356,4 +368,5 @@ def compute_metrics(
         altitude_lost=None if z is None else bool(altitude_lost_batch(np.asarray(z, float)[None], altitude_limit_m,
                                                                       z_ref)[0]),
         blew_up=bool(blew_up_batch(a[None], z_batch=None if z is None else np.asarray(z, float)[None])[0]),
+        follows_reference=follows_reference,
     )

@@ -50,6 +50,9 @@ class ScenarioResult:
         Largest altitude deviation [m].
     scenario
         The drawn quantities (:meth:`Scenario.describe`).
+    tracking_rms_m, tracking_max_m
+        With a reference: RMS and maximum tracking error over the whole run [m]
+        (:mod:`nniquad.sim.tracking`); ``None`` without one, or for a lost vehicle.
     """
 
     index: int
@@ -62,6 +65,8 @@ class ScenarioResult:
     final_error_m: float | None
     max_altitude_dev_m: float | None
     scenario: dict[str, Any] = field(default_factory=dict)
+    tracking_rms_m: float | None = None
+    tracking_max_m: float | None = None
 
     def to_json(self) -> dict[str, Any]:
         d = asdict(self)
@@ -82,11 +87,17 @@ def _finite_or_none(x: float) -> float | None:
 def _run_one(s: Scenario) -> ScenarioResult:
     eq = s.equilibrium_m()
     desc = s.describe()
+    follow: dict[str, Any] = {}
+    if s.reference is not None:
+        # on the reference with its velocity, displaced by the drawn displacement
+        pos, vel, _ = s.reference.sample(0.0)
+        follow = {"reference": s.reference, "feedforward": s.feedforward, "feedforward_lead_s": s.feedforward_lead_s,
+                  "xi0": tuple(map(float, pos[0] + s.xi0_m)), "v0": tuple(map(float, vel[0]))}
     try:
-        opts = SimOptions(model="full", horizon_s=s.horizon_s, dt_s=s.dt_s, output_dt_s=s.output_dt_s,
-                          noise_sigma_m=s.noise_sigma_m, noise_rate_hz=s.noise_rate_hz,
-                          controller_sampling=s.controller_sampling,
-                          seed=s.noise_seed, xi0=s.xi0_m)
+        opts = SimOptions(**{"model": "full", "horizon_s": s.horizon_s, "dt_s": s.dt_s, "output_dt_s": s.output_dt_s,
+                             "noise_sigma_m": s.noise_sigma_m, "noise_rate_hz": s.noise_rate_hz,
+                             "controller_sampling": s.controller_sampling, "seed": s.noise_seed, "xi0": s.xi0_m,
+                             **follow})
         with np.errstate(all="ignore"):
             res = simulate(None, None, opts, params=[s.sim_params])
     except NniquadError as exc:
@@ -102,12 +113,17 @@ def _run_one(s: Scenario) -> ScenarioResult:
         peak_tilt = float(np.max(tilt_deg(res.phi[0], res.theta[0])))
         final = float(np.hypot(*rel[0, -1]))
     settling = float(settling_time_batch(res.t, rel, DEFAULT_BAND_FRACTION, s.band_m / DEFAULT_BAND_FRACTION)[0])
-    failure = failure_reason(blew_up, lost, math.isfinite(settling))
+    # following a reference, settling does not apply: the scenario succeeds unless the vehicle is lost
+    following = s.reference is not None
+    failure = failure_reason(blew_up, lost, following or math.isfinite(settling))
+    tracking = res[0].tracking() if following and failure is None else None
     return ScenarioResult(
         index=s.index, study_seed=s.study_seed, success=failure is None, failure=failure,
-        settling_s=None if failure is not None else settling,
+        settling_s=None if failure is not None or following else settling,
         peak_tilt_deg=_finite_or_none(peak_tilt), offset_m=math.hypot(*eq),
         final_error_m=_finite_or_none(final), max_altitude_dev_m=_finite_or_none(alt), scenario=desc,
+        tracking_rms_m=None if tracking is None else tracking.tracking_rms_m,
+        tracking_max_m=None if tracking is None else tracking.tracking_max_m,
     )
 
 

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Sequence
 
 import numpy as np
@@ -114,9 +114,12 @@ class Summary:
         Same quantiles of the peak tilt [deg], plus ``mean`` and ``max``.
     worst
         Up to ``n_worst`` results: failures first (diverged, altitude lost, not
-        settled), then the longest settling times.
+        settled), then the longest settling times (the largest tracking RMS when following a reference).
     partial
         Computed from an interrupted study.
+    tracking
+        A study that follows a reference: quantiles of the RMS tracking error [m] (failures count as ``+inf``);
+        :attr:`settling` is then empty.  Empty for a study without a reference.
     """
 
     n: int
@@ -130,6 +133,7 @@ class Summary:
     max_altitude_dev_m: float
     worst: list[ScenarioResult]
     partial: bool = False
+    tracking: dict[str, tuple[float, float, float]] = field(default_factory=dict)
 
     def to_json(self) -> dict[str, Any]:
         def q(t: tuple[float, float, float]) -> dict[str, Any]:
@@ -151,6 +155,9 @@ class Summary:
                 "max": _num(self.peak_tilt["max"]),
                 "max_index": self.peak_tilt["max_index"],
             },
+            **({"tracking_rms_m": {k: q(v) for k, v in self.tracking.items()},
+                "tracking_note": "RMS tracking error over each run; failures count as +inf (written null)"}
+               if self.tracking else {}),
             "max_wind_offset_m": _num(self.max_offset_m),
             "max_altitude_dev_m": _num(self.max_altitude_dev_m),
             "worst_cases": [r.to_json() for r in self.worst],
@@ -178,6 +185,8 @@ class Summary:
         lines.append(f"{'':<24} {'value':>12}   95 % CI (inf: too few samples to bound)")
         for k, v in self.settling.items():
             lines.append(f"{'settling time ' + k:<24} {ci(v, 's', never=True)}")
+        for k, v in self.tracking.items():
+            lines.append(f"{'tracking RMS ' + k:<24} {ci(v, 'm')}")
         for k in ("p50", "p95", "p99"):
             lines.append(f"{'peak tilt ' + k:<24} {ci(self.peak_tilt[k], 'deg')}")
         lines.append(f"{'peak tilt max':<24} {s(self.peak_tilt['max'], 'deg'):>12}   "
@@ -185,7 +194,8 @@ class Summary:
         lines.append(f"{'max wind offset':<24} {s(self.max_offset_m, 'm'):>12}")
         lines.append(f"{'max altitude deviation':<24} {s(self.max_altitude_dev_m, 'm'):>12}")
         if self.worst:
-            lines.append("worst cases (failures first, then the longest settling):")
+            then = "the largest tracking RMS" if self.tracking else "the longest settling"
+            lines.append(f"worst cases (failures first, then {then}):")
             lines.append(f"  {'index':>6} {'outcome':<14} {'settle[s]':>9} {'tilt[deg]':>9} {'mass[kg]':>8} "
                          f"{'att':>5} {'tau[ms]':>7} {'noise[cm]':>9} {'wind[N]':>7} {'r0[m]':>6}")
             for r in self.worst:
@@ -219,6 +229,8 @@ def summarize(results: Sequence[ScenarioResult], *, n_worst: int = 10, partial: 
             key = "error" if r.failure.startswith("error") else r.failure
             failures[key] = failures.get(key, 0) + 1
     settle = np.array([r.settling_s if (r.success and r.settling_s is not None) else math.inf for r in rs])
+    following = any(r.tracking_rms_m is not None for r in rs)
+    rms = np.array([r.tracking_rms_m if (r.success and r.tracking_rms_m is not None) else math.inf for r in rs])
     tilts = np.array([math.inf if r.peak_tilt_deg is None else r.peak_tilt_deg for r in rs])
     finite_t = tilts[np.isfinite(tilts)]
     peak = {f"p{int(100 * q)}": quantile_ci(tilts, q) for q in (0.5, 0.95, 0.99)}
@@ -229,13 +241,14 @@ def summarize(results: Sequence[ScenarioResult], *, n_worst: int = 10, partial: 
     def badness(r: ScenarioResult) -> tuple:
         if r.failure:
             return (0, _FAILURE_RANK.get(r.failure, -1), r.index)
-        return (1, -(r.settling_s or 0.0), r.index)
+        return (1, -((r.tracking_rms_m if following else r.settling_s) or 0.0), r.index)
 
     worst = sorted(rs, key=badness)[: max(0, n_worst)]
     alts = [r.max_altitude_dev_m for r in rs if r.max_altitude_dev_m is not None]
     return Summary(
         n=n, n_success=k, success_rate=k / n, success_ci=wilson_interval(k, n), failures=failures,
-        settling={f"p{int(100 * q)}": quantile_ci(settle, q) for q in (0.5, 0.95, 0.99)},
+        settling={} if following else {f"p{int(100 * q)}": quantile_ci(settle, q) for q in (0.5, 0.95, 0.99)},
+        tracking={f"p{int(100 * q)}": quantile_ci(rms, q) for q in (0.5, 0.95, 0.99)} if following else {},
         peak_tilt=peak, max_offset_m=max(r.offset_m for r in rs),
         max_altitude_dev_m=max(alts) if alts else math.nan, worst=worst, partial=partial,
     )

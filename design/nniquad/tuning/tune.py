@@ -116,7 +116,8 @@ from nniquad import config
 from nniquad.analysis.bound import BoundResult, time_optimal_bound
 from nniquad.analysis.lmi.reduced_region import certified_reach
 from nniquad.analysis.reduced_loop import ReducedLoop, reduced_loop
-from nniquad.config import BAND_FRACTION, XI0_NORM_M
+from nniquad.config import BAND_FRACTION, REQUIRED_GM_DB, REQUIRED_PM_DEG, XI0_NORM_M
+from nniquad.format import margin_text, margin_verdict
 from nniquad.control.inner_gains import InnerLoopGains
 from nniquad.errors import NniquadError
 from nniquad.laws.base import GainBlock
@@ -457,8 +458,10 @@ def tune(vehicle: Vehicle = PAPER_VEHICLE, options: TuneOptions | None = None,
     if margins_met is False:
         # the horizontal PM of this law is at most asin(γ/(2-γ)), 41.8° at γ = 0.8, on the ideal double
         # integrator: stated, not hidden
-        pms = ", ".join(f"{k} {m.pm_deg:.3g}" for k, m in (details["margins"] or {}).items())
-        say(f"the design misses GM >= 6 dB / PM >= 45 deg at a break point (PM {pms} deg; "
+        what = "; ".join(f"{k} {margin_text(m.gm_db, m.gm_lower_db, m.pm_deg)}: "
+                         f"{margin_verdict(m.to_json(), REQUIRED_GM_DB, REQUIRED_PM_DEG)}"
+                         for k, m in (details["margins"] or {}).items())
+        say(f"the design misses its margin requirement ({what}; "
             + ("smallest shortfall kept)" if options.require_pm else "gain margins enforced, PM reported)"))
     robust_info = _robust_summary(vehicle, options, details)
     if not options.law.ni_structure:

@@ -28,11 +28,14 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from nniquad import config
 from nniquad.config import DT_S
 from nniquad.control.inner_loops import attitude_wn_limit
 from nniquad.errors import VehicleError
 from nniquad.laws.search_ranges import KP_RANGE
+from nniquad.model.numeric import allocation_numpy
 from nniquad.model.vehicle import Vehicle
 
 __all__ = ["feasibility_problems", "check_feasible", "gain_limits", "attitude_wn_cap", "attitude_accel_headroom",
@@ -105,8 +108,10 @@ def attitude_accel_headroom(vehicle: Vehicle, tilt_limit_deg: float) -> float:
     """Roll angular acceleration the rotors can still give at the tilt limit [rad/s²].
 
     Holding altitude at tilt ``T`` needs ``c = m g / (4 cos T)`` per rotor; a roll
-    torque moves a pair apart by ``±r`` with ``r <= min(c, T_max - c)``, so
-    ``α_avail = 2 l min(c, T_max - c) / J_x`` (the smaller of roll and pitch).
+    torque ``τ`` moves rotor ``i`` by ``B_i1 τ`` (the vehicle frame's allocation matrix,
+    :func:`nniquad.model.numeric.allocation_numpy`) and no rotor may move by more than
+    ``min(c, T_max - c)``, so ``α_avail = min(c, T_max - c) / (max_i |B_i1| J_x)``, the
+    smaller of roll and pitch: ``2 l min(c, T_max - c) / J_x`` for '+', ``2√2 l`` for 'x'.
 
     Parameters
     ----------
@@ -117,7 +122,8 @@ def attitude_accel_headroom(vehicle: Vehicle, tilt_limit_deg: float) -> float:
     """
     c = vehicle.m * vehicle.g / (4.0 * math.cos(math.radians(tilt_limit_deg)))
     t_max = vehicle.b * vehicle.omega_max**2
-    return 2.0 * vehicle.l * max(min(c, t_max - c), 0.0) / max(vehicle.Jx, vehicle.Jy)
+    per_torque = np.max(np.abs(allocation_numpy(vehicle)[:, 1:3]), axis=0)  # rotor thrust per roll, pitch torque
+    return float(max(min(c, t_max - c), 0.0) / np.max(per_torque * np.array([vehicle.Jx, vehicle.Jy])))
 
 
 def attitude_wn_cap(tau_motor_s: float | None, zeta: float) -> float:

@@ -129,10 +129,10 @@ class BoxProof:
 
 
 def full_affine_P(lyap_P: Mapping[str, np.ndarray], dims: Mapping[str, Sequence[int]],
-                  state_names: Sequence[str]) -> IMat:
+                  state_names: Sequence[str], frame: str) -> IMat:
     """``P(θ) = Q_0 + Σ_d θ_d Q_d`` in the cascade's own coordinates: a stack ``(7, n, n)`` (``Q_{1+d}`` for
     coordinate ``d`` of :data:`POINT_NAMES`, zero where no block depends on it), enclosed."""
-    Tm, _ = mode_transform(state_names)
+    Tm, _ = mode_transform(state_names, frame)
     n = Tm.shape[0]
     Z = np.zeros((1 + len(POINT_NAMES), n, n))
     for name, sl in subsystem_blocks(state_names).items():

@@ -26,6 +26,8 @@ from nniquad.config import CONTROL_RATE_HZ, TILT_LIMIT_DEG
 from nniquad.control.inner_gains import InnerLoopGains
 from nniquad.errors import CascadeError
 from nniquad.laws.base import GainBlock
+from nniquad.model.layout import DEFAULT_FRAME
+from nniquad.model.numeric import rotor_modes
 from nniquad.model.vehicle import Vehicle
 from nniquad.sim import initial_state, param_layout, state_names
 
@@ -69,6 +71,8 @@ class CascadeFamily:
         ``max |f(x_eq)|`` of each equilibrium.
     W_r, W_a, A_rw
         Motor-command blocks (for :meth:`cascade_at`).
+    frame
+        The vehicle's rotor layout (its rotor modes: :func:`mode_transform`).
     """
 
     points: np.ndarray
@@ -96,6 +100,7 @@ class CascadeFamily:
     A_rw: np.ndarray
     tau_motor: np.ndarray
     context: Any = None
+    frame: str = DEFAULT_FRAME
 
     def __len__(self) -> int:
         return self.points.shape[0]
@@ -227,7 +232,7 @@ def sampled_family(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, po
     return CascadeFamily(points=pts, state_names=tuple(rigid + motors + ctrl), T=T, A_p=A_p, B_p=B_p, C_p=C_p,
                          A_k=A_k, B_k=B_k, C_k=C_k, D_k=D_k, A_kd=A_kd, B_kd=B_kd, Phi=Phi, Gam=Gam, A_d=A_d, A0=A0,
                          B=Bs, K=K, accel_limit=L, residual=residual, W_r=W_r, W_a=W_a, A_rw=A_rw, tau_motor=tau,
-                         context=ctx)
+                         context=ctx, frame=vehicle.frame)
 
 
 def take_points(fam: CascadeFamily, idx: np.ndarray) -> CascadeFamily:
@@ -245,12 +250,6 @@ def take_points(fam: CascadeFamily, idx: np.ndarray) -> CascadeFamily:
 
 # =============================================================================== decoupled subsystems
 
-#: The fixed change of the rotor coordinates: collective, roll pair, pitch pair, yaw (orthonormal; '+' layout
-#: of :func:`nniquad.control.inner_loops.allocate`: roll from w4 - w2, pitch from w1 - w3).
-_ROTOR_MODES = np.array([[0.5, 0.5, 0.5, 0.5],
-                         [0.0, -1 / math.sqrt(2), 0.0, 1 / math.sqrt(2)],
-                         [1 / math.sqrt(2), 0.0, -1 / math.sqrt(2), 0.0],
-                         [-0.5, 0.5, -0.5, 0.5]])
 _ROTOR_MODE_NAMES = ("m_collective", "m_roll", "m_pitch", "m_yaw")
 #: The subsystems of the cascade at hover after :func:`mode_transform` (position first, controller state
 #: last in each horizontal axis, the same order on both axes), with a one-state controller law (NNI).
@@ -272,8 +271,12 @@ def subsystems(state_names: Sequence[str]) -> dict[str, tuple[str, ...]]:
     return out
 
 
-def mode_transform(state_names: Sequence[str]) -> tuple[np.ndarray, tuple[str, ...]]:
+def mode_transform(state_names: Sequence[str], frame: str) -> tuple[np.ndarray, tuple[str, ...]]:
     """The fixed orthogonal map ``ζ = T_m x`` to the coordinates of :func:`subsystems` (rotor modes, permuted).
+
+    The rotor speeds become the collective, roll pair, pitch pair and yaw modes of the
+    vehicle's ``frame``: the normalised rows of its mixer (:func:`nniquad.model.numeric.rotor_modes`;
+    '+': roll from w4 - w2, pitch from w1 - w3).
 
     Returns ``T_m`` (rows in the order x, y, altitude, yaw subsystems) and the new state names.
     """
@@ -282,7 +285,7 @@ def mode_transform(state_names: Sequence[str]) -> tuple[np.ndarray, tuple[str, .
     n = len(names)
     R = np.eye(n)
     iw = [names.index(f"w{k}") for k in range(1, 5)]
-    R[np.ix_(iw, iw)] = _ROTOR_MODES
+    R[np.ix_(iw, iw)] = rotor_modes(frame)
     mode_names = list(names)
     for i, m in zip(iw, _ROTOR_MODE_NAMES):
         mode_names[i] = m
@@ -308,7 +311,7 @@ def coupling(family: CascadeFamily) -> float:
     axes decouple at first order); what remains is the ``O(ε²)`` error of the
     symmetric-mean Jacobian (:mod:`nniquad.analysis.linearised_cascade`), about ``1e-12``.
     """
-    Tm, _ = mode_transform(family.state_names)
+    Tm, _ = mode_transform(family.state_names, family.frame)
     Z = Tm @ family.A_d @ Tm.T
     _, (s, _) = sla.matrix_balance(Z[0], permute=False, separate=True)
     Zb = Z / s[None, :, None] * s[None, None, :]
@@ -320,7 +323,7 @@ def coupling(family: CascadeFamily) -> float:
 
 def subsystem_of(family: CascadeFamily, name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``(A_d, A0, B, K)`` of one subsystem at every point (B and K: the axis's own input/command; else None)."""
-    Tm, _ = mode_transform(family.state_names)
+    Tm, _ = mode_transform(family.state_names, family.frame)
     sl = subsystem_blocks(family.state_names)[name]
     R = Tm[sl]
     A_d = R @ family.A_d @ R.T

@@ -452,9 +452,10 @@ def point_index(points: np.ndarray, point: Sequence[float], rtol: float = 1e-9) 
 
 
 def assemble_P(lyap: Mapping[str, RobustLyapunov], dims: Mapping[str, Sequence[int]], box: ParameterBox,
-                points: np.ndarray, state_names: Sequence[str]) -> np.ndarray:
-    """The full Lyapunov matrix ``T_mᵀ diag(P_x, P_y, P_alt, P_yaw)(θ) T_m`` at every point."""
-    Tm, _ = mode_transform(state_names)
+                points: np.ndarray, state_names: Sequence[str], frame: str) -> np.ndarray:
+    """The full Lyapunov matrix ``T_mᵀ diag(P_x, P_y, P_alt, P_yaw)(θ) T_m`` at every point (``frame``: the
+    vehicle's rotor layout, :func:`mode_transform`)."""
+    Tm, _ = mode_transform(state_names, frame)
     n = Tm.shape[0]
     Pz = np.zeros((points.shape[0], n, n))
     for name, sl in subsystem_blocks(state_names).items():

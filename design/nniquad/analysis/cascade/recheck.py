@@ -368,11 +368,11 @@ def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: GainBlock, inn
     grid_fam = take_points(fam, np.arange(k, n_cert))
     # the Lyapunov blocks above are functions of the design and the stated lyapunov section alone
     design = _design_inputs(vehicle, gains, inner, tilt_limit_deg, rate, section["box"], grid_n) + [lyap_s]
-    P_affine = full_affine_P(Pk, dims, fam.state_names)
+    P_affine = full_affine_P(Pk, dims, fam.state_names, fam.frame)
     gc = None
     try:
         gc = cache("cascade.grid_check", design, lambda: grid_check(
-            grid_fam, assemble_P(lyap, dims, box, grid_fam.points, fam.state_names), grid_n))
+            grid_fam, assemble_P(lyap, dims, box, grid_fam.points, fam.state_names, fam.frame), grid_n))
         grid_proof = cache("cascade.grid_proof", design, lambda: grid_point_proofs(
             P_affine, box, grid_fam.points, grid_fam.A_d, float(gc.worst_rho)))
         g = section["grid"]

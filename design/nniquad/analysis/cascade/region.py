@@ -438,7 +438,7 @@ def coupled_parts(region: LureRegion, lyap: Mapping[str, RobustLyapunov], dims: 
                   box: ParameterBox, fam: CascadeFamily) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``(T_m, P_ζ, Ĝ_ζ, μ)`` of the coupled loop at every point of ``fam``, in the subsystems' coordinates: the
     horizontal blocks from the region, the altitude and yaw blocks from their Lyapunov matrices."""
-    Tm, _ = mode_transform(fam.state_names)
+    Tm, _ = mode_transform(fam.state_names, fam.frame)
     n, N = Tm.shape[0], len(fam)
     Pz, Gz = np.zeros((N, n, n)), np.zeros((N, 2, n))
     mu = np.zeros(N)

@@ -131,7 +131,7 @@ def _certify_box(vehicle, gains, inner, box, *, tilt_limit_deg, rate_hz, dims, g
         if linear_zone_reach(widened, dims, box, lmi_fam, L) > linear_zone_reach(lyap, dims, box, lmi_fam, L):
             candidates.insert(0, widened)
     for cand in candidates:  # the widest reach whose grid check passes, else the fastest decay
-        gc = grid_check(grid_fam, assemble_P(cand, dims, box, grid_fam.points, fam.state_names), grid_n)
+        gc = grid_check(grid_fam, assemble_P(cand, dims, box, grid_fam.points, fam.state_names, fam.frame), grid_n)
         if gc.ok:
             return fam, pts, cand, grid_fam, gc
     raise SolverError(f"cascade grid check fails: contraction {gc.worst_rho:.6g} at {gc.worst_point}")
@@ -361,7 +361,7 @@ def _cascade_section(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, 
     timings["margins_s"] = time.perf_counter() - t0 - sum(timings.values())
     proof = prove_box(lambda p: sampled_family(vehicle, gains, inner, p, tilt_limit_deg=tilt_limit_deg,
                                                rate_hz=rate_hz).A_d,
-                      box, grid_n, full_affine_P({n: l.P for n, l in lyap.items()}, dims, fam.state_names),
+                      box, grid_n, full_affine_P({n: l.P for n, l in lyap.items()}, dims, fam.state_names, fam.frame),
                       float(gc.worst_rho), known_points=grid_fam.points, known_A=grid_fam.A_d)
     timings["box_proof_s"] = time.perf_counter() - t0 - sum(timings.values())
     section = {

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 from pathlib import Path
+from typing import Any
 
 from nniquad.cli.commands.common import (
     add_controller_option,
@@ -20,7 +21,7 @@ from nniquad.cli.commands.tune_command import add_tuning_options, print_tune_res
 from nniquad.config import CONTROL_RATE_HZ, DT_S, XI0_M
 from nniquad.control.inner_gains import DEFAULT_INNER_LOOP_GAINS
 from nniquad.errors import CertificateError, NniquadError
-from nniquad.format import fmt
+from nniquad.format import fmt, margin_text, margin_verdict
 from nniquad.laws.base import field_unit
 from nniquad.laws.classes import within_sector_bound
 from nniquad.laws.registry import law_named, ni_law_names
@@ -41,7 +42,8 @@ and gamma_max), the stability margin and poles, the LMI matrices (plant and
 controller NI certificates, closed-loop Lyapunov P with its decay rate, the
 parameter-dependent P0 + P1/m over the mass interval, the region-of-attraction
 ellipsoid under tilt saturation with its multipliers), whether the start state
-lies in the certified region, the performance on the reduced and full models
+lies in each certified region (the reduced loop's and the cascade's, each with
+its method and reach; start_certified only if in every one), the performance on the reduced and full models
 with their simulation settings, the classical margins at --rate, the time-optimal bound, software versions and
 a SHA-256 digest.  It states its law class (--law-class) and the theorem that
 certifies it: 'paper' (default) refuses gains outside the sector bound (exit
@@ -80,7 +82,7 @@ def run(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
     # lazily: `nniquad --help` loads every command module, and its cold start stays under 0.5 s
-    from nniquad.jobs.certify import certify
+    from nniquad.jobs.certify import certify, certify_steps
     from nniquad.tuning.tune import tune
 
     out = Path(args.out)  # checked by main before this runs (nniquad.io.check_output_path)
@@ -112,7 +114,8 @@ def run(args: argparse.Namespace) -> int:
 
         records: list = []
         (gains, inner), = designs_from_files([args.gains_from], "--gains-from", records)
-        cert = certify(vehicle, gains, inner=inner, options=options, progress=progress.message, rate_hz=rate,
+        cert = certify(vehicle, gains, inner=inner, options=options, progress=progress.steps(certify_steps(False)),
+                       rate_hz=rate,
                        box=box, widest_box=args.widest_box, tuning_record=records[0])
     elif given is not None:
         gains = given
@@ -127,59 +130,87 @@ def run(args: argparse.Namespace) -> int:
         run = reference_run_options("full", inner, tilt_limit_deg=options.tilt_limit_deg, xi0=XI0_M)
         check_step(SimParams.from_options(vehicle, gains, run), "full",
                    hint=step_hints(attitude="--attitude-wn", motor_lag="the vehicle's tau_motor"))
-        cert = certify(vehicle, gains, inner=inner, options=options, progress=progress.message, rate_hz=rate,
+        cert = certify(vehicle, gains, inner=inner, options=options, progress=progress.steps(certify_steps(False)),
+                       rate_hz=rate,
                        box=box, widest_box=args.widest_box)
     else:
         from nniquad.cli.commands.tune_command import warm_starts_from_args
 
         tuned = tune(vehicle, options, progress=progress.message, warm_starts=warm_starts_from_args(args))
         print_tune_result(tuned)
-        cert = certify(vehicle, tuned, options=options, progress=progress.message, rate_hz=rate,
+        cert = certify(vehicle, tuned, options=options, progress=progress.steps(certify_steps(True), done=1),
+                       rate_hz=rate,
                        box=box, widest_box=args.widest_box)
+    progress(1.0, "certificate signed and verified")
     progress.close()
     path = cert.write(out)
-    gains, perf = cert.gains, cert.performance
     print(f"certificate: {path}")
-    gamma, gamma_max = cert.sector["gamma"], cert.sector["gamma_max"]
+    for line in summary_lines(cert):
+        print(f"  {line}")
+    return 0
+
+
+def summary_lines(cert: Any) -> list[str]:
+    """What ``certify`` prints about a certificate (one line each): the gains, class, reference runs, margins, the
+    start per certified region and its top-level verdict, the cascade section, the digest.
+
+    No line claims more than another states: the start is given per method (model, method, reach), the verdict
+    names the methods it covers, and a cascade region that fell back to the linear zone says why.
+
+    Parameters
+    ----------
+    cert
+        A :class:`nniquad.certificates.Certificate`.
+    """
     from dataclasses import fields
 
+    # lazily, as in run: `nniquad --help` loads every command module, and its cold start stays under 0.5 s
+    from nniquad.certificates.start import lure_fallback_reason, start_lines
 
+    gains, perf = cert.gains, cert.performance
+    gamma, gamma_max = cert.sector["gamma"], cert.sector["gamma_max"]
     listed = ", ".join(f"{f.name} = {fmt(getattr(gains, f.name), digits=6)} {field_unit(f)[0]}".rstrip(" -")
                        for f in fields(gains) if getattr(gains, f.name) is not None)
-    print(f"  {cert.controller} gains {listed}; gamma = {fmt(gamma)} {'<=' if within_sector_bound(gamma, gamma_max) else '>'} "
-          f"{gamma_max:g}")
-    print(f"  law class {cert.law_class['name']}: certified by {cert.law_class['theorem']}")
+    lines = [f"{cert.controller} gains {listed}; gamma = {fmt(gamma)} "
+             f"{'<=' if within_sector_bound(gamma, gamma_max) else '>'} {gamma_max:g}"]
+    if cert.law_class is not None:
+        lines.append(f"law class {cert.law_class['name']}: certified by {cert.law_class['theorem']}")
     for model in ("reduced", "full"):
-        print(f"  {model:<7} settling {fmt(perf[model]['settling_s'], 's')} "
-              f"({fmt(cert.ratio_to_bound[model], digits=3)} x bound {fmt(cert.bound['enter_band_s'], 's')}), "
-              f"peak tilt {fmt(perf[model]['peak_tilt_deg'], 'deg')}")
-    print(f"  certified reach {fmt(cert.certified_reach_m, 'm')}; start state certified: {fmt(cert.start_certified)}")
+        lines.append(f"{model:<7} settling {fmt(perf[model]['settling_s'], 's')} "
+                     f"({fmt(cert.ratio_to_bound[model], digits=3)} x bound {fmt(cert.bound['enter_band_s'], 's')}), "
+                     f"peak tilt {fmt(perf[model]['peak_tilt_deg'], 'deg')}")
+    if cert.margins is not None:
+        req = cert.margins["required"]
+        for name, p in cert.margins["break_points"].items():
+            lines.append(f"{name} margins at {cert.margins['rate_hz']:g} Hz: "
+                         f"{margin_text(p['gm_db'], p['gm_lower_db'], p['pm_deg'])}: "
+                         f"{margin_verdict(p, req['gm_db'], req['pm_deg'])}")
+    lines += start_lines(cert, lambda v: fmt(v, "m"))
     if cert.cascade is not None:
         cas = cert.cascade
         bx = cas["box"]
-        print(f"  sampled-data cascade at {cas['rate_hz']:g} Hz certified over mass x{bx['mass_factor'][0]:.3g}-"
-              f"{bx['mass_factor'][1]:.3g}, inertia x{bx['inertia_factor'][0]:.3g}-{bx['inertia_factor'][1]:.3g}, "
-              f"attitude gain x{bx['attitude_gain_factor'][0]:.3g}-{bx['attitude_gain_factor'][1]:.3g}, "
-              f"motor tau x{bx['tau_motor_factor'][0]:.3g}-{bx['tau_motor_factor'][1]:.3g} "
-              f"(covers the Monte Carlo ranges: {cas['covers_monte_carlo_default']}); decay "
-              f"{fmt(cas['decay_rate_1_s'], '1/s')}, grid {cas['grid']['size']} points worst rho "
-              f"{cas['grid']['worst_rho']:.6f}")
+        lines.append(f"sampled-data cascade at {cas['rate_hz']:g} Hz certified over mass x{bx['mass_factor'][0]:.3g}-"
+                     f"{bx['mass_factor'][1]:.3g}, inertia x{bx['inertia_factor'][0]:.3g}-{bx['inertia_factor'][1]:.3g}, "
+                     f"attitude gain x{bx['attitude_gain_factor'][0]:.3g}-{bx['attitude_gain_factor'][1]:.3g}, "
+                     f"motor tau x{bx['tau_motor_factor'][0]:.3g}-{bx['tau_motor_factor'][1]:.3g} "
+                     f"(covers the Monte Carlo ranges: {fmt(cas['covers_monte_carlo_default'])}); decay "
+                     f"{fmt(cas['decay_rate_1_s'], '1/s')}, grid {cas['grid']['size']} points worst rho "
+                     f"{cas['grid']['worst_rho']:.6f}")
         proof = cas.get("box_proof")
         if proof:
             T = 1.0 / float(cas["rate_hz"])
-            print(f"  box between the grid points: {proof['outcome']} on {proof['cells']} cells "
-                  f"({proof['initial_cells']} + {proof['refined']} cut) at rho {proof['rho']:.6f} "
-                  f"(decay {fmt(-math.log(proof['rho']) / T, '1/s')}); corner proofs by verified Cholesky, the "
-                  f"interpolation allowance between corners estimated")
-        roa = cas["region_of_attraction"]
-        start = math.hypot(*cert.xi0_m)
-        print(f"  cascade region of attraction ({roa['method']}): reach {fmt(roa['max_displacement_m'], 'm')} beside "
-              f"the start {fmt(start, 'm')}: start certified {fmt(cas['start_certified'])}")
+            lines.append(f"box between the grid points: {proof['outcome']} on {proof['cells']} cells "
+                         f"({proof['initial_cells']} + {proof['refined']} cut) at rho {proof['rho']:.6f} "
+                         f"(decay {fmt(-math.log(proof['rho']) / T, '1/s')}); corner proofs by verified Cholesky, the "
+                         f"interpolation allowance between corners estimated")
+        why = lure_fallback_reason(cert)
+        if why is not None:
+            lines.append(f"cascade region: the linear zone, not the Lur'e region: {why}")
         search = cas.get("box_search")
         if search:
             failed = search["first_failed_scale"]
-            print(f"  box search ({search['method']}): widest scale certified {search['widest_certified_scale']:.4g} x "
-                  f"the Monte Carlo ranges (log space), first failed "
-                  f"{failed if isinstance(failed, str) else format(failed, '.4g')}")
-    print(f"  digest sha256 {cert.signature}")
-    return 0
+            lines.append(f"box search ({search['method']}): widest scale certified "
+                         f"{search['widest_certified_scale']:.4g} x the Monte Carlo ranges (log space), first failed "
+                         f"{failed if isinstance(failed, str) else format(failed, '.4g')}")
+    lines.append(f"digest sha256 {cert.signature}")
+    return lines

@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import argparse
 import math
+from dataclasses import replace
 import shlex
 import sys
 from pathlib import Path
 from typing import Any
 
 from nniquad.cli.commands.common import add_output_option
+from nniquad.cli.commands.reference_options import add_reference_options, reference_settings
 from nniquad.config import CONTROL_RATE_HZ, MC_STALL_TIMEOUT_S
 from nniquad.errors import EXIT_INTERRUPTED, EXIT_TERMINATED, MonteCarloError
 from nniquad.io import atomic_write_json, check_output_paths
@@ -73,7 +75,15 @@ A fault -- a worker process that dies (local pool), a Dask batch whose workers
 keep dying, a lost scheduler, or no batch finished for --stall-timeout seconds
 (every worker gone, or hung) -- saves the same way and exits with status 4 and
 a one-line message naming it.
-A Dask worker that dies once is no fault: its batch runs again elsewhere."""
+A Dask worker that dies once is no fault: its batch runs again elsewhere.
+
+--reference SPEC (a waypoint file, circle:R,T or figure8:AX,AY,T; with
+--feedforward and --feedforward-lead S as for simulate): every scenario starts
+on the reference with its velocity, displaced by its drawn displacement, and
+follows it.  Settling does not apply: a scenario succeeds unless the vehicle is
+lost, and the table gives the RMS tracking error's quantiles (failures count as
++inf) in place of the settling time's.  Not with --within-certificate: no
+certificate covers a moving reference (docs/follow.md)."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -124,6 +134,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                    help="cap on the initial displacement radius in m (default 5)")
     r.add_argument("--altitude-limit", type=float, default=None, metavar="M",
                    help="altitude deviation counted as divergence, in m (default 2)")
+    add_reference_options(parser.add_argument_group("reference (default: return to the origin)"), single_run=False)
     parser.add_argument("--worst", type=int, default=10, metavar="K", help="worst cases to list (default 10)")
 
     add_output_option(parser, "--json", metavar="FILE", default=None,
@@ -179,6 +190,9 @@ def _rerun_hint(args: argparse.Namespace) -> str:
         v = getattr(args, attr)
         if v is not None:
             parts += [flag, *(f"{x:g}" for x in (v if isinstance(v, list) else [v]))]
+    if args.reference is not None:
+        parts += ["--reference", args.reference] + (["--feedforward"] if args.feedforward else [])
+        parts += ["--feedforward-lead", f"{args.feedforward_lead:g}"] if args.feedforward_lead else []
     return " ".join(shlex.quote(p) for p in parts) + " --rerun INDEX"
 
 
@@ -226,6 +240,8 @@ def _rerun(args: argparse.Namespace, setup, ranges) -> int:
         rows = [("settling time", r.settling_s, "s"), ("peak tilt", r.peak_tilt_deg, "deg"),
                 ("wind equilibrium offset", r.offset_m, "m"), ("final error from equilibrium", r.final_error_m, "m"),
                 ("max altitude deviation", r.max_altitude_dev_m, "m")]
+        if r.tracking_rms_m is not None:
+            rows += [("tracking RMS", r.tracking_rms_m, "m"), ("tracking max", r.tracking_max_m, "m")]
         for name, v, unit in rows:
             print(f"  {name:<30} {'-' if v is None else f'{v:.4g} {unit}'}")
         for k, v in r.scenario.items():
@@ -269,9 +285,13 @@ def run(args: argparse.Namespace) -> int:
     if args.json is not None:
         # --json itself is checked by main; an interrupted study writes FILE.partial.json beside it
         check_output_paths([("--json", args.json), ("--json's partial file", partial_path(args.json, args.seed))])
+    follow = {k: v for k, v in reference_settings(args).items() if k in ("reference", "feedforward", "feedforward_lead_s")}
+    if follow and args.within_certificate:
+        raise MonteCarloError("--reference cannot be combined with --within-certificate: no certificate covers a "
+                              "moving reference")
     cert = load_certificate(args.certificate)
     ranges, region = _ranges(args, cert)
-    setup = study_setup(cert, ranges, horizon_s=args.horizon, region_m=region)
+    setup = replace(study_setup(cert, ranges, horizon_s=args.horizon, region_m=region), **follow)
     # the RK4 step against the fastest scenario the ranges can draw (strongest attitude gain, fastest motor)
     check_study_step(setup, ranges,
                      hint={"attitude": "--attitude-gain-range", "motor lag": "--tau-motor-range or --tau-motor-factor-range"})

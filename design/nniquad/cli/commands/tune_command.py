@@ -13,10 +13,10 @@ from nniquad.cli.commands.common import (
     vehicle_from_args,
     write_json_if_asked,
 )
-from nniquad.config import CONTROL_RATE_HZ, DT_S, GAMMA_MAX, TUNING_SCENARIO_SEED
+from nniquad.config import CONTROL_RATE_HZ, DT_S, GAMMA_MAX, REQUIRED_GM_DB, REQUIRED_PM_DEG, TUNING_SCENARIO_SEED
 from nniquad.control.inner_gains import InnerLoopGains
 from nniquad.errors import CertificateError, NniquadError
-from nniquad.format import fmt
+from nniquad.format import fmt, margin_text, margin_verdict
 from nniquad.io import parse_data, read_text_file
 from nniquad.laws.base import field_unit
 from nniquad.laws.classes import DEFAULT_LAW_CLASS, LAW_CLASSES, within_sector_bound
@@ -240,9 +240,9 @@ def print_tune_result(res) -> None:
     if res.worst_scenario is not None:
         rows.append(("worst robust scenario", f"{res.worst_scenario['label']}: {res.worst_scenario['cost_s']:.4g}", "s"))
     for bp, mg in (res.margins or {}).items():
-        rows.append((f"{bp} margins (linearised, 100 Hz)",
-                     f"GM +{float(mg['gm_db']):.3g}/{float(mg['gm_lower_db']):.3g} dB, PM {float(mg['pm_deg']):.3g} deg",
-                     "meets GM 6 dB / PM 45 deg" if mg["meets_requirement"] else "FAILS GM 6 dB / PM 45 deg"))
+        req = mg.get("required", {"gm_db": REQUIRED_GM_DB, "pm_deg": REQUIRED_PM_DEG})
+        rows.append((f"{bp} margins (linearised, 100 Hz)", margin_text(mg["gm_db"], mg["gm_lower_db"], mg["pm_deg"]),
+                     margin_verdict(mg, req["gm_db"], req["pm_deg"])))
     if res.margins_met is False:
         rows.append(("margin requirement", "not met (PM 45 deg is out of reach at the horizontal break point: "
                      + ("smallest shortfall kept)" if res.options.require_pm else "GM enforced, PM reported)"), ""))

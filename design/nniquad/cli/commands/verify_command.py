@@ -39,6 +39,13 @@ or 'NOT PROVEN' (nothing fails, but a margin is below what floating point can
 prove; never a pass).  --json gives, per check, its outcome, method
 (verified-cholesky, exact, recomputed), smallest proven margin and every proof.
 
+A result says whether the certificate states the truth, not whether the design
+meets a requirement: the column 'requirement' (JSON 'requirement_met') says that,
+for the checks that state one (the classical margins GM >= 6 dB and PM >= 45 deg,
+the start inside every certified region, the start inside the cascade's region,
+the sector bound of the paper class): 'met', 'NOT MET' (truly stated, and not
+met) or '-' (no requirement).  The exit status follows the results only.
+
 Prints one row per check, then notes: what a schema-1 certificate does not
 cover, and which fields (software, tuning, the vehicle's name) are unverified
 records.  Exit status: 0 when every check is proven or passes; 1 when a check fails or
@@ -70,8 +77,11 @@ def run(args: argparse.Namespace) -> int:
     result = verify(cert, simulate=not args.no_simulate, fail_fast=args.fail_fast, thorough=args.thorough)
     print(result.table())
     write_json_if_asked(args, result.to_json())
+    unmet = [c.name for c in result.checks if c.requirement_met is False]
     if result.ok:
-        print(f"certificate {args.certificate}: all {len(result.checks)} checks pass")
+        print(f"certificate {args.certificate}: all {len(result.checks)} checks pass (every statement recomputed)"
+              + (f"; requirements NOT MET, as truly stated: {', '.join(unmet)}" if unmet else
+                 "; every requirement checked is met"))
         return 0
     bad = result.first_failure
     verdict = "NOT PROVEN" if result.outcome == "not proven" else "FAILED"

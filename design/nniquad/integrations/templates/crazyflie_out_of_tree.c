@@ -67,6 +67,10 @@ static void @PREFIX@_cf_inputs(const setpoint_t *setpoint, const state_t *state,
   nni_in.position_m[1] = -state->position.y;   /* east = -y */
   nni_in.setpoint_m[0] = setpoint->position.x;
   nni_in.setpoint_m[1] = -setpoint->position.y;
+  /* the reference's own acceleration (zero for a plain position setpoint; the high-level commander's
+     trajectories fill it): feedforward, nothing measured */
+  nni_in.accel_ff_m_s2[0] = setpoint->acceleration.x;
+  nni_in.accel_ff_m_s2[1] = -setpoint->acceleration.y;
   nni_in.yaw_rad = -state->attitude.yaw / @UPPER@_CF_DEG_PER_RAD;  /* NED yaw: clockwise from north */
   nni_in.a_z_m_s2 = g - g * thrust / @UPPER@_CF_THRUST_HOVER;        /* NED: positive down */
 }
