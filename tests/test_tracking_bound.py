@@ -194,3 +194,32 @@ def test_a_reference_above_the_class_is_reported_outside_and_one_inside_inside(d
     # jerk estimated from the acceleration's differences when not given
     est = classify_reference(tb, t, *eight(4.0, 2.0)[:3])
     assert est.max_jerk_m_s3 == pytest.approx(big.max_jerk_m_s3, rel=1e-3)
+
+
+def test_the_full_model_simulator_stays_below_the_bound_of_its_reference(design):
+    """The project's simulator (full nonlinear model, motor lag, law in discrete time at 100 Hz, the certificate's
+    reference-run settings) flying figure-eights of the class, started on them: the error stays below the bound for
+    the reference's own peaks (a nonlinear check of the linear bound; each run is inside the class and the zone)."""
+    import dataclasses
+
+    from nniquad.certificates.certificate import reference_run_options
+    from nniquad.control.references import FigureEight
+    from nniquad.sim import simulate
+
+    _, tb = design
+    cert = json.loads(CERT.read_text())
+    vehicle, gains, inner = certificate_vehicle(cert), certificate_gains(cert), certificate_inner_loop(cert)
+    base = reference_run_options("full", inner, tilt_limit_deg=cert["tilt_limit_deg"], xi0=(0.0, 0.0),
+                                 horizon_s=16.0, rate_hz=cert["cascade"]["rate_hz"])
+    assert base.controller_sampling == "discrete" and base.motor_lag
+    for (ax, ay), ff in (((1.5, 0.75), False), ((2.0, 1.0), True)):
+        ref = FigureEight(ax, ay, 8.0)
+        x0, v0, _ = ref.sample(0.0)
+        run = simulate(vehicle, gains, dataclasses.replace(base, reference=ref, feedforward=ff, xi0=tuple(x0[0]),
+                                                           v0=tuple(v0[0])))[0]
+        err = float(np.max(np.linalg.norm(run.xy - ref.sample(run.t)[0], axis=1)))
+        t = np.linspace(0.0, 16.0, 16001)
+        case = "feedforward" if ff else "no_feedforward"
+        got = classify_reference(tb, t, *ref.sample(t), ref.jerk(t))
+        assert got.inside[case]
+        assert err <= got.bound_m[case]

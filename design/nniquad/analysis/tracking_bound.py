@@ -199,7 +199,7 @@ def axis_loops(family: CascadeFamily, index: int) -> dict[str, AxisLoop]:
     CascadeError
         An axis is coupled to the rest of the plant beyond :data:`DECOUPLING_TOL`.
     """
-    Tm, names = mode_transform(family.state_names)
+    Tm, names = mode_transform(family.state_names, family.frame)
     subs = subsystems(family.state_names)
     n_p = family.A_p.shape[1]
     law = set(family.state_names[n_p:])
