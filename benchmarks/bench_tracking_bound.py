@@ -19,15 +19,10 @@ For each committed certificate (the paper's vehicle: two NNI designs and one ``s
 
 from __future__ import annotations
 
-from pathlib import Path
+from bench_follow import CERTIFICATES  # the same certificates as the follow benchmark (benchmarks/ is on the path)
 
 __all__ = ["run"]
 
-ROOT = Path(__file__).resolve().parent.parent
-CERTIFICATES = {"nni full": ROOT / "notebooks/data/full_model_certificate.json",
-                "nni cascade": ROOT / "notebooks/data/cascade_model_certificate.json",
-                "sni2 cascade": ROOT / "notebooks/data/sni2_cascade_certificate.json",
-                "nni iris": ROOT / "tests/data/iris_certificate.json"}
 #: (amplitudes north and east [m], period [s], feedforward) of the flown references.
 FLIGHTS = (((1.5, 0.75), 8.0, False), ((2.0, 1.0), 8.0, True))
 
