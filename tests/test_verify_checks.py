@@ -250,7 +250,7 @@ EDITS = {
     "the cascade region's tilt limit": (lambda c: c["cascade"]["region_of_attraction"].update(tilt_limit_deg=31.0),
                                         ["settings", "cascade.tilt limit and u0"]),
     "the cascade rate as text": (lambda c: c["cascade"].update(rate_hz="fast"),
-                                 ["settings", "cascade.rate and box"]),
+                                 ["settings", "tracking", "cascade.rate and box"]),
 }
 
 

@@ -20,6 +20,8 @@ __all__ = [
     "OUTPUT_DT_S",
     "MASS_RANGE_FRACTION",
     "CONTROL_RATE_HZ",
+    "TRACKING_ACCEL_LIMIT_M_S2",
+    "TRACKING_JERK_LIMIT_M_S3",
     "EXPORT_POSITION_ERROR_LIMIT_M",
     "REQUIRED_GM_DB",
     "REQUIRED_PM_DEG",
@@ -73,6 +75,12 @@ DT_S: float = 1e-3
 OUTPUT_DT_S: float = 0.01
 #: Default true-mass interval of the robust LMIs and certificates, as fractions of the nominal mass.
 MASS_RANGE_FRACTION: tuple[float, float] = (0.8, 1.2)
+#: Default class of the certified tracking-error bound (nniquad.analysis.tracking_bound): references whose
+#: acceleration norm stays below this [m/s²] (a figure-eight of 2 m x 1 m amplitudes and period 8 s peaks at
+#: 2.6 m/s², a 1 m circle in 4 s at 2.5 m/s²) ...
+TRACKING_ACCEL_LIMIT_M_S2: float = 3.0
+#: ... and, with acceleration feedforward, whose jerk norm stays below this [m/s³] (the same figure-eight: 3.9).
+TRACKING_JERK_LIMIT_M_S3: float = 5.0
 #: Control rate = position sample rate [Hz] of the sampled-data loop and of the exported controller.
 CONTROL_RATE_HZ: float = 100.0
 #: The exported C step scales a larger position error down to this norm [m] (direction kept) before the law: a

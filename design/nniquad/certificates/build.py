@@ -4,16 +4,18 @@ from __future__ import annotations
 
 import platform
 from importlib import metadata
-from typing import TYPE_CHECKING, Any, Callable, Mapping, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
 from nniquad.analysis.bound import time_optimal_bound
+from nniquad.analysis.cascade.box import ParameterBox
 from nniquad.analysis.cascade.box_certificate import cascade_section
 from nniquad.analysis.linearised_cascade import linearise_cascade
 from nniquad.analysis.lmi import certified_region, closed_loop_decay, ni_lemma_dissipation, reach_of, robust_mass_decay
 from nniquad.analysis.margins import cascade_margins
 from nniquad.analysis.reduced_loop import ReducedLoop, reduced_loop
+from nniquad.analysis.tracking_section import tracking_section
 from nniquad.certificates.start import start_section
 from nniquad.certificates.certificate import (
     NI_FORM,
@@ -43,9 +45,6 @@ from nniquad.laws.registry import law_named, ni_law_names
 from nniquad.model.vehicle import Vehicle
 from nniquad.sim.options import check_rate_hz
 from nniquad.tuning.objective import required_hold_s, settling_shown
-
-if TYPE_CHECKING:
-    from nniquad.analysis.cascade.box_certificate import ParameterBox
 
 __all__ = ["build_certificate", "BUILD_STEPS", "unsettled_reference_run", "performance_runs", "margins_section", "MARGIN_FIELDS", "sector_pm_ceiling_deg",
            "sector_section"]
@@ -166,10 +165,11 @@ def build_certificate(vehicle: Vehicle, gains: GainBlock, *, inner: InnerLoopGai
                       mass_range: tuple[float, float] | None = None, xi0: Sequence[float] = XI0_M,
                       model: str = "reduced", tuning: Mapping[str, Any] | None = None,
                       progress: Callable[[str], None] | None = None, rate_hz: float = CONTROL_RATE_HZ,
-                      cascade: bool = True, box: "ParameterBox | None" = None,
+                      cascade: bool = True, box: ParameterBox | None = None,
                       widest_box: bool = False, refuse_unsettled: bool = False,
                       grid_points_per_axis: int = CASCADE_GRID_POINTS_PER_AXIS,
-                      law_class: str = DEFAULT_LAW_CLASS) -> Certificate:
+                      law_class: str = DEFAULT_LAW_CLASS, tracking: bool = True,
+                      tracking_corners: bool = False) -> Certificate:
     """Solve every LMI for ``gains``, simulate, and assemble a signed certificate.
 
     Parameters
@@ -226,6 +226,12 @@ def build_certificate(vehicle: Vehicle, gains: GainBlock, *, inner: InnerLoopGai
         ``"cascade"`` drops the sector bound (the reduced loop must still be stable,
         ``m kp δ > 1``) and needs the cascade section, which is then the proof.
         The certificate states the class and the theorem (``law_class``).
+    tracking
+        With a cascade section, also state the tracking-error bound for the default class
+        (:func:`nniquad.analysis.tracking_section.tracking_section`, about a second).
+    tracking_corners
+        The tracking bound covers the corners of the cascade section's box too (about 20 s more); else the
+        nominal vehicle.
 
     Raises
     ------
@@ -304,6 +310,14 @@ def build_certificate(vehicle: Vehicle, gains: GainBlock, *, inner: InnerLoopGai
                                       widest=widest_box, grid_points_per_axis=grid_points_per_axis)
         except (CascadeError, SolverError) as exc:
             raise CertificateError(f"the sampled-data cascade is not certified at {rate_hz:g} Hz: {exc}") from None
+    track = None
+    if section is not None and tracking:  # a second: part of the cascade step (BUILD_STEPS)
+        box_used = ParameterBox.from_json(section["box"]) if tracking_corners else None
+        try:
+            track = tracking_section(vehicle, gains, inner, rate_hz=rate_hz, tilt_limit_deg=tilt_limit_deg,
+                                     box=box_used)
+        except CascadeError as exc:
+            raise CertificateError(f"the tracking-error bound is not certified: {exc}") from None
     bound = time_optimal_bound(vehicle, xi0=xi0, tilt_limit_deg=tilt_limit_deg)
     roa_section = {"max_displacement_m": reach, "u0_m_s2": u0, "tilt_limit_deg": float(tilt_limit_deg), "model": ROA_MODEL}
     # the start per method; start_certified never claims more than the weakest of them
@@ -348,6 +362,7 @@ def build_certificate(vehicle: Vehicle, gains: GainBlock, *, inner: InnerLoopGai
         cascade=section,
         law_class={"name": cls.name, "theorem": cls.theorem},
         start=start,
+        tracking=track,
     )
     return cert.signed()
 

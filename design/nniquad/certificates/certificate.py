@@ -45,6 +45,11 @@ A certificate is one JSON document (:data:`SCHEMA`, :data:`SCHEMA_VERSION`):
     rate, reach, margins; :mod:`nniquad.analysis.cascade.box_certificate`).  A document
     with this section has ``schema_version`` 2, one without it 1
     (:data:`SCHEMA_VERSIONS`); each version refuses the other's layout.
+``tracking`` (optional, with a ``cascade`` section)
+    The certified tracking-error bound for a class of references (acceleration and
+    jerk limits), without and with acceleration feedforward, and the linear-zone
+    condition (:mod:`nniquad.analysis.tracking_section`).  A certificate written
+    before it existed has none (its digest is unchanged); ``verify`` then notes it.
 ``software``
     Package versions.  ``digest``: SHA-256 of the canonical JSON of everything
     else (sorted keys, no whitespace, UTF-8).
@@ -291,6 +296,9 @@ class Certificate:
         The start's status per method (:func:`nniquad.certificates.start.start_section`); ``None`` in a
         certificate written before it existed (no such field, digest unchanged):
         :func:`nniquad.certificates.start.start_methods` derives it.
+    tracking
+        The certified tracking-error bound (:mod:`nniquad.analysis.tracking_section`); ``None`` in a
+        certificate written before it was stated (no such field, digest unchanged).
     signature
         The SHA-256 digest (hex) the certificate was signed with.
     """
@@ -320,10 +328,11 @@ class Certificate:
     cascade: Mapping[str, Any] | None = None
     law_class: Mapping[str, Any] | None = None
     start: Mapping[str, Any] | None = None
+    tracking: Mapping[str, Any] | None = None
 
     def __post_init__(self) -> None:
         for f in fields(self):
-            if f.name in _SECTIONS or f.name in ("tuning", "margins", "cascade", "law_class", "start"):
+            if f.name in _SECTIONS or f.name in ("tuning", "margins", "cascade", "law_class", "start", "tracking"):
                 object.__setattr__(self, f.name, _freeze(getattr(self, f.name)))
         object.__setattr__(self, "xi0_m", tuple(float(v) for v in self.xi0_m))
 
@@ -360,6 +369,8 @@ class Certificate:
             body["law_class"] = _thaw(self.law_class)
         if self.start is not None:  # optional: older certificates have none and keep their digest
             body["start"] = _thaw(self.start)
+        if self.tracking is not None:  # optional: older certificates have none and keep their digest
+            body["tracking"] = _thaw(self.tracking)
         return body
 
     @property
@@ -426,7 +437,7 @@ class Certificate:
             raise CertificateError(f"{where}: {what}")
         for key in _SECTIONS:
             section_of(data, key)
-        for key in ("margins", "law_class", "start"):
+        for key in ("margins", "law_class", "start", "tracking"):
             if key in data and not isinstance(data[key], Mapping):
                 raise CertificateError(f"{where}: '{key}' must be an object")
         if data["tuning"] is not None and not isinstance(data["tuning"], Mapping):
@@ -445,7 +456,7 @@ class Certificate:
             inner_loop=certificate_inner_loop(data), tilt_limit_deg=float(data["tilt_limit_deg"]),
             xi0_m=tuple(xi0), start_certified=data["start_certified"], tuning=data["tuning"],
             signature=data["digest"]["value"], margins=data.get("margins"), cascade=data.get("cascade"),
-            law_class=data.get("law_class"), start=data.get("start"),
+            law_class=data.get("law_class"), start=data.get("start"), tracking=data.get("tracking"),
             **{k: data[k] for k in _SECTIONS},
         )
         # the typed fields must serialise back to exactly what was signed (one comparison of the whole text:
@@ -535,7 +546,7 @@ _SECTIONS = ("sector", "stability_margin", "lmi", "region_of_attraction", "perfo
 _ALL_FIELDS = ("model", "vehicle", "gains", "inner_loop", "tilt_limit_deg", "xi0_m", *_SECTIONS, "start_certified",
                "tuning")
 #: Top-level fields besides :data:`_ALL_FIELDS`: the form's own, and the sections a certificate may lack.
-_OPTIONAL_FIELDS = ("schema", "schema_version", "digest", "margins", "cascade", "law_class", "start")
+_OPTIONAL_FIELDS = ("schema", "schema_version", "digest", "margins", "cascade", "law_class", "start", "tracking")
 
 
 def _is_number(v: Any) -> bool:

@@ -59,6 +59,7 @@ from nniquad.certificates.recheck_reduced_loop import (
 )
 from nniquad.certificates.recheck_runs import margins_check, performance_check
 from nniquad.certificates.start import start_check, start_claim
+from nniquad.certificates.recheck_tracking import NOT_STATED, tracking_check
 from nniquad.config import CONTROL_RATE_HZ
 from nniquad.errors import CertificateCheckError, CertificateError, NniquadError
 from nniquad.laws.classes import LAW_CLASSES
@@ -273,6 +274,8 @@ def coverage_notes(cert: Certificate) -> list[str]:
     if cert.start is None:
         notes.append(f"start_certified = {cert.start_certified} states {start_claim(cert)}; the 'start' check gives "
                      "the start's status in every region the certificate states")
+    if cert.tracking is None and cert.cascade is not None:  # schema 1 covers no sampled cascade: said above
+        notes.append(NOT_STATED)
     notes.append("records, not verified (no check and no Monte Carlo run reads them): "
                  + ", ".join(RECORD_FIELDS) + " (except tuning.model, which must equal model)")
     return notes
@@ -301,6 +304,8 @@ def _verify(cert: Certificate, simulate: bool, say: Callable[[str], None], fail_
     ]
     if cert.margins is not None:
         steps.append(lambda: margins_check(cert, tol))
+    if cert.tracking is not None:  # a second (or 20 s over a box's corners): before the cascade's minute
+        steps.append(lambda: tracking_check(cert))
     if cert.cascade is not None:
         if thorough:
             say("proving the cascade's Lyapunov inequality over the cells of its box")

@@ -21,7 +21,9 @@ of every P and of every Lyapunov / dissipation expression (plant and
 controller NI certificates, closed-loop decay, the parameter-dependent P over
 the mass interval on a 201-point grid, the region-of-attraction decrease and
 inclusion conditions and the certified reach); the time-optimal bound and the
-ratios to it; the classical margins; a schema-2 cascade section (rebuilt by
+ratios to it; the classical margins; the tracking-error bound (a 'tracking'
+section, recomputed by nniquad.analysis.tracking_section; a certificate without
+one is noted 'tracking: not stated'); a schema-2 cascade section (rebuilt by
 nniquad.analysis.cascade.box_certificate); and a re-simulation of the reduced and full
 reference runs that must reproduce the stated settling time, overshoot, peak
 tilt and diverged flag within the certificate's tolerances.
