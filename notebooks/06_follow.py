@@ -32,8 +32,8 @@
 # the true velocity (the tuned design `data/designs/pd_velocity.json`) with the
 # same feedforward, on the same runs.  Definitions: `docs/follow.md`.
 #
-# The certified tracking-error bound of issue 45 (item 6) is built in another
-# module; it is not drawn here.
+# The last section draws each certificate's certified tracking-error bound
+# beside the error flown.
 
 # %%
 import json
@@ -160,6 +160,50 @@ for name in CERTS:
                      "not reached" if a.arrival_s is None else f"{a.arrival_s:.2f} s",
                      "-" if a.delay_s is None else f"{a.delay_s:+.2f} s"])
 md_table(["law", "corner", "arrival", "delay"], rows)
+
+# %% [markdown]
+# ## The certified tracking-error bound beside the measured error
+#
+# Each certificate's bound (`nniquad.analysis.tracking_bound`, the `tracking`
+# section of a certificate: linearised sampled cascade at hover, nominal
+# vehicle, valid while the command stays below the tilt limit) for the
+# figure-eight's own peak acceleration and jerk, beside the largest error
+# flown on the full model.  The bound covers the runs without feedforward and
+# with the feedforward read at the sample instant (`ff`), started on the
+# reference with the law at rest; the read-ahead runs are not covered.
+
+# %%
+from nniquad.analysis.tracking_bound import classify_reference, tracking_bound
+
+ref = REFERENCES["figure-eight"]
+t_ref = np.linspace(0.0, horizon(ref), 4001)
+x_d, v_d, a_d = ref.sample(t_ref)
+rows, bounds = [], {}
+for name, path in CERTS.items():
+    cert = read_certificate(path)
+    tb = tracking_bound(cert.vehicle, cert.gains, cert.inner_loop, rate_hz=RATE_HZ,
+                        tilt_limit_deg=cert.tilt_limit_deg)
+    cls = classify_reference(tb, t_ref, x_d, v_d, a_d, ref.jerk(t_ref))
+    for mode, case in (("none", "no_feedforward"), ("ff", "feedforward")):
+        law, _ = runs[name, "figure-eight", mode]
+        worst = float(np.max(np.hypot(*(law.xy - ref.position(law.t)).T)))
+        bounds[name, mode] = cls.bound_m[case] if cls.inside[case] else None
+        rows.append([name, mode, f"{1e3 * worst:.1f} mm", f"{1e3 * cls.bound_m[case]:.1f} mm",
+                     "yes" if cls.inside[case] else "no: " + "; ".join(cls.reasons[case]),
+                     f"{worst / cls.bound_m[case]:.2f}"])
+md_table(["law", "feedforward", "max error flown", "certified bound", "reference in class and zone",
+          "flown / bound"], rows)
+
+fig, ax = plt.subplots(figsize=(8, 3.5))
+name = "NNI (cascade certificate)"
+for mode, colour in (("none", "C0"), ("ff", "C1")):
+    law, _ = runs[name, "figure-eight", mode]
+    ax.semilogy(law.t, np.maximum(np.hypot(*(law.xy - ref.position(law.t)).T), 1e-5), colour, label=f"flown, {mode}")
+    if bounds[name, mode] is not None:
+        ax.axhline(bounds[name, mode], color=colour, ls="--", label=f"certified bound, {mode}")
+ax.set_xlabel("t [s]"), ax.set_ylabel("‖ξ − ξ_d‖ [m]"), ax.legend(fontsize=7)
+ax.set_title(f"{name}: figure-eight, the error against its certified bound")
+show(fig)
 
 # %%
 # Conclusion, from the numbers above

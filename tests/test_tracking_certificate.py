@@ -74,3 +74,14 @@ def test_the_builder_states_the_section_for_the_nominal_vehicle(shared_json):
     assert set(doc["tracking"]) == TRACKING_KEYS and doc["tracking"]["covers"] == COVERS[0]
     assert doc["tracking"]["rate_hz"] == doc["cascade"]["rate_hz"]
     assert tracking_check(Certificate.from_json(doc)).ok
+
+
+@pytest.mark.parametrize("stated, passes", [(0.0, True), (3e-7, True), (1e-4, False), (0.25, False)])
+def test_the_dc_mismatch_is_compared_on_the_scale_of_one(amended, stated, passes):
+    """``|c - 1|`` is rounding alone at the nominal vehicle (other digits on another BLAS kernel): a stated
+    value within the tolerance of 1 is the same claim, a larger one is not."""
+    doc = copy.deepcopy(amended)
+    assert abs(doc["tracking"]["gains"]["dc_mismatch"]) < 1e-9  # the nominal vehicle: c = 1 up to rounding
+    doc["tracking"]["gains"]["dc_mismatch"] = stated
+    doc["digest"]["value"] = canonical_digest(doc)
+    assert tracking_check(Certificate.from_json(doc)).ok is passes
