@@ -26,6 +26,7 @@ from nniquad.tuning.tune_options import (
     ROBUST_QUANTILE,
     ROBUST_TILT_SLACK_DEG,
     TILT_SLACK_DEG,
+    TRACKING_COST_SCALE_M,
     TuneOptions,
 )
 from nniquad.tuning.vehicle_limits import attitude_accel_headroom, gain_limits
@@ -277,8 +278,9 @@ def evaluate_details(vehicle: Vehicle, points: np.ndarray, options: TuneOptions,
     if options.robust:
         todo = [b for b in range(len(pts)) if full_report or worst[b] < horizon_s]
         if todo:
+            # the tracking objective's incumbent cost is not a settling time: nothing to prune against
             costs, pruned = robust_costs(vehicle, [decoded[b] for b in todo], options, horizon_s,
-                                         prune_above=None if full_report else prune_above,
+                                         prune_above=None if full_report or options.tracking else prune_above,
                                          nominal_costs=[worst[b] for b in todo], return_pruned=True)
             for b, c, cut in zip(todo, costs, pruned):
                 allc = np.concatenate([[worst[b]], c])
@@ -305,7 +307,73 @@ def evaluate_details(vehicle: Vehicle, points: np.ndarray, options: TuneOptions,
                     out[b]["margin_penalty"] = cost - s_adm
                     out[b]["margin_shortfall"] = short
                     out[b]["cost"] = cost
+    if options.tracking:
+        _add_tracking(vehicle, decoded, options, horizon_s, out, full_report)
     return out
+
+
+# ----------------------------------------------------------------------------- tracking objective
+
+
+def tracking_options(options: TuneOptions, inner: InnerLoopGains = DEFAULT_INNER_LOOP_GAINS) -> SimOptions:
+    """The run of the tracking objective: the nominal run's settings, started on the reference with its velocity
+    (the law's state at rest for that start), the feedforward as asked, lasting to the window's end."""
+    pos, vel, _ = options.reference.sample(0.0)
+    return simulation_options(options, options.tracking_window[1], inner).with_(
+        reference=options.reference, feedforward=options.feedforward, feedforward_lead_s=options.feedforward_lead_s,
+        xi0=tuple(map(float, pos[0])), v0=tuple(map(float, vel[0])))
+
+
+def tracking_cost(rms_m: float | None, settling_cost: float, horizon_s: float) -> float:
+    """The tracking objective's cost of a candidate whose settling cost (margins included) is ``settling_cost``.
+
+    Admissible (settling cost below the horizon, tracking run finite and not lost, ``rms_m`` not ``None``):
+    ``horizon × rms / (rms + TRACKING_COST_SCALE_M)``, increasing in the RMS and below the horizon.  A candidate
+    that fails the settling constraint keeps its settling penalty (at least the horizon); one whose tracking run is
+    lost costs ``horizon + MARGIN_PENALTY_WIDTH_S + settling_cost``: above the designs that miss only the margins.
+
+    Parameters
+    ----------
+    rms_m
+        RMS tracking error over the window [m]; ``None``: the tracking run was lost (or not flown).
+    settling_cost
+        The candidate's cost under the settling objective.
+    horizon_s
+        The settling objective's horizon [s].
+    """
+    if settling_cost >= horizon_s:
+        return float(settling_cost)
+    if rms_m is None:
+        return float(horizon_s + MARGIN_PENALTY_WIDTH_S + settling_cost)
+    return float(horizon_s * rms_m / (rms_m + TRACKING_COST_SCALE_M))
+
+
+def tracking_rms_of_cost(cost: float, horizon_s: float) -> float | None:
+    """The RMS tracking error [m] of an admissible tracking cost (:func:`tracking_cost` inverted), else ``None``."""
+    if not cost < horizon_s:
+        return None
+    return float(TRACKING_COST_SCALE_M * cost / (horizon_s - cost))
+
+
+def _add_tracking(vehicle: Vehicle, decoded: list, options: TuneOptions, horizon_s: float, out: list[dict],
+                  full_report: bool) -> None:
+    """Fly the tracking run of every candidate that is otherwise admissible (every one with ``full_report``) in one
+    batched call; set ``tracking_rms_m``, ``tracking_max_m``, ``settling_cost`` and the cost (:func:`tracking_cost`)."""
+    todo = [b for b in range(len(out)) if full_report or out[b]["cost"] < horizon_s]
+    for d in out:
+        d.update(settling_cost=d["cost"], tracking_rms_m=None, tracking_max_m=None)
+    if todo:
+        with np.errstate(all="ignore"):
+            res = simulate(vehicle, [decoded[b][0] for b in todo],
+                           [tracking_options(options, decoded[b][1]) for b in todo])
+        _RUNS[0] += len(todo)
+        for i, (b, met, xy) in enumerate(zip(todo, res.metrics(), res.xy)):
+            if met.diverged or not np.all(np.isfinite(xy)):
+                continue
+            track = res[i].tracking(options.tracking_window)
+            out[b]["tracking_rms_m"], out[b]["tracking_max_m"] = track.tracking_rms_m, track.tracking_max_m
+    for d in out:
+        d["cost"] = tracking_cost(d["tracking_rms_m"], d["settling_cost"], horizon_s)
 
 
 # ----------------------------------------------------------------------------- robust objective

@@ -138,6 +138,7 @@ from nniquad.tuning.objective import (
     simulation_options,
     simulations_run,
     tau_cap,
+    tracking_rms_of_cost,
 )
 from nniquad.tuning.optimizers import minimise
 from nniquad.tuning.robust_scenarios import displacement_radius_m
@@ -237,6 +238,9 @@ class TuneResult:
     margins_met
         Whether every margin requirement is met (``None`` if not required).  ``False`` means the
         tuner fell back to the design with the smallest shortfall (no design met it).
+    tracking_rms_m, tracking_max_m
+        With a reference (the tracking objective, :attr:`TuneOptions.reference`): RMS and maximum tracking error
+        [m] of the tuned design over the window of its tracking run; ``None`` without one.
     """
 
     vehicle: Vehicle
@@ -260,6 +264,33 @@ class TuneResult:
     scenario_costs: list[dict[str, Any]] = field(default_factory=list)
     margins: dict[str, Any] | None = None
     margins_met: bool | None = None
+    tracking_rms_m: float | None = None
+    tracking_max_m: float | None = None
+
+    def objective_statement(self) -> str:
+        """What was optimised and subject to what, in words (printed by ``nniquad tune``, in its JSON)."""
+        o = self.options
+        if o.objective == "robust":
+            settling = (f"p{ROBUST_QUANTILE * 100:g} settling time over the {self.scenario_count} robust scenarios "
+                        f"(each settles, no altitude loss)")
+        else:
+            settling = "settling time of the nominal run" + (" and the mass-range / margin runs" if
+                                                            (o.mass_range or o.margin) else "")
+        cons = [f"{settling} shown within the {self.horizon_s:.3g} s horizon"]
+        if o.law.ni_structure and o.law_class == "paper":
+            cons.append(f"sector bound gamma <= {o.gamma_max:g}")
+        if o.roa_radius_m > 0:
+            cons.append(f"certified reach >= {o.roa_radius_m:g} m")
+        if o.require_margins:
+            cons.append(f"GM >= {REQUIRED_GM_DB:g} dB both ways at both break points")
+        if not o.tracking:
+            return f"objective: minimise the {settling}; subject to: {'; '.join(cons[1:]) or 'nothing else'}"
+        t0, t1 = o.tracking_window
+        ff = (("with feedforward" + (f" read {o.feedforward_lead_s:g} s ahead" if o.feedforward_lead_s else ""))
+              if o.feedforward else "without feedforward")
+        return (f"objective: RMS tracking error on {o.reference.describe()} {ff} over [{t0:g}, {t1:g}] s "
+                f"(nominal run started on the reference with its velocity); subject to: settles from the start "
+                f"({'; '.join(cons)}); the tracking run not lost")
 
     def __repr__(self) -> str:
         gains = ", ".join(f"{k}={v:.5g}" for k, v in self.gains.as_dict().items() if v is not None)
@@ -300,8 +331,14 @@ class TuneResult:
 
     def rerun_spread_s(self) -> float:
         """Largest minus smallest best settling time over the seeds [s]."""
-        s = [r["settling_s"] for r in self.reruns]
+        s = [r.get("settling_s") for r in self.reruns]
+        s = [v for v in s if v is not None]
         return float(max(s) - min(s)) if s else 0.0
+
+    def rerun_tracking_spread_m(self) -> float | None:
+        """Largest minus smallest best RMS tracking error over the seeds [m] (tracking objective), else ``None``."""
+        s = [r["tracking_rms_m"] for r in self.reruns if r.get("tracking_rms_m") is not None]
+        return float(max(s) - min(s)) if s else None
 
     def to_json(self) -> dict[str, Any]:
         return {
@@ -339,6 +376,12 @@ class TuneResult:
             "scenario_costs": self.scenario_costs,
             "margins": self.margins,
             "margins_met": self.margins_met,
+            "objective_statement": self.objective_statement(),
+            **({} if not self.options.tracking else {"tracking": {
+                "reference": self.options.reference.describe(), "feedforward": self.options.feedforward,
+                "feedforward_lead_s": self.options.feedforward_lead_s,
+                "tracking_window_s": list(self.options.tracking_window),
+                "tracking_rms_m": self.tracking_rms_m, "tracking_max_m": self.tracking_max_m}}),
         }
 
 
@@ -439,6 +482,9 @@ def tune(vehicle: Vehicle = PAPER_VEHICLE, options: TuneOptions | None = None,
     margins_met: bool | None = None
     if options.require_margins:
         margins_met = details["margins"] is not None and all(m.meets_requirement for m in details["margins"].values())
+    if options.tracking and details["cost_without_margins"] < horizon and details["tracking_rms_m"] is None:
+        raise NniquadError(f"no admissible gain set followed {options.reference.describe()} on the {options.model} "
+                           "model without losing the vehicle (use a larger --budget or a slower reference)")
     if best.cost >= horizon and not (options.require_margins and details["cost_without_margins"] < horizon):
         if options.robust and details["nominal_cost"] < horizon and details["scenario_costs"] is not None:
             scen = robust_scenarios(vehicle, options)
@@ -474,7 +520,10 @@ def tune(vehicle: Vehicle = PAPER_VEHICLE, options: TuneOptions | None = None,
     for seed, cand in results:
         g, inn = decode(cand.q, vehicle.m, options.gamma_max, alpha_avail=alpha, tau_motor_s=tau_cap(vehicle, options),
                         controller=options.controller, law_class=options.law_class)
-        reruns.append({"seed": seed, "settling_s": cand.cost, "gains": g.as_dict(), "inner_loop": inn.as_dict()})
+        # with the tracking objective the cost is the mapped RMS, and the settling time is a constraint
+        rerun = ({"settling_s": cand.cost} if not options.tracking
+                 else {"tracking_rms_m": tracking_rms_of_cost(cand.cost, horizon)})
+        reruns.append({"seed": seed, **rerun, "gains": g.as_dict(), "inner_loop": inn.as_dict()})
     settling = details["cost_without_margins"]
     return TuneResult(vehicle=vehicle, options=options, gains=gains, inner=inner, settling_s=settling,
                       metrics=best.metrics, certified_reach_m=reach, bound=bound, horizon_s=horizon,
@@ -483,7 +532,8 @@ def tune(vehicle: Vehicle = PAPER_VEHICLE, options: TuneOptions | None = None,
                       nominal_settling_s=details["nominal_cost"] if details["nominal_cost"] < horizon else None,
                       margins=(None if details["margins"] is None
                                else {k: m.to_json() for k, m in details["margins"].items()}),
-                      margins_met=margins_met, **robust_info)
+                      margins_met=margins_met, tracking_rms_m=details.get("tracking_rms_m"),
+                      tracking_max_m=details.get("tracking_max_m"), **robust_info)
 
 
 def default_horizon_s(vehicle: Vehicle, options: TuneOptions, bound: BoundResult | None = None) -> float:

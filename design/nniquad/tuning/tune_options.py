@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass
 from typing import Any, Callable
 
 from nniquad.config import CONTROL_RATE_HZ, GAMMA_MAX, TILT_LIMIT_DEG, TUNING_SCENARIO_SEED, XI0_NORM_M
+from nniquad.control.references import Reference
 from nniquad.errors import GainError, NniquadError, VehicleError
 from nniquad.laws.base import ControlLaw
 from nniquad.laws.classes import LAW_CLASSES
@@ -103,6 +105,34 @@ ALTITUDE_CAP_M = 0.5
 
 #: The robust objective minimises this quantile of the settling times over the tuning scenarios.
 ROBUST_QUANTILE = 0.95
+
+
+#: The tracking objective's cost of an admissible candidate is ``horizon × rms / (rms + this)`` [m]: increasing in
+#: the RMS tracking error and below the horizon, where every penalty of the settling objective starts (the
+#: optimisers rank candidates; CMA-ES sees only the order).
+TRACKING_COST_SCALE_M = 1.0
+
+
+def default_tracking_window(reference: Reference) -> tuple[float, float]:
+    """The window of the tracking objective when none is given [s]: the second period of a periodic reference
+    (the first holds the attitude loop's start transient), else the whole reference ``[0, end]``.
+
+    Parameters
+    ----------
+    reference
+        The reference.
+
+    Raises
+    ------
+    NniquadError
+        A reference with neither a period nor an end (give the window).
+    """
+    period = getattr(reference, "period_s", None)
+    if period is not None:
+        return float(period), 2.0 * float(period)
+    if math.isfinite(reference.end_s) and reference.end_s > 0:
+        return 0.0, float(reference.end_s)
+    raise NniquadError(f"reference {reference.describe()} has no period and no end: give the tracking window")
 
 
 #: The objectives (:attr:`TuneOptions.objective`).
@@ -209,6 +239,20 @@ class TuneOptions:
     optimizer
         The optimiser after the sweep, one of :data:`OPTIMIZERS` (default
         :data:`DEFAULT_OPTIMIZER`; :mod:`nniquad.tuning.optimizers`).
+    reference
+        ``None`` (default): the objective above, unchanged.  A reference
+        (:mod:`nniquad.control.references`): the **tracking objective**, minimise the RMS tracking error
+        over :attr:`tracking_window` of the nominal run started on the reference with its velocity (the law's
+        state at rest for that start, :attr:`feedforward` as given), subject to everything above: the settling
+        cost of :attr:`objective` must be admissible (the design settles from the standard start, every robust
+        scenario with ``"robust"``), the sector bound, the certified reach and the margins; a tracking run that
+        is lost or not finite is inadmissible (:func:`nniquad.tuning.objective.tracking_cost`).
+    feedforward
+        With a reference: add its acceleration to the command (:attr:`nniquad.sim.SimOptions.feedforward`).
+    feedforward_lead_s
+        With feedforward: read it this much ahead [s] (:attr:`nniquad.sim.SimOptions.feedforward_lead_s`).
+    tracking_window
+        ``(t0, t1)`` [s] of the tracking RMS; the tracking run lasts ``t1``.  ``None``: :func:`default_tracking_window`.
     """
 
     model: str = "reduced"
@@ -233,8 +277,13 @@ class TuneOptions:
     law_class: str | None = None
     rate_hz: float = CONTROL_RATE_HZ
     scenario_noise_range_m: tuple[float, float] | None = None
+    reference: Reference | None = None
+    feedforward: bool = False
+    feedforward_lead_s: float = 0.0
+    tracking_window: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
+        self._check_reference()
         if self.controller not in law_names():
             raise NniquadError(f"controller must be one of {', '.join(law_names())}, got {self.controller!r}")
         if self.law_class is not None and self.law_class not in LAW_CLASSES:
@@ -298,6 +347,29 @@ class TuneOptions:
         # the PD laws have no sector bound, hence no certified region: the reach check does not apply
         object.__setattr__(self, "roa_radius_m", r if self.law.ni_structure else 0.0)
 
+    def _check_reference(self) -> None:
+        """The tracking fields: a reference for each of the others, and a window of the run's times."""
+        if self.reference is None:
+            for name, given in (("feedforward", self.feedforward), ("feedforward lead", self.feedforward_lead_s),
+                                ("tracking window", self.tracking_window is not None)):
+                if given:
+                    raise NniquadError(f"{name} needs a reference")
+            return
+        if not isinstance(self.reference, Reference):
+            raise NniquadError(f"reference must be a Reference, got {type(self.reference).__name__}")
+        if _finite("feedforward lead", self.feedforward_lead_s) < 0:
+            raise NniquadError(f"feedforward lead must not be negative, got {self.feedforward_lead_s!r}")
+        if self.feedforward_lead_s and not self.feedforward:
+            raise NniquadError("a feedforward lead needs the feedforward")
+        window = default_tracking_window(self.reference) if self.tracking_window is None else self.tracking_window
+        object.__setattr__(self, "tracking_window", _range("tracking window", window, "0 <= T0 < T1",
+                                                           lambda lo, hi: 0 <= lo < hi, NniquadError))
+
+    @property
+    def tracking(self) -> bool:
+        """Whether the tracking objective is used (a reference is given)."""
+        return self.reference is not None
+
     @property
     def law(self) -> ControlLaw:
         """The tuned law (:mod:`nniquad.laws`)."""
@@ -331,6 +403,12 @@ class TuneOptions:
         d = asdict(self)
         for key in ("mass_range", "scenario_noise_range_m"):
             d[key] = None if d[key] is None else list(d[key])
+        if self.reference is None:  # the settling objective's record as it always was
+            for key in ("reference", "feedforward", "feedforward_lead_s", "tracking_window"):
+                del d[key]
+        else:
+            d["reference"] = self.reference.to_json()
+            d["tracking_window"] = list(self.tracking_window)
         return d
 
 

@@ -13,6 +13,7 @@ from nniquad.cli.commands.common import (
     vehicle_from_args,
     write_json_if_asked,
 )
+from nniquad.cli.commands.reference_options import add_reference_options, reference_settings, tracking_window
 from nniquad.config import CONTROL_RATE_HZ, DT_S, GAMMA_MAX, REQUIRED_GM_DB, REQUIRED_PM_DEG, TUNING_SCENARIO_SEED
 from nniquad.control.inner_gains import InnerLoopGains
 from nniquad.errors import CertificateError, NniquadError
@@ -54,7 +55,15 @@ CasADi batch, then a global optimiser from the best distinct points, fed
 with batches of candidates: BIPOP-CMA-ES (default) or NOMAD 4's mesh
 adaptive direct search (--optimizer nomad, needs PyNomadBBO); all of it
 rerun from other seeds to show the optimum is not a grid artefact.  Settling times are reported as a ratio to
-the time-optimal bound (nniquad bound)."""
+the time-optimal bound (nniquad bound).
+
+Tracking objective (--reference SPEC, a waypoint file, circle:R,T or
+figure8:AX,AY,T; --feedforward, --feedforward-lead, --tracking-window):
+minimise the RMS tracking error over the window of the nominal run started
+on the reference with its velocity, subject to every constraint above, the
+settling objective's cost included (the design still settles from the
+standard start, every robust scenario on the full model); a lost tracking
+run is inadmissible.  The objective is printed in words (docs/tuning.md)."""
 
 
 def add_tuning_options(parser: argparse.ArgumentParser) -> None:
@@ -133,7 +142,8 @@ def tune_options_from_args(args: argparse.Namespace):
     if args.scenario_noise_range is not None and not robust:
         raise NniquadError("--scenario-noise-range sets the noise of the robust objective's scenarios: it needs "
                            "--model full without --nominal")
-    return TuneOptions(model=args.model, gamma_max=args.gamma_max, roa_radius_m=args.roa_radius,
+    follow = tracking_settings(args)
+    return TuneOptions(**follow, model=args.model, gamma_max=args.gamma_max, roa_radius_m=args.roa_radius,
                        law_class=args.law_class, rate_hz=rate,
                        mass_range=None if args.mass_range is None else tuple(args.mass_range),
                        noise_sigma_m=args.noise, tilt_limit_deg=args.tilt_limit, budget=args.budget,
@@ -145,6 +155,24 @@ def tune_options_from_args(args: argparse.Namespace):
                        scenario_noise_range_m=(None if args.scenario_noise_range is None
                                                else tuple(args.scenario_noise_range)),
                        optimizer=args.optimizer)
+
+
+def tracking_settings(args: argparse.Namespace) -> dict:
+    """The :class:`~nniquad.tuning.tune_options.TuneOptions` fields of ``--reference``, ``--feedforward``,
+    ``--feedforward-lead`` and ``--tracking-window`` (empty without ``--reference``; ``certify`` has none).
+
+    Parameters
+    ----------
+    args
+        The parsed options.
+    """
+    if not hasattr(args, "reference"):
+        return {}
+    follow = reference_settings(args)  # one-line errors: a bad spec, a flag without --reference
+    if not follow:
+        return {}
+    return {"reference": follow["reference"], "feedforward": follow["feedforward"],
+            "feedforward_lead_s": follow["feedforward_lead_s"], "tracking_window": tracking_window(args)}
 
 
 def warm_starts_from_args(args: argparse.Namespace) -> list:
@@ -219,6 +247,10 @@ def print_tune_result(res) -> None:
         rows += [("attitude natural frequency", fmt(res.inner.attitude_wn_rad_s, digits=5), "rad/s"),
                  ("attitude damping", fmt(res.inner.attitude_zeta, digits=5), "-"),
                  ("attitude deceleration (shaping)", fmt(res.inner.attitude_accel_limit_rad_s2), "rad/s^2")]
+    if res.tracking_rms_m is not None:
+        t0, t1 = res.options.tracking_window
+        rows += [(f"tracking RMS over [{t0:g}, {t1:g}] s", fmt(res.tracking_rms_m, digits=4), "m"),
+                 (f"tracking max over [{t0:g}, {t1:g}] s", fmt(res.tracking_max_m, digits=4), "m")]
     rows += [
         ("settling time" + (f" (p95 of {res.scenario_count} robust scenarios)" if res.objective == "robust"
                             else " (worst scenario)"), fmt(res.settling_s, digits=5), "s"),
@@ -230,6 +262,8 @@ def print_tune_result(res) -> None:
         ("peak rotor speed", fmt(m.peak_rotor_speed_rad_s, digits=4), "rad/s"),
         ("certified reach (ROA LMI)", fmt(res.certified_reach_m, digits=4) if law.ni_structure
          else "none (not a design of the NI structure: no sector bound)", f"m (required {res.roa_radius_m:g})"),
+        ("best tracking RMS per seed", ", ".join(f"{r['seed']}: {fmt(r['tracking_rms_m'], digits=4)}"
+                                                 for r in res.reruns), "m") if res.options.tracking else
         ("best settling per seed", ", ".join(f"{r['seed']}: {r['settling_s']:.4g}" for r in res.reruns), "s"),
         ("simulations / LMI solves", f"{res.n_simulations} / {res.n_lmi}", ""),
         ("time taken", fmt(res.elapsed_s, digits=3), "s"),
@@ -247,6 +281,7 @@ def print_tune_result(res) -> None:
         rows.append(("margin requirement", "not met (PM 45 deg is out of reach at the horizontal break point: "
                      + ("smallest shortfall kept)" if res.options.require_pm else "GM enforced, PM reported)"), ""))
     w = max(len(r[0]) for r in rows)
+    print(res.objective_statement())
     for name, value, unit in rows:
         print(f"{name:<{w}}  {value}  {unit}".rstrip())
 
@@ -271,4 +306,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_controller_option(parser, law_names(), "nni",
                           "horizontal law to tune (the laws outside the NI structure are tuned on the same inner loops "
                           "and scenarios, have no sector bound and no certificate of their own)")
-    add_json_option(parser, "tuned gains, metrics, per-seed optima and search statistics")
+    group = parser.add_argument_group("tracking objective (default: the settling time)")
+    add_reference_options(group, single_run=False)
+    group.add_argument("--tracking-window", type=float, nargs=2, default=None, metavar=("T0", "T1"),
+                       help="with --reference: the window of the tracking RMS in s, the tracking run lasting T1 "
+                            "(default the second period of a periodic reference, else the whole reference)")
+    add_json_option(parser, "tuned gains, metrics, per-seed optima, search statistics and the objective stated")
