@@ -126,6 +126,7 @@ __all__ = [
     "attitude_wn_limit",
     "G_Z_MIN_FRACTION",
     "vertical_specific_force",
+    "collective_thrust",
     "ATTITUDE_RESERVE_FRACTION",
     "TILT_COMPENSATION_MIN_COS",
 ]
@@ -185,6 +186,16 @@ def vertical_specific_force(g: Any, a_z: Any) -> Any:
     a number out; CasADi symbols in, a symbol out.
     """
     return ca.fmax(g - a_z, G_Z_MIN_FRACTION * g)
+
+
+def collective_thrust(m_nom: Any, g_z: Any, cos_tilt: Any) -> Any:
+    """The collective thrust ``m̂ g_z / max(cos φ cos θ, TILT_COMPENSATION_MIN_COS)`` [N] (module docstring, item 2).
+
+    The hover thrust of the vertical specific force ``g_z`` (:func:`vertical_specific_force`), compensated for
+    the measured tilt ``cos φ cos θ`` and capped at 1/:data:`TILT_COMPENSATION_MIN_COS`.  Numbers in, a number
+    out; CasADi symbols in, a symbol out.
+    """
+    return m_nom * g_z / ca.fmax(cos_tilt, TILT_COMPENSATION_MIN_COS)
 
 
 def limit_norm(a: ca.SX, limit: ca.SX) -> ca.SX:

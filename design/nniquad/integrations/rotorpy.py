@@ -70,6 +70,7 @@ from nniquad.config import DT_S
 from nniquad.control import inner_loops as IL
 from nniquad.errors import NniquadError
 from nniquad.model.layout import PARAM_NAMES
+from nniquad.model.numeric import rotation_function
 from nniquad.sim.metrics import overshoot_pct, settling_time
 
 if TYPE_CHECKING:
@@ -262,12 +263,12 @@ class RotorPyController:
             self._next_sample_s += T
         # the collective of inner_loops item 2: the hover thrust of g_z, tilt-compensated (capped)
         g_z = float(IL.vertical_specific_force(g, a_z))
-        thrust = self.vehicle.m * g_z / max(R[2, 2], IL.TILT_COMPENSATION_MIN_COS)
+        thrust = float(IL.collective_thrust(self.vehicle.m, g_z, R[2, 2]))
         psi_d = -float(flat_output.get("yaw", 0.0))
         phi_d, theta_d = self._tilt_sp
         if self.attitude == "certificate":
             return {"cmd_thrust": thrust, "cmd_moment": self._torques(R, state["w"], psi_d)}
-        R_d = _rotation_zyx(psi_d, theta_d, phi_d)
+        R_d = np.asarray(rotation_function()([phi_d, theta_d, psi_d])[0], dtype=float)
         return {"cmd_thrust": thrust, "cmd_q": _quaternion(between_frames(R_d))}
 
     def _torques(self, R: np.ndarray, w_flu: Any, psi_d: float) -> np.ndarray:
@@ -284,11 +285,6 @@ class RotorPyController:
 def _rotation(q: Any) -> np.ndarray:
     """RotorPy's attitude quaternion ``[i, j, k, w]`` as a body-to-world matrix."""
     return Rotation.from_quat(np.asarray(q, float)).as_matrix()
-
-
-def _rotation_zyx(psi: float, theta: float, phi: float) -> np.ndarray:
-    """``Rz(ψ) Ry(θ) Rx(φ)`` (:func:`nniquad.model.symbolic.rotation_zyx`)."""
-    return Rotation.from_euler("ZYX", [psi, theta, phi]).as_matrix()
 
 
 def _quaternion(R: np.ndarray) -> np.ndarray:
