@@ -60,9 +60,10 @@ def _square():
 def lead_s(cert) -> float:
     """The feedforward lead for a certificate: its attitude loop's lag ``2 ζ_a/ω_a`` and half a sample period."""
     from nniquad.certificates.export import certified_rate_hz
+    from nniquad.control.inner_loops import feedforward_lead_s
 
     inner = cert.inner_loop
-    return 2 * inner.attitude_zeta / inner.attitude_wn_rad_s + 0.5 / certified_rate_hz(cert)
+    return feedforward_lead_s(inner.attitude_wn_rad_s, inner.attitude_zeta, certified_rate_hz(cert))
 
 
 def _options(cert, reference, feedforward: bool, horizon_s: float, lead: float = 0.0):

@@ -53,6 +53,7 @@ from nniquad import (
     SimOptions,
     simulate,
 )
+from nniquad.control.inner_loops import feedforward_lead_s
 
 CERTS = {"NNI (cascade certificate)": notebook_data("cascade_model_certificate.json"),
          "NNI (full-model certificate)": notebook_data("full_model_certificate.json"),
@@ -87,7 +88,7 @@ def window(ref) -> tuple[float, float]:
 
 def lead_s(cert) -> float:
     inner = cert.inner_loop
-    return 2 * inner.attitude_zeta / inner.attitude_wn_rad_s + 0.5 / RATE_HZ
+    return feedforward_lead_s(inner.attitude_wn_rad_s, inner.attitude_zeta, RATE_HZ)
 
 
 def options(cert, ref, mode: str) -> SimOptions:

@@ -141,7 +141,7 @@ def inner_loop_assumption(cert: "Certificate") -> dict[str, Any]:
     cascade = cert.cascade or {}
     box = {k: [float(v[0]), float(v[1])] for k, v in (cascade.get("box") or {}).items()}
     return {"attitude_wn_rad_s": il.attitude_wn_rad_s, "attitude_zeta": il.attitude_zeta,
-            "attitude_lag_s": IL.attitude_motor_lag_limit(il.attitude_wn_rad_s, il.attitude_zeta),
+            "attitude_lag_s": IL.attitude_lag_s(il.attitude_wn_rad_s, il.attitude_zeta),
             "certified_box": box,
             "meaning": "the flight stack's roll/pitch loop tracks the tilt setpoints like a second-order loop of "
                        "this natural frequency and damping (lag 2 zeta_a/omega_a); the certificate covers the box "

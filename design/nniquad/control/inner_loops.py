@@ -123,6 +123,8 @@ __all__ = [
     "sqrt_shaping",
     "allocate",
     "attitude_motor_lag_limit",
+    "attitude_lag_s",
+    "feedforward_lead_s",
     "attitude_wn_limit",
     "G_Z_MIN_FRACTION",
     "vertical_specific_force",
@@ -149,6 +151,18 @@ def attitude_motor_lag_limit(wn: float, zeta: float) -> float:
     if not (wn > 0 and zeta > 0):
         raise SimulationError(f"attitude natural frequency and damping must be positive, got {wn!r}, {zeta!r}")
     return 2.0 * zeta / wn
+
+
+def attitude_lag_s(wn: float, zeta: float) -> float:
+    """The roll/pitch loop's lag ``2 ζ_a / ω_a`` [s]: the delay of ``ω_a² / (s² + 2 ζ_a ω_a s + ω_a²)`` at low
+    frequency (its phase is ``-2 ζ_a ω / ω_a``), the same number as :func:`attitude_motor_lag_limit`."""
+    return attitude_motor_lag_limit(wn, zeta)
+
+
+def feedforward_lead_s(wn: float, zeta: float, rate_hz: float) -> float:
+    """How far ahead to read an acceleration feedforward [s]: the attitude loop's lag (:func:`attitude_lag_s`)
+    and half a sample period of the zero-order hold at ``rate_hz``."""
+    return attitude_lag_s(wn, zeta) + 0.5 / rate_hz
 
 
 def attitude_wn_limit(tau_motor_s: float, zeta: float, tau_factor: float = 2.0, gain_margin: float = 2.0) -> float:
