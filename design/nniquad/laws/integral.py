@@ -250,8 +250,9 @@ class IntegralLaw(ControlLaw):
         return [list(r) + [0] for r in Ab] + [[0] * n + [1]], [list(r) for r in Bb] + [[T]]
 
     def discretisation_text(self) -> str:
-        return (f"{self.base.discretisation_text()}; integrator q[k+1] = q[k] + T (xi[k] + (a[k] - sat(a[k]))/kp) "
-                f"(exact ZOH plus back-calculation anti-windup, a[k] the command before the tilt limit); state "
+        return (f"the {self.base.name} law's states: {self.base.discretisation_text()}; then per axis the integrator "
+                f"q[k+1] = q[k] + T (xi[k] + (a[k] - sat(a[k]))/kp) (its exact ZOH plus the back-calculation "
+                f"anti-windup, a[k] the command before the tilt limit, sat(a[k]) after it); the whole state in the "
                 f"order {', '.join(self.sim_state_names)}")
 
     def export_matrix_units(self) -> dict[str, str]:
