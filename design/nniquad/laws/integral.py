@@ -328,15 +328,7 @@ class IntegralLaw(ControlLaw):
         return min(max(ki, KI_RATIO_RANGE[0] * kp15), KI_RATIO_RANGE[1] * kp15)
 
     def seed_from(self, gains: GainBlock, m_hat: float) -> GainBlock | None:
-        """A design of this law from another law's: itself, or the base law's seed with :meth:`seed_ki`.
-
-        Parameters
-        ----------
-        gains
-            A gain block of any law.
-        m_hat
-            The controller's nominal mass [kg].
-        """
+        # a design of this law is itself; any other is the base law's seed (equal axes) with seed_ki
         if isinstance(gains, self.gains_type):
             return gains
         base = gains if isinstance(gains, self.base.gains_type) else self.base.seed_from(gains, m_hat)
