@@ -291,6 +291,17 @@ class IntegralLaw(ControlLaw):
     def static_stiffness(self, gains: GainBlock, m_hat: float) -> tuple[float, float]:
         return math.inf, math.inf
 
+    def pm_ceiling_deg(self, gamma_max: float) -> float:
+        """The base law's ceiling (:meth:`nniquad.laws.base.NILaw.pm_ceiling_deg`), still an upper bound: the
+        integrator adds ``-j k_i/ν`` to the lead ``k_p - C(jν)/m̂`` (positive real part), which only lowers its phase.
+
+        Parameters
+        ----------
+        gamma_max
+            The sector bound's ceiling.
+        """
+        return self.base.pm_ceiling_deg(gamma_max)
+
     # ------------------------------------------------------------------ tuning
     def coordinates(self, law_class: str | None) -> tuple[str, ...]:
         return (*self.base.coordinates(self.check_class(law_class)), "ln(ki/kp^1.5)")
