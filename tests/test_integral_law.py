@@ -201,3 +201,16 @@ def test_continuous_anti_windup_equals_the_hand_ode_through_saturation():
     q = tr.state[:, [tr.state_names.index("zci_x"), tr.state_names.index("zci_y")]]
     assert np.max(np.abs(tr.xy - ref[0:2].T)) < 1e-5 and np.max(np.abs(q - ref[6:8].T)) < 1e-5
     assert np.max(np.abs(q - ref[6:8].T)) < 1e-2 * np.max(np.abs(ref[6:8]))  # q is not ~0 (the check has teeth)
+
+
+def test_two_axis_gains_have_no_integral_variant():
+    from nniquad.errors import GainError
+    from nniquad.laws import Gains
+
+    law = integral_variant(law_named("nni"))
+    two = Gains(kp=5.0, Gamma=160.0, delta=0.6, kpy=6.0)
+    assert law.seed_from(two, 1.0) is None
+    with pytest.raises(GainError, match="one kp"):
+        law.with_ki(two, 0.1)
+    assert law.with_ki(Gains(kp=5.0, Gamma=160.0, delta=0.6), 0.1).values() == dict(kp=5.0, Gamma=160.0, delta=0.6,
+                                                                                     ki=0.1)

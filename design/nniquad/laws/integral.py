@@ -63,6 +63,7 @@ from typing import Any, ClassVar, Mapping, Sequence
 
 import numpy as np
 
+from nniquad.errors import GainError
 from nniquad.laws.base import ControlLaw, GainBlock, NILaw, PlainGainBlock, TuningBox, gain_field
 from nniquad.laws.nni import NNI
 from nniquad.laws.registry import register
@@ -202,8 +203,16 @@ class IntegralLaw(ControlLaw):
             A gain block of the base law (equal axes).
         ki
             The integral gain [1/s³].
+
+        Raises
+        ------
+        GainError
+            A base design of another law, or with two axis gains (the integral laws have one ``kp``).
         """
-        values = {k: v for k, v in self.base.gains(base_gains).as_dict().items() if k in self.gain_names}
+        base = self.base.gains(base_gains)
+        if len(set(base.axes())) != 1:
+            raise GainError(f"the {self.name} law has one kp for both axes, got {base.axes()}")
+        values = {k: v for k, v in base.as_dict().items() if k in self.gain_names}
         return self.gains_type(**values, ki=ki)
 
     def _base_p(self, p: Mapping[str, Any]) -> dict[str, Any]:
@@ -344,7 +353,7 @@ class IntegralLaw(ControlLaw):
             return gains
         base = gains if isinstance(gains, self.base.gains_type) else self.base.seed_from(gains, m_hat)
         if base is None or len(set(base.axes())) != 1:
-            return None
+            return None  # no base design, or one with two axis gains
         return self.with_ki(base, self.seed_ki(base, m_hat))
 
 
