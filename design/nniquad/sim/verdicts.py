@@ -28,7 +28,7 @@ from typing import Any, Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from nniquad.config import ALTITUDE_LIMIT_M, TILT_LIMIT_DEG
+from nniquad.config import ALTITUDE_LIMIT_M, TILT_LIMIT_DEG, XI0_M
 from nniquad.errors import SimulationError
 from nniquad.sim.metrics import (
     DEFAULT_BAND_FRACTION,
@@ -36,8 +36,11 @@ from nniquad.sim.metrics import (
     overshoot_pct,
     peak_abs,
     points_batch,
+    hover_window_start_s,
     rms_after,
+    rotor_limit_share,
     settling_time,
+    steady_offset_m,
     tilt_deg,
     time_axis,
     time_on_limit_fraction,
@@ -210,7 +213,8 @@ class Metrics:
     Attributes
     ----------
     settling_s
-        Settling time [s] (2 % band, last exit); ``None`` if not settled.
+        Settling time [s] (2 % band of ‖ξ_h(0)‖ around the setpoint, last exit; a hover run, started at the
+        setpoint, in the band of the nominal start :data:`nniquad.config.XI0_M`); ``None`` if not settled.
     overshoot_pct
         Overshoot along the initial direction [% of ‖ξ_h(0)‖].
     peak_tilt_deg
@@ -241,6 +245,16 @@ class Metrics:
         The run follows a reference (:mod:`nniquad.sim.tracking`): settling and overshoot, which measure the
         regulation to the origin, do not apply (``None``) and "not settled" is no failure; its tracking metrics
         judge it.
+    steady_offset_m
+        Mean distance from the setpoint over the last second [m]
+        (:func:`nniquad.sim.metrics.steady_offset_m`); ``None`` for a lost run or one following a reference.
+    tilt_command_rms_deg
+        RMS of the commanded tilt over the hover window [deg]
+        (:func:`nniquad.sim.metrics.hover_window_start_s`); ``None`` without a hover window.
+    rotor_limit_share
+        Share of the recorded samples with any commanded rotor speed at 0 or ``ω_max``
+        (:func:`nniquad.sim.metrics.rotor_limit_share`; every integration step when the output period is the
+        step); ``None`` without rotor commands (linear and reduced models).
     """
 
     settling_s: float | None
@@ -256,6 +270,9 @@ class Metrics:
     altitude_lost: bool | None = None
     blew_up: bool | None = None
     follows_reference: bool = False
+    steady_offset_m: float | None = None
+    tilt_command_rms_deg: float | None = None
+    rotor_limit_share: float | None = None
 
     @property
     def failure(self) -> str | None:
@@ -308,6 +325,8 @@ def compute_metrics(
     band_fraction: float = DEFAULT_BAND_FRACTION,
     altitude_limit_m: float = ALTITUDE_LIMIT_M,
     follows_reference: bool = False,
+    rotor_commands: ArrayLike | None = None,
+    omega_max: float | None = None,
 ) -> Metrics:
     """Every metric the given signals allow, bundled in :class:`Metrics`.
 
@@ -334,6 +353,8 @@ def compute_metrics(
         Altitude deviation counted as altitude loss [m].
     follows_reference
         The run follows a reference: no settling or overshoot (:attr:`Metrics.follows_reference`).
+    rotor_commands, omega_max
+        Commanded rotor speeds [rad/s], shape ``(N, 4)``, and their limit [rad/s], for ``rotor_limit_share``.
 
     Returns
     -------
@@ -345,8 +366,12 @@ def compute_metrics(
     a = np.asarray(xy, dtype=float)
     points_batch(ta, a, batched=False)
     div = diverged(a, z=z, altitude_limit_m=altitude_limit_m, z_ref=z_ref)
-    settling = None if div or follows_reference else settling_time(ta, a, band_fraction)
-    over = None if div or follows_reference else _opt(overshoot_pct(ta, a))
+    # a hover run (started at the setpoint) has no initial distance to scale its band, nor a direction to
+    # overshoot along: it is judged in the band of the nominal start, as the Monte Carlo study and the tuner judge
+    hover_start = not np.hypot(*a[0]) > 0
+    norm = math.hypot(*XI0_M) if hover_start else None
+    settling = None if div or follows_reference else settling_time(ta, a, band_fraction, norm)
+    over = None if div or follows_reference or hover_start else _opt(overshoot_pct(ta, a))
     tilt = None
     if phi is not None and theta is not None:
         tilt = tilt_deg(phi, theta)
@@ -354,6 +379,7 @@ def compute_metrics(
             raise ValueError(f"roll/pitch have shape {tilt.shape} but the time vector has {ta.shape}")
     cmd = None if cmd_tilt_deg is None else np.asarray(cmd_tilt_deg, dtype=float)
     limited = cmd if cmd is not None else tilt
+    hover_from = hover_window_start_s(a, settling) if not div else None
     return Metrics(
         settling_s=settling,
         overshoot_pct=over,
@@ -369,4 +395,8 @@ def compute_metrics(
                                                                       z_ref)[0]),
         blew_up=bool(blew_up_batch(a[None], z_batch=None if z is None else np.asarray(z, float)[None])[0]),
         follows_reference=follows_reference,
+        steady_offset_m=None if div or follows_reference else _opt(steady_offset_m(ta, a)),
+        tilt_command_rms_deg=None if cmd is None else rms_after(ta, cmd, hover_from),
+        rotor_limit_share=None if rotor_commands is None or omega_max is None else rotor_limit_share(
+            rotor_commands, omega_max),
     )
