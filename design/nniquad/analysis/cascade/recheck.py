@@ -419,8 +419,7 @@ def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: GainBlock, inn
         reach, detail = min(lz_lmi, lz_grid), f"linear zone {min(lz_lmi, lz_grid):.6g} m"
         if method == "linear_zone":
             ok = ok and _close(roa.get("max_displacement_m"), reach) and "lure" not in roa
-        elif method == "lure" and gains.law.starts_at_zero(gains, vehicle.m) and not delay:
-            # solved for a start with the controller at 0 and no delay line
+        elif method == "lure" and gains.law.starts_at_zero(gains, vehicle.m):  # solved for a start with the controller at 0
             start, lmi = 1, {}
             for name in SUBSYSTEMS:  # each horizontal axis's LMI points, as the family is stacked above
                 if name in HORIZONTAL:
@@ -430,7 +429,7 @@ def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: GainBlock, inn
                                                      lambda: check_lure_block(roa["lure"], dims, box, lmi, grid_fam,
                                                                               lyap))
             roa_proofs = cache("cascade.lure_proofs", design + [roa["lure"]], lambda: lure_proofs(
-                LureRegion.from_json(roa["lure"], dims), box, lmi, grid_fam, lyap, dims))
+                LureRegion.from_json(roa["lure"], dims, {a: len(expected[a]) for a in HORIZONTAL}), box, lmi, grid_fam, lyap, dims))
             # the stated reach is the recomputed one (never larger), and reaches beyond the linear zone
             stated = roa.get("max_displacement_m")
             ok = (ok and lure_ok and _is_number(stated) and lure_reach * (1 - 2e-9) <= stated <= lure_reach

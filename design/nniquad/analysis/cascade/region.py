@@ -207,8 +207,10 @@ class LureRegion:
                 "mu": np.asarray(self.mu).tolist()}
 
     @classmethod
-    def from_json(cls, data: Mapping[str, Any], dims: Mapping[str, Sequence[int]]) -> "LureRegion":
-        """Read a stated region (``dims``: the axes' coordinates stated by the Lyapunov block).
+    def from_json(cls, data: Mapping[str, Any], dims: Mapping[str, Sequence[int]],
+                  n_states: Mapping[str, int] | None = None) -> "LureRegion":
+        """Read a stated region (``dims``: the axes' coordinates stated by the Lyapunov block; ``n_states``: each
+        axis's states, default those of :data:`~nniquad.analysis.cascade.family.SUBSYSTEMS`, more with a delay line).
 
         Raises
         ------
@@ -220,7 +222,7 @@ class LureRegion:
         G = {a: np.asarray(data["G"][a], float) for a in HORIZONTAL}
         mu = np.asarray(data["mu"], float)
         for a in HORIZONTAL:
-            nf, n = n_features(len(dims[a])), len(SUBSYSTEMS[a])
+            nf, n = n_features(len(dims[a])), (len(SUBSYSTEMS[a]) if n_states is None else int(n_states[a]))
             if P[a].shape != (nf, n, n) or G[a].shape != (nf, 1, n):
                 raise ValueError(f"axis {a}: P or G does not have the shape of {nf} features of {n} states")
             if not np.array_equal(P[a], np.swapaxes(P[a], -1, -2)):
@@ -410,8 +412,9 @@ def lure_check(region: LureRegion, box: ParameterBox, fam: CascadeFamily,
     for a in HORIZONTAL:
         P, G, mu = region.at(box, fam.points, a)
         A, Bh, Kh = axis_loops(fam, a)
-        k_max = max(k_max, abs(float(subsystem_of(fam, a)[3][0, 0])))
-        p00 = np.maximum(p00, P[:, 0, 0])
+        v = start_vector(fam, a)  # the position alone (e_0), or with the delay line full
+        k_max = max(k_max, abs(float((subsystem_of(fam, a)[3] @ v)[0])))
+        p00 = np.maximum(p00, np.einsum("i,nij,j->n", v, P, v))
         try:
             W = np.linalg.inv(P)
         except np.linalg.LinAlgError:
@@ -516,7 +519,7 @@ def check_lure_block(block: Mapping[str, Any], dims: Mapping[str, Sequence[int]]
     points (``lmi``), at the grid (both axes) and on the coupled loop at the grid, and every stated number
     compared.  ``reach`` is the smaller of the two recomputed reaches.
     """
-    region = LureRegion.from_json(block, dims)
+    region = LureRegion.from_json(block, dims, {a: lyap[a].P.shape[-1] for a in HORIZONTAL})
     ck = [lure_check(region, box, lmi[a], axes=[a]) for a in HORIZONTAL]
     cg = lure_check(region, box, grid)
     dec, bound = coupled_decrease(region, lyap, dims, box, grid)

@@ -334,8 +334,8 @@ def _cascade_section(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, 
     delay_samples
         Measurement delay [samples] the loop is certified with: a delay line of that many samples per axis
         between the position and the law (:func:`nniquad.analysis.cascade.family.with_delay_line`); the start
-        fills it with the start position.  The region is then the linear zone's (the Lur'e-Postnikov region is
-        solved for a start with nothing but the position and the law's state), and the margins are without it.
+        fills it with the start position (:func:`nniquad.analysis.cascade.region.start_vector`, the start of both
+        regions); the margins are without it.
 
     Raises
     ------
@@ -371,8 +371,8 @@ def _cascade_section(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, 
     # the Lur'e-Postnikov region, kept when it passes every numpy check and reaches further than the linear zone;
     # it is solved for a start with the controller state 0, so not for a law that starts elsewhere (sni2: at its
     # DC value)
-    lure, record = (lure_section(fam, pts, lyap, grid_fam, box, dims)
-                    if gains.law.starts_at_zero(gains, vehicle.m) and not delay_samples else (None, None))
+    lure, record = (lure_section(fam, pts, lyap, grid_fam, box, dims) if gains.law.starts_at_zero(gains, vehicle.m)
+                    else (None, None))
     reach = min(lz_lmi, lz_grid)
     roa_block: dict[str, Any] = {"u0_m_s2": L, "tilt_limit_deg": float(tilt_limit_deg), "method": "linear_zone"}
     if lure is not None and min(lure["check_lmi_points"]["reach_m"], lure["check_grid"]["reach_m"]) > reach:
