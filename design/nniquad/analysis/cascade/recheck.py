@@ -302,7 +302,7 @@ def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: GainBlock, inn
     try:
         coverage = LYAPUNOV_COVERAGE if "box_proof" in section else LYAPUNOV_COVERAGE_GRID_ONLY
         texts = (section["lyapunov"]["form"] == LYAPUNOV_FORM and section["lyapunov"]["coverage"] == coverage
-                 and section["region_of_attraction"]["note"] == roa_note(gains.law)
+                 and section["region_of_attraction"]["note"] == roa_note(gains.law, delay)
                  and section["margins"]["points"] == MARGIN_POINTS and section["margins"]["model"] == margin_model(delay)
                  and all(list(section["lyapunov"]["subsystems"][n]["states"]) == list(expected[n])
                          for n in SUBSYSTEMS))

@@ -380,7 +380,7 @@ def _cascade_section(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, 
         reach = min(lure["check_lmi_points"]["reach_m"], lure["check_grid"]["reach_m"]) * (1.0 - 1e-9)
         roa_block.update(method="lure", lure=lure)
     roa_block.update({"max_displacement_m": reach, "linear_zone_reach_lmi_points_m": lz_lmi,
-                      "linear_zone_reach_grid_m": lz_grid, "note": roa_note(gains.law),
+                      "linear_zone_reach_grid_m": lz_grid, "note": roa_note(gains.law, delay_samples),
                       "lure_search": record})  # a record (nniquad.certificates.verify.RECORD_FIELDS)
     timings["roa_s"] = time.perf_counter() - t0 - sum(timings.values())
     mdims = tuple(sorted(set(dims["x"]) | set(dims["y"])))
