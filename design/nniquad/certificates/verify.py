@@ -43,6 +43,7 @@ from nniquad.certificates.certificate import (
     read_certificate,
     reference_run_options,
 )
+from nniquad.analysis.cascade.recheck import stated_delay
 from nniquad.analysis.verified.inequalities import outcome_of
 from nniquad.analysis.verified.spd import FAILS, NOT_PROVEN, PROVEN
 from nniquad.certificates.check_record import PASS, Check, clear_cache, fmt_value, is_number, thaw_json
@@ -278,6 +279,11 @@ def coverage_notes(cert: Certificate) -> list[str]:
                      "the start's status in every region the certificate states")
     if cert.tracking is None and cert.cascade is not None:  # schema 1 covers no sampled cascade: said above
         notes.append(NOT_STATED)
+    if cert.certified_delay_samples and cert.cascade is not None:
+        n, rate = cert.certified_delay_samples, cert.cascade.get("rate_hz")
+        ms = f" ({1000.0 * n / rate:g} ms at {rate:g} Hz)" if is_number(rate) and rate > 0 else ""
+        notes.append(f"measurement delay: the cascade section certifies the loop with a delay of exactly {n} samples"
+                     f"{ms}; the reduced-loop LMIs, the margins and the reference runs are without it")
     notes.append("records, not verified (no check and no Monte Carlo run reads them): "
                  + ", ".join(RECORD_FIELDS) + " (except tuning.model, which must equal model)")
     return notes
@@ -294,6 +300,7 @@ def _verify(cert: Certificate, simulate: bool, say: Callable[[str], None], fail_
         lambda: _layout_check(cert),
         lambda: _law_class_check(cert),
         lambda: _settings_check(cert),
+        lambda: _delay_check(cert),
         lambda: sector_check(cert, tol),
         lambda: poles_check(cert),
         lambda: ni_checks(cert, tol, "plant_ni"),
@@ -384,6 +391,19 @@ def _layout_check(cert: Certificate) -> Check:
     bad += [k for k, same in forms.items() if not same]
     return Check("layout", not bad, "every section has exactly its keys; the stated forms are the library's"
                  if not bad else f"unexpected keys or forms in: {', '.join(bad)}")
+
+
+def _delay_check(cert: Certificate) -> Check:
+    """The stated ``delay_samples`` is the cascade section's, which its re-check rebuilds the loop with; a
+    certificate without a cascade section states none (it certifies no sampled loop)."""
+    stated = cert.delay_samples
+    if cert.cascade is None:
+        return Check("delay_samples", stated is None, "no cascade section: no delay stated" if stated is None
+                     else f"states delay_samples {stated} without a cascade section that certifies it")
+    section = stated_delay(cert.cascade)
+    ok = section is not None and (stated if stated is not None else 0) == section
+    return Check("delay_samples", ok, f"stated {stated}, cascade section {cert.cascade.get('delay_samples')} "
+                                      "(the section's re-check rebuilds the loop with its own)")
 
 
 def _settings_check(cert: Certificate) -> Check:

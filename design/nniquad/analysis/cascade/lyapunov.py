@@ -116,6 +116,20 @@ def robust_lyapunov(A_v: np.ndarray, T: float, *, S: np.ndarray | None = None, t
     SolverError
         A vertex is unstable, or no ``ρ < 1`` is certified.
     """
+    try:
+        return _robust_lyapunov(A_v, T, S=S, theta=theta, rtol=rtol, max_iter=max_iter)
+    except SolverError:
+        if S is not None:
+            raise
+        # the modal coordinates of a loop with a measurement delay line can be too ill-conditioned for a witness
+        # whose margins clear rounding: diagonal balancing instead (only where the modal answer failed)
+        _, (scale, _) = sla.matrix_balance(np.asarray(A_v, float)[0], permute=False, separate=True)
+        return _robust_lyapunov(A_v, T, S=np.diag(scale), theta=theta, rtol=rtol, max_iter=max_iter)
+
+
+def _robust_lyapunov(A_v: np.ndarray, T: float, *, S: np.ndarray | None, theta: np.ndarray | None, rtol: float,
+                     max_iter: int) -> RobustLyapunov:
+    """:func:`robust_lyapunov` in the coordinates ``S`` (``None``: :func:`conditioning_transform` of ``A_v[0]``)."""
     A_v = np.asarray(A_v, float)
     nv, n = A_v.shape[0], A_v.shape[1]
     rho_spec = float(np.max(np.abs(np.linalg.eigvals(A_v))))
@@ -216,7 +230,8 @@ def _solved_affine(prob: ConicProblem, it: np.ndarray, iP: np.ndarray, E: np.nda
 
 
 def reach_lyapunov(A_v: np.ndarray, T: float, K: np.ndarray, L: float, rho: float, *,
-                   theta: np.ndarray | None = None, eps: float = 1e-6) -> RobustLyapunov | None:
+                   theta: np.ndarray | None = None, eps: float = 1e-6,
+                   start: np.ndarray | None = None) -> RobustLyapunov | None:
     """A horizontal axis's ``P(θ)`` with the widest linear-zone reach, at a given contraction ``rho``.
 
     The ellipsoid ``{xᵀ P(θ) x <= 1}`` lies where the tilt limit is inactive iff
@@ -245,6 +260,9 @@ def reach_lyapunov(A_v: np.ndarray, T: float, K: np.ndarray, L: float, rho: floa
         The points' coordinates in the θ-cube.
     eps
         Smallest eigenvalue of ``P`` in the balanced coordinates.
+    start : array (n,), optional
+        The start per metre in place of ``e_0`` (its level ``startᵀ P(θ) start`` is minimised; a delay line
+        starts full, :func:`nniquad.analysis.cascade.region.start_vector`).
 
     Returns
     -------
@@ -258,7 +276,7 @@ def reach_lyapunov(A_v: np.ndarray, T: float, K: np.ndarray, L: float, rho: floa
     S, Sinv = np.diag(scale), np.diag(1.0 / scale)
     Ab = Sinv @ A_v @ S
     KS = np.asarray(K, float).reshape(1, n) @ S
-    e0 = Sinv[:, 0]  # x_0 = r e_0 in the balanced coordinates
+    e0 = Sinv[:, 0] if start is None else Sinv @ np.asarray(start, float)  # x_0 = r e_0 in the balanced coordinates
     E = sym_basis(n)
     corners, at_points = _affine_weights(th)
     prob = ConicProblem()

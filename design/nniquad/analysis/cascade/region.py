@@ -56,6 +56,7 @@ from nniquad.analysis.cascade.family import (
 from nniquad.analysis.cascade.lyapunov import RobustLyapunov, affine_in, spectral_norms
 from nniquad.analysis.lmi import checks as lmi_checks
 from nniquad.laws.base import ControlLaw
+from nniquad.sim import delay_state_names
 
 __all__ = ["linear_zone_reach", "HORIZONTAL", "features", "LureRegion", "decrease_forms", "LureCheck",
            "lure_check", "coupled_decrease", "coupled_parts", "huber", "lure_block", "check_lure_block", "ROA_NOTE", "roa_note",
@@ -75,7 +76,7 @@ ROA_NOTE = ("lure: the region {V <= c} of V = x'P(θ)x + 2 μ(θ) Φ(K x / L(θ)
 LURE_FORM = ("P_a(θ) = Σ_f φ_f(θ_a) P_a,f, G_a(θ) likewise, μ(θ) = Σ_f φ_f(θ_m) μ_f; φ = 1, θ_j, θ_j θ_k (j < k), "
              "θ_j² of the axis's log factors normalised on the box (θ_m: those of both axes); the sector "
              "multiplier is 1; V(x⁺) - V(x) <= -(1 - rho²) x'Px")
-def roa_note(law: ControlLaw) -> str:
+def roa_note(law: ControlLaw, delay_samples: int = 0) -> str:
     """The stated region-of-attraction note: :data:`ROA_NOTE` with the law's start
     (:attr:`~nniquad.laws.base.ControlLaw.start_description`; :func:`start_vector`) and the coupled loop's size.
 
@@ -83,14 +84,19 @@ def roa_note(law: ControlLaw) -> str:
     ----------
     law
         The certified law.
+    delay_samples
+        The measurement delay line's length: it starts full of the start position.
     """
-    n = 17 + len(law.sim_state_names)
-    return ROA_NOTE.replace("controller state 0", law.start_description).replace("19-state", f"{n}-state")
+    n = 17 + len(law.sim_state_names) + 2 * int(delay_samples)
+    start = law.start_description + (f", the measurement delay line ({int(delay_samples)} samples) full of the start "
+                                      "position" if delay_samples else "")
+    return ROA_NOTE.replace("controller state 0", start).replace("19-state", f"{n}-state")
 
 
 def start_vector(fam: CascadeFamily, axis: str) -> np.ndarray:
     """The start state of an axis's subsystem per metre of displacement: the position 1, the law's controller
-    states at their take-over values (:meth:`nniquad.laws.base.ControlLaw.start_map`), every other state 0.
+    states at their take-over values (:meth:`nniquad.laws.base.ControlLaw.start_map`), the measurement delay
+    line (if any) 1 too (the vehicle sat at the start before take-over), every other state 0.
 
     Parameters
     ----------
@@ -111,6 +117,9 @@ def start_vector(fam: CascadeFamily, axis: str) -> np.ndarray:
         for i, name in enumerate(law.sim_state_names):
             if name.endswith(f"_{axis}") and name in names:
                 v[names.index(name)] = S[i, a]
+    for name in delay_state_names(fam.delay_samples):
+        if name.endswith(f"_{axis}"):
+            v[names.index(name)] = 1.0
     return v
 
 
@@ -202,8 +211,10 @@ class LureRegion:
                 "mu": np.asarray(self.mu).tolist()}
 
     @classmethod
-    def from_json(cls, data: Mapping[str, Any], dims: Mapping[str, Sequence[int]]) -> "LureRegion":
-        """Read a stated region (``dims``: the axes' coordinates stated by the Lyapunov block).
+    def from_json(cls, data: Mapping[str, Any], dims: Mapping[str, Sequence[int]],
+                  n_states: Mapping[str, int] | None = None) -> "LureRegion":
+        """Read a stated region (``dims``: the axes' coordinates stated by the Lyapunov block; ``n_states``: each
+        axis's states, default those of :data:`~nniquad.analysis.cascade.family.SUBSYSTEMS`, more with a delay line).
 
         Raises
         ------
@@ -215,7 +226,7 @@ class LureRegion:
         G = {a: np.asarray(data["G"][a], float) for a in HORIZONTAL}
         mu = np.asarray(data["mu"], float)
         for a in HORIZONTAL:
-            nf, n = n_features(len(dims[a])), len(SUBSYSTEMS[a])
+            nf, n = n_features(len(dims[a])), (len(SUBSYSTEMS[a]) if n_states is None else int(n_states[a]))
             if P[a].shape != (nf, n, n) or G[a].shape != (nf, 1, n):
                 raise ValueError(f"axis {a}: P or G does not have the shape of {nf} features of {n} states")
             if not np.array_equal(P[a], np.swapaxes(P[a], -1, -2)):
@@ -405,8 +416,9 @@ def lure_check(region: LureRegion, box: ParameterBox, fam: CascadeFamily,
     for a in HORIZONTAL:
         P, G, mu = region.at(box, fam.points, a)
         A, Bh, Kh = axis_loops(fam, a)
-        k_max = max(k_max, abs(float(subsystem_of(fam, a)[3][0, 0])))
-        p00 = np.maximum(p00, P[:, 0, 0])
+        v = start_vector(fam, a)  # the position alone (e_0), or with the delay line full
+        k_max = max(k_max, abs(float((subsystem_of(fam, a)[3] @ v)[0])))
+        p00 = np.maximum(p00, np.einsum("i,nij,j->n", v, P, v))
         try:
             W = np.linalg.inv(P)
         except np.linalg.LinAlgError:
@@ -511,7 +523,7 @@ def check_lure_block(block: Mapping[str, Any], dims: Mapping[str, Sequence[int]]
     points (``lmi``), at the grid (both axes) and on the coupled loop at the grid, and every stated number
     compared.  ``reach`` is the smaller of the two recomputed reaches.
     """
-    region = LureRegion.from_json(block, dims)
+    region = LureRegion.from_json(block, dims, {a: lyap[a].P.shape[-1] for a in HORIZONTAL})
     ck = [lure_check(region, box, lmi[a], axes=[a]) for a in HORIZONTAL]
     cg = lure_check(region, box, grid)
     dec, bound = coupled_decrease(region, lyap, dims, box, grid)
