@@ -327,3 +327,38 @@ def test_prefix_option_names_the_files_and_bad_prefix_is_one_line(tmp_path, run_
                              "--out", str(tmp_path / "o"))
     assert code == 2 and "prefix must be a C identifier" in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "o").exists() or not any((tmp_path / "o").iterdir())
+
+
+def test_integral_law_c_step_with_anti_windup_equals_the_numpy_controller(tmp_path):
+    """The ``sni2_i`` law (the sni2 certificate's design with the seeded integral gain) exported and driven from a
+    2.5 m start, saturated for its first steps, with a changing yaw and altitude command (the C step computes the
+    excess from its own tilt limit ``g_z tan``): the C step against :meth:`DiscreteLaw.step` with its anti-windup."""
+    import dataclasses
+
+    from nniquad.certificates.c_export import write_c
+    from nniquad.control.discrete import DiscreteLaw
+    from nniquad.laws import integral_variant
+
+    cert = read_certificate(CERTS["sni2"])  # the header's vehicle and inner loop; the gains are the integral law's
+    gains = integral_variant(cert.gains.law).seed_from(cert.gains, cert.vehicle.m)
+    ctrl = DiscreteLaw.from_gains(gains, cert.vehicle.m, cert.vehicle.g, 100.0, cert.tilt_limit_deg)
+    assert ctrl.W is not None
+    write_c(ctrl, cert, tmp_path, "integ", rate_certified=False)
+    tr = simulate(cert.vehicle, gains, SimOptions(model="reduced", horizon_s=3.0, output_dt_s=0.01, xi0=(2.5, -0.5),
+                                                  controller_sampling="discrete"))[0]
+    rng = np.random.default_rng(44)
+    ref = np.array([1.0, 2.0])
+    pos, psi, a_z = tr.xy + ref, rng.uniform(-math.pi, math.pi, len(tr.t)), rng.uniform(-3.0, 3.0, len(tr.t))
+    lines = ["i", _cmd("s", pos[0], ref, 0.0, 0.0)] + [_cmd("t", p, ref, s, a) for p, s, a in zip(pos, psi, a_z)]
+    status, _, got = _drive(_compile(tmp_path, "integ"), lines)
+    assert np.all(status == STATUS["OK"])
+    want = _reference(ctrl, pos - ref, psi, a_z)
+    scale = np.maximum(1.0, np.max(np.abs(want), axis=0))
+    assert np.max(np.abs(got[2:] - want) / scale) < 1e-12
+    ns = ctrl.n_state
+    g_z = want[:, ns + 4]
+    saturated = np.hypot(want[:, ns + 2], want[:, ns + 3]) >= g_z * math.tan(ctrl.tilt_limit_rad) * (1 - 1e-12)
+    assert saturated[:5].all() and not saturated[-10:].any()
+    # the anti-windup is in the C step: without it the integrator states differ after the saturated steps
+    plain = _reference(dataclasses.replace(ctrl, W=None), pos - ref, psi, a_z)
+    assert np.max(np.abs(plain[:, ns - 2:ns] - got[2:, ns - 2:ns])) > 1e-3

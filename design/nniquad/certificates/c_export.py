@@ -198,6 +198,14 @@ def _define(name: str, value: Any, comment: str) -> str:
     return f"/* {comment} */\n#define {name} {value}\n"
 
 
+def _anti_windup_text(ctrl: "DiscreteLaw", law: Any) -> str:
+    """The header's paragraph on the anti-windup of a law that has one (empty otherwise)."""
+    if ctrl.W is None:
+        return ""
+    return ("   ANTI-WINDUP\n   The step adds W (a - sat(a)) to the state, a the command before the tilt limit and sat(a)\n"
+            f"   the command after it (its own limit g_z tan(limit)): {law.discretisation_text()}.\n\n")
+
+
 def _header(ctrl: "DiscreteLaw", cert: "Certificate", p: str, rate_certified: bool, limit_m: float) -> str:
     P = p.upper()
     n = ctrl.n_state
@@ -264,7 +272,7 @@ def _header(ctrl: "DiscreteLaw", cert: "Certificate", p: str, rate_certified: bo
    {inner['attitude_zeta']:.6g}, lag 2 zeta_a/omega_a = {inner['attitude_lag_s']:.6g} s.  An attitude loop outside the
    certified box is not covered (a slower one lets the law overshoot more and settle later).  Certified parameter box (factors on the nominal values): {box_text}
 
-   API: {p}_init, then {p}_start at take-over (bumpless), then {p}_step once per
+{_anti_windup_text(ctrl, law)}   API: {p}_init, then {p}_start at take-over (bumpless), then {p}_step once per
    sample at {P}_RATE_HZ; {p}_reset hands control back (step is refused until the next start).  Every function returns a status
    {P}_OK (0) or a negative {P}_ERR_*; on an error the state and the outputs are left exactly as
    they were.  Define {P}_USE_FLOAT before including this header (and when compiling {p}.c)

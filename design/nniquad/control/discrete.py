@@ -16,7 +16,9 @@ The command ``a_k`` is held until the next sample.  The output stage is the simu
 (:mod:`nniquad.control.inner_loops`): the norm limit ``‖a‖ <= g_z tan(T_lim)`` with
 ``g_z = max(g - a_z, 0.2 g)`` (``a_z`` the altitude loop's vertical command, NED) and the
 tilt setpoints ``φ_d, θ_d`` at yaw ``ψ``.  The controller state integrates the measurement
-whatever the limit does (as in the simulator).
+whatever the limit does (as in the simulator), except for a law with anti-windup
+(:meth:`nniquad.laws.base.ControlLaw.anti_windup_gains`, the integral laws): its state gets
+``W (a_k - sat(a_k))``, ``W = T`` times the anti-windup gains (``q_{k+1} = q_k + T (ξ_k + (a_k - sat(a_k))/k_p)``).
 
 :class:`DiscreteLaw` holds the matrices and steps in numpy (the reference);
 :meth:`DiscreteLaw.casadi_step` is the same step as a CasADi function, which
@@ -93,6 +95,8 @@ class DiscreteLaw:
     S : ndarray (n, 2), optional
         Start map: the state at take-over is ``x_0 = S ξ_0`` (:meth:`start`); ``None``: zero (the NNI law).
         ``sni2``: at rest at the DC value, ``S = [C(0) I; 0]``.
+    W : ndarray (n, 2), optional
+        Anti-windup: the state gets ``W (a_k - sat(a_k))`` (the excess of the tilt limit); ``None``: none.
     """
 
     A: np.ndarray
@@ -104,6 +108,7 @@ class DiscreteLaw:
     tilt_limit_rad: float
     law: str = "nni"
     S: np.ndarray | None = None
+    W: np.ndarray | None = None
 
     @classmethod
     def from_gains(cls, gains: GainBlock, m_nom: float, g: float, rate_hz: float,
@@ -143,8 +148,15 @@ class DiscreteLaw:
         Ad, Bd = law.zoh(gains, m_nom, T)
         _, _, C, D = law.both_axes(gains, m_nom)
         S = law.start_map(gains, m_nom)
+        p = law.parameters(gains, m_nom)
+        aw = [law.anti_windup_gains(p, a) for a in (0, 1)]
+        W = None
+        if any(aw):
+            W = np.zeros((Ad.shape[0], 2))
+            for a in (0, 1):
+                W[a::2, a] = T * np.asarray(aw[a] or np.zeros(law.n_states), float)
         return cls(A=Ad, B=Bd, C=C, D=D, T=T, g=float(g), tilt_limit_rad=math.radians(tilt_limit_deg),
-                   law=law.name, S=S if np.any(S) else None)
+                   law=law.name, S=S if np.any(S) else None, W=W)
 
     @property
     def rate_hz(self) -> float:
@@ -176,7 +188,11 @@ class DiscreteLaw:
     def state_names(self) -> list[str]:
         """The names of the state entries of both axes, interleaved (``z_x, z_y, zdot_x, zdot_y``)."""
         base = ["z", "zdot", "zddot", "z3"]
-        return [f"{base[i] if i < len(base) else f'z{i}'}_{a}" for i in range(self.n_state // 2) for a in "xy"]
+        n = self.n_state // 2
+        names = [base[i] if i < len(base) else f"z{i}" for i in range(n)]
+        if law_named(self.law).integral:  # the integrator q is the last state of each axis
+            names = base[: n - 1] + ["q"]
+        return [f"{name}_{a}" for name in names for a in "xy"]
 
     @property
     def step_inputs(self) -> tuple[tuple[str, int, str, str], ...]:
@@ -206,13 +222,16 @@ class DiscreteLaw:
         g_z = float(IL.vertical_specific_force(self.g, a_z))
         limit = g_z * math.tan(self.tilt_limit_rad)
         norm = float(np.hypot(a[0], a[1]))
-        a = a * (limit / max(norm, limit))
+        a_raw, a = a, a * (limit / max(norm, limit))
         # tilt setpoints: thrust direction parallel to (a_x, a_y, -g_z) in the yaw frame
         c, s = math.cos(psi), math.sin(psi)
         bx, by = c * a[0] + s * a[1], -s * a[0] + c * a[1]
         theta_d = math.atan2(-bx, g_z)
         phi_d = math.atan(by * math.cos(theta_d) / g_z)
-        return self.A @ z + self.B @ xi, a, np.array([phi_d, theta_d])
+        z_next = self.A @ z + self.B @ xi
+        if self.W is not None:
+            z_next = z_next + self.W @ (a_raw - a)
+        return z_next, a, np.array([phi_d, theta_d])
 
     def run(self, xi: np.ndarray, psi: np.ndarray | None = None, a_z: np.ndarray | None = None,
             z0: np.ndarray | None = None, a_ff: np.ndarray | None = None) -> dict[str, np.ndarray]:
@@ -259,9 +278,11 @@ class DiscreteLaw:
         if feedforward:
             a = a + syms[4]
         g_z = IL.vertical_specific_force(self.g, a_z)
-        a = IL.limit_norm(a, g_z * math.tan(self.tilt_limit_rad))
+        a_raw, a = a, IL.limit_norm(a, g_z * math.tan(self.tilt_limit_rad))
         phi_d, theta_d, _ = IL.tilt_setpoints(a, g_z, psi)
         z_next = ca.mtimes(ca.DM(self.A), z) + ca.mtimes(ca.DM(self.B), xi)
+        if self.W is not None:  # anti-windup: the excess of this step's own tilt limit
+            z_next = z_next + ca.mtimes(ca.DM(self.W), a_raw - a)
         return ca.Function(name, syms, [z_next, a, ca.vertcat(phi_d, theta_d)],
                            [n for n, *_ in inputs], [n for n, *_ in self.step_outputs])
 
@@ -271,11 +292,13 @@ class DiscreteLaw:
         units = {f"state {n}": u for n, u in zip(("z", "z'", "z''"), law.state_units)}
         return {
             "law": self.law,
-            "form": "z[k+1] = A z[k] + B xi[k];  a_h[k] = C z[k] + D xi[k]  (then the tilt limit)",
+            "form": "z[k+1] = A z[k] + B xi[k]" + (" + W (a[k] - sat(a[k]))" if self.W is not None else "")
+                    + ";  a_h[k] = C z[k] + D xi[k]  (then the tilt limit" + (": sat)" if self.W is not None else ")"),
             "discretisation": law.discretisation_text(),
             "sample_period_s": self.T,
             "rate_hz": self.rate_hz,
             "A": self.A.tolist(), "B": self.B.tolist(), "C": self.C.tolist(), "D": self.D.tolist(),
+            **({"W": self.W.tolist()} if self.W is not None else {}),
             "units": {**units, "input xi": "m", "output a_h": "m/s^2", **law.export_matrix_units()},
             "state_names": self.state_names, "input_names": ["xi_x", "xi_y"], "output_names": ["a_x", "a_y"],
             "g_m_s2": self.g,

@@ -296,6 +296,8 @@ class ControlLaw:
         How exported code and reports name the law (default: its name).
     default_gains
         The gains a command uses when none are given (the paper's for the NNI law; ``None``: no default).
+    integral
+        Whether the law has integral action on the position (:mod:`nniquad.laws.integral`).
     """
 
     name: ClassVar[str]
@@ -314,6 +316,7 @@ class ControlLaw:
     display_name: ClassVar[str] = ""
     default_gains: ClassVar["GainBlock | None"] = None
     controller_label: ClassVar[str] = "controller"
+    integral: ClassVar[bool] = False
 
     # ------------------------------------------------------------------ gains
     def __init__(self) -> None:
@@ -626,6 +629,19 @@ class ControlLaw:
             for i in range(n):
                 dx[2 * i + a] = _affine(A[i], x, B[i], u)
         return a_h, dx
+
+    def anti_windup_gains(self, p: Mapping[str, Any], axis: int = 0) -> list | None:
+        """The anti-windup gains of one axis: the controller states' derivative gets them times the axis's excess
+        ``a_h - sat(a_h)`` of the tilt limit (the discrete law ``T`` times them); ``None``: no anti-windup.
+
+        Parameters
+        ----------
+        p
+            The gains by name and ``m_hat`` (numbers or expressions).
+        axis
+            0 or 1.
+        """
+        return None
 
     def sim_sample(self, p: Mapping[str, Any], xc: Sequence[Any], held: Sequence[Any], vel: Sequence[Any],
                    T: Any, sample: Any, advance: Any, lib: Any) -> list:

@@ -170,13 +170,14 @@ def _closed_loop(model: str, X: ca.SX, e: ca.SX, p: ca.SX, controller: str = "nn
     a_list, xc_rates = law.sim_rates(_law_parameters(law, P), [meas[0], meas[1]], [vel_err[0], vel_err[1]], xc,
                                      discrete, ca)
     # the feedforward joins before the tilt limit, so the limit still bounds the commanded tilt
-    a_h = ca.vertcat(*a_list) + a_ff
+    a_raw = ca.vertcat(*a_list) + a_ff
+    limit = _tilt_limit(model, X, P, ix)
+    a_h = a_raw if limit is None else IL.limit_norm(a_raw, limit)
+    xc_rates = _with_anti_windup(law, P, xc_rates, a_raw - a_h)
     # discrete variant: the controller states are constant over the period and advanced by step_function
     zc_dot = ca.if_else(discrete, ca.SX.zeros(len(xc)), ca.vertcat(*xc_rates)) if xc else ca.SX.zeros(0)
     if model in ("linear", "reduced"):
         g = P["nominal.g"]
-        if model == "reduced":
-            a_h = IL.limit_norm(a_h, g * ca.tan(P["run.tilt_limit"]))
         acc = (P["nominal.m"] / P["plant.m"]) * a_h + wind / P["plant.m"]
         phi_d, theta_d, tilt = IL.tilt_setpoints(a_h, g, 0)
         Xdot = ca.vertcat(vel[0], acc[0], vel[1], acc[1], zc_dot, ca.SX.zeros(2))
@@ -184,12 +185,10 @@ def _closed_loop(model: str, X: ca.SX, e: ca.SX, p: ca.SX, controller: str = "nn
 
     # ---- full vehicle
     s = X[0:12]
-    z, z_dot = s[4], s[5]
+    z = s[4]
     eta, eta_dot = s[[6, 8, 10]], s[[7, 9, 11]]
-    z_int, w_state = X[ix["z_int"]], X[[ix[f"w{i}"] for i in range(1, 5)]]
-    a_z = IL.altitude_command(z, z_dot, z_int, P["inner.altitude_wn_rad_s"])
-    g_z = IL.vertical_specific_force(P["nominal.g"], a_z)
-    a_h = IL.limit_norm(a_h, g_z * ca.tan(P["run.tilt_limit"]))
+    w_state = X[[ix[f"w{i}"] for i in range(1, 5)]]
+    g_z = _vertical_specific_force(X, P, ix)
     phi_d, theta_d, tilt = IL.tilt_setpoints(a_h, g_z, eta[2])
     cos_tilt = ca.cos(eta[0]) * ca.cos(eta[1])
     u1 = IL.collective_thrust(P["nominal.m"], g_z, cos_tilt)
@@ -215,6 +214,33 @@ def _closed_loop(model: str, X: ca.SX, e: ca.SX, p: ca.SX, controller: str = "nn
     return Xdot, ca.vertcat(a_h, tilt, w_act, u[0])
 
 
+def _vertical_specific_force(X: ca.SX, P: dict, ix: dict[str, int]) -> ca.SX:
+    """``g_z`` of the full model's altitude loop (:func:`nniquad.control.inner_loops.vertical_specific_force`)."""
+    a_z = IL.altitude_command(X[ix["z"]], X[ix["z_dot"]], X[ix["z_int"]], P["inner.altitude_wn_rad_s"])
+    return IL.vertical_specific_force(P["nominal.g"], a_z)
+
+
+def _tilt_limit(model: str, X: ca.SX, P: dict, ix: dict[str, int]) -> ca.SX | None:
+    """The norm limit of the horizontal command, ``g_z tan(T_lim)`` (``g`` on ``reduced``); ``None`` on ``linear``."""
+    if model == "linear":
+        return None
+    g_z = P["nominal.g"] if model == "reduced" else _vertical_specific_force(X, P, ix)
+    return g_z * ca.tan(P["run.tilt_limit"])
+
+
+def _with_anti_windup(law: ControlLaw, P: dict, rates: list, excess: ca.SX, scale: ca.SX = 1.0) -> list:
+    """``rates`` plus ``scale`` times the law's anti-windup gains times each axis's excess ``a_h - sat(a_h)``
+    (:meth:`~nniquad.laws.base.ControlLaw.anti_windup_gains`; unchanged for a law without anti-windup)."""
+    p = _law_parameters(law, P)
+    out = list(rates)
+    for a in (0, 1):
+        gains = law.anti_windup_gains(p, a)
+        for i, k in enumerate(gains or ()):
+            if not (isinstance(k, (int, float)) and k == 0):
+                out[2 * i + a] = out[2 * i + a] + scale * k * excess[a]
+    return out
+
+
 @lru_cache(maxsize=None)
 def _index(model: str, controller: str) -> dict[str, int]:
     """Position of every state of a model with a controller law (:func:`nniquad.sim.params.state_names`)."""
@@ -229,6 +255,20 @@ def _symbols(model: str, controller: str) -> tuple[ca.SX, ca.SX, ca.SX]:
 def _suffix(controller: str) -> str:
     """Function-name suffix: ``_<law>``."""
     return f"_{check_controller(controller)}"
+
+
+def _held_excess(model: str, X: ca.SX, e: ca.SX, P: dict, law: ControlLaw) -> ca.SX:
+    """The excess ``a_h - sat(a_h)`` of the command of the held measurement and the present controller state."""
+    ix = _index(model, law.name)
+    limit = _tilt_limit(model, X, P, ix)
+    if limit is None or not any(law.anti_windup_gains(_law_parameters(law, P), a) for a in (0, 1)):
+        return ca.SX.zeros(2)
+    held = [X[ix["held_x"]], X[ix["held_y"]]]
+    vel = X[[ix["x_dot"], ix["y_dot"]]] - _exo(e, "ref_v")
+    a_list, _ = law.sim_rates(_law_parameters(law, P), held, [vel[0], vel[1]], [X[ix[n]] for n in law.sim_state_names],
+                              True, ca)
+    a_raw = ca.vertcat(*a_list) + _exo(e, "ff")
+    return a_raw - IL.limit_norm(a_raw, limit)
 
 
 @cached_casadi_function
@@ -283,8 +323,12 @@ def step_function(model: str, controller: str = "nni") -> ca.Function:
     Xa = X
     if zs:
         vel_err = X[[ix["x_dot"], ix["y_dot"]]] - _exo(e, "ref_v")
-        zc = ca.vertcat(*law.sim_sample(_law_parameters(law, P), [X[i] for i in zs], [X[hs[0]], X[hs[1]]],
-                                        [vel_err[0], vel_err[1]], P["run.sample_period"], sample, advance, ca))
+        zc = law.sim_sample(_law_parameters(law, P), [X[i] for i in zs], [X[hs[0]], X[hs[1]]],
+                            [vel_err[0], vel_err[1]], P["run.sample_period"], sample, advance, ca)
+        # anti-windup over the period that ends: its excess, recomputed from the state and measurement held over it
+        # (exact on reduced without a changing feedforward; full: g_z and a_ff read now, one period late)
+        zc = ca.vertcat(*_with_anti_windup(law, P, zc, _held_excess(model, X, e, P, law),
+                                           ca.if_else(advance, P["run.sample_period"], 0.0)))
         # the controller states and the held measurement are contiguous runs of the state (state_names)
         Xa = ca.vertcat(X[: zs[0]], zc, X[zs[-1] + 1 :])
     # the latch takes the error to the reference sampled with the measurement
