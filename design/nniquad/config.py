@@ -20,6 +20,7 @@ __all__ = [
     "OUTPUT_DT_S",
     "MASS_RANGE_FRACTION",
     "CONTROL_RATE_HZ",
+    "ROBUST_DELAY_SAMPLES",
     "TRACKING_ACCEL_LIMIT_M_S2",
     "TRACKING_JERK_LIMIT_M_S3",
     "EXPORT_POSITION_ERROR_LIMIT_M",
@@ -83,6 +84,9 @@ TRACKING_ACCEL_LIMIT_M_S2: float = 3.0
 TRACKING_JERK_LIMIT_M_S3: float = 5.0
 #: Control rate = position sample rate [Hz] of the sampled-data loop and of the exported controller.
 CONTROL_RATE_HZ: float = 100.0
+#: Measurement delay [control periods] the robust default tuning scenarios and ``certify`` cover: the position
+#: reaches the law this many samples late (motion capture and GNSS stacks: 10-30 ms; 2 samples = 20 ms at 100 Hz).
+ROBUST_DELAY_SAMPLES: int = 2
 #: The exported C step scales a larger position error down to this norm [m] (direction kept) before the law: a
 #: glitch then cannot overflow the command or wind the controller state up for minutes.  Far beyond any certified
 #: reach, so the law inside it is exactly the certified one.

@@ -43,7 +43,7 @@ from nniquad.laws.base import GainBlock
 from nniquad.laws.classes import DEFAULT_LAW_CLASS, law_class as law_class_of, within_sector_bound
 from nniquad.laws.registry import law_named, ni_law_names
 from nniquad.model.vehicle import Vehicle
-from nniquad.sim.options import check_rate_hz
+from nniquad.sim.options import check_delay_samples, check_rate_hz
 from nniquad.tuning.objective import required_hold_s, settling_shown
 
 __all__ = ["build_certificate", "BUILD_STEPS", "unsettled_reference_run", "performance_runs", "margins_section", "MARGIN_FIELDS", "sector_pm_ceiling_deg",
@@ -169,7 +169,7 @@ def build_certificate(vehicle: Vehicle, gains: GainBlock, *, inner: InnerLoopGai
                       widest_box: bool = False, refuse_unsettled: bool = False,
                       grid_points_per_axis: int = CASCADE_GRID_POINTS_PER_AXIS,
                       law_class: str = DEFAULT_LAW_CLASS, tracking: bool = True,
-                      tracking_corners: bool = False) -> Certificate:
+                      tracking_corners: bool = False, delay_samples: int = 0) -> Certificate:
     """Solve every LMI for ``gains``, simulate, and assemble a signed certificate.
 
     Parameters
@@ -232,6 +232,10 @@ def build_certificate(vehicle: Vehicle, gains: GainBlock, *, inner: InnerLoopGai
     tracking_corners
         The tracking bound covers the corners of the cascade section's box too (about 20 s more); else the
         nominal vehicle.
+    delay_samples
+        Measurement delay [control periods] the cascade section certifies (a delay line between the position
+        and the law; stated as ``delay_samples``, top level and in the section).  Needs the cascade section.
+        The reference runs are flown without it.
 
     Raises
     ------
@@ -244,6 +248,7 @@ def build_certificate(vehicle: Vehicle, gains: GainBlock, *, inner: InnerLoopGai
 
     say = progress or (lambda msg: None)
     rate_hz = check_rate_hz(rate_hz, DT_S, option="rate", error=CertificateError)
+    delay_samples = check_delay_samples(delay_samples, sampled=cascade, error=CertificateError)
     if not (isinstance(gains, GainBlock) and gains.law.ni_structure):
         raise CertificateError(f"certificates cover the laws of the NI structure ({', '.join(ni_law_names())}), "
                                f"not a {type(gains).__name__}")
@@ -307,7 +312,8 @@ def build_certificate(vehicle: Vehicle, gains: GainBlock, *, inner: InnerLoopGai
         try:
             section = cascade_section(vehicle, gains, inner, tilt_limit_deg=tilt_limit_deg, rate_hz=rate_hz, box=box,
                                       xi0_m=xi0,
-                                      widest=widest_box, grid_points_per_axis=grid_points_per_axis)
+                                      widest=widest_box, grid_points_per_axis=grid_points_per_axis,
+                                      delay_samples=delay_samples)
         except (CascadeError, SolverError) as exc:
             raise CertificateError(f"the sampled-data cascade is not certified at {rate_hz:g} Hz: {exc}") from None
     track = None
@@ -363,6 +369,7 @@ def build_certificate(vehicle: Vehicle, gains: GainBlock, *, inner: InnerLoopGai
         law_class={"name": cls.name, "theorem": cls.theorem},
         start=start,
         tracking=track,
+        delay_samples=delay_samples if section is not None else None,
     )
     return cert.signed()
 

@@ -50,6 +50,10 @@ A certificate is one JSON document (:data:`SCHEMA`, :data:`SCHEMA_VERSION`):
     jerk limits), without and with acceleration feedforward, and the linear-zone
     condition (:mod:`nniquad.analysis.tracking_section`).  A certificate written
     before it existed has none (its digest is unchanged); ``verify`` then notes it.
+``delay_samples`` (optional, with a ``cascade`` section)
+    The measurement delay [control periods] the cascade section certifies (its own ``delay_samples``: the
+    position reaches the law that many samples late).  A certificate written before it has none (its digest is
+    unchanged) and covers no delay.
 ``software``
     Package versions.  ``digest``: SHA-256 of the canonical JSON of everything
     else (sorted keys, no whitespace, UTF-8).
@@ -299,6 +303,9 @@ class Certificate:
     tracking
         The certified tracking-error bound (:mod:`nniquad.analysis.tracking_section`); ``None`` in a
         certificate written before it was stated (no such field, digest unchanged).
+    delay_samples
+        The measurement delay [samples] the cascade section certifies; ``None`` in a certificate written
+        before it was stated (no such field, digest unchanged; it covers no delay: :attr:`certified_delay_samples`).
     signature
         The SHA-256 digest (hex) the certificate was signed with.
     """
@@ -329,6 +336,7 @@ class Certificate:
     law_class: Mapping[str, Any] | None = None
     start: Mapping[str, Any] | None = None
     tracking: Mapping[str, Any] | None = None
+    delay_samples: int | None = None
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -371,7 +379,14 @@ class Certificate:
             body["start"] = _thaw(self.start)
         if self.tracking is not None:  # optional: older certificates have none and keep their digest
             body["tracking"] = _thaw(self.tracking)
+        if self.delay_samples is not None:  # optional: older certificates have none and keep their digest
+            body["delay_samples"] = self.delay_samples
         return body
+
+    @property
+    def certified_delay_samples(self) -> int:
+        """The measurement delay [samples] the certificate covers: its ``delay_samples``, 0 when it states none."""
+        return 0 if self.delay_samples is None else int(self.delay_samples)
 
     @property
     def law_class_name(self) -> Any:
@@ -440,6 +455,9 @@ class Certificate:
         for key in ("margins", "law_class", "start", "tracking"):
             if key in data and not isinstance(data[key], Mapping):
                 raise CertificateError(f"{where}: '{key}' must be an object")
+        delay = data.get("delay_samples")
+        if delay is not None and (isinstance(delay, bool) or not isinstance(delay, int) or delay < 0):
+            raise CertificateError(f"{where}: 'delay_samples' must be a whole number of samples >= 0")
         if data["tuning"] is not None and not isinstance(data["tuning"], Mapping):
             raise CertificateError(f"{where}: 'tuning' must be an object or null")
         if not isinstance(data["model"], str) or not isinstance(data["start_certified"], bool):
@@ -457,7 +475,7 @@ class Certificate:
             xi0_m=tuple(xi0), start_certified=data["start_certified"], tuning=data["tuning"],
             signature=data["digest"]["value"], margins=data.get("margins"), cascade=data.get("cascade"),
             law_class=data.get("law_class"), start=data.get("start"), tracking=data.get("tracking"),
-            **{k: data[k] for k in _SECTIONS},
+            delay_samples=delay, **{k: data[k] for k in _SECTIONS},
         )
         # the typed fields must serialise back to exactly what was signed (one comparison of the whole text:
         # JSON values are self-delimiting, so equal texts of the same keys are equal field by field)
@@ -546,7 +564,8 @@ _SECTIONS = ("sector", "stability_margin", "lmi", "region_of_attraction", "perfo
 _ALL_FIELDS = ("model", "vehicle", "gains", "inner_loop", "tilt_limit_deg", "xi0_m", *_SECTIONS, "start_certified",
                "tuning")
 #: Top-level fields besides :data:`_ALL_FIELDS`: the form's own, and the sections a certificate may lack.
-_OPTIONAL_FIELDS = ("schema", "schema_version", "digest", "margins", "cascade", "law_class", "start", "tracking")
+_OPTIONAL_FIELDS = ("schema", "schema_version", "digest", "margins", "cascade", "law_class", "start", "tracking",
+                    "delay_samples")
 
 
 def _is_number(v: Any) -> bool:

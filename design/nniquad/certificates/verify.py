@@ -42,6 +42,7 @@ from nniquad.certificates.certificate import (
     read_certificate,
     reference_run_options,
 )
+from nniquad.analysis.cascade.recheck import stated_delay
 from nniquad.analysis.verified.inequalities import outcome_of
 from nniquad.analysis.verified.spd import FAILS, NOT_PROVEN, PROVEN
 from nniquad.certificates.check_record import PASS, Check, clear_cache, fmt_value, is_number, thaw_json
@@ -291,6 +292,7 @@ def _verify(cert: Certificate, simulate: bool, say: Callable[[str], None], fail_
         lambda: _tolerances_check(cert),
         lambda: _layout_check(cert),
         lambda: _law_class_check(cert),
+        lambda: _delay_check(cert),
         lambda: _settings_check(cert),
         lambda: sector_check(cert, tol),
         lambda: poles_check(cert),
@@ -372,6 +374,19 @@ def _layout_check(cert: Certificate) -> Check:
     bad += [k for k, same in forms.items() if not same]
     return Check("layout", not bad, "every section has exactly its keys; the stated forms are the library's"
                  if not bad else f"unexpected keys or forms in: {', '.join(bad)}")
+
+
+def _delay_check(cert: Certificate) -> Check:
+    """The stated ``delay_samples`` is the cascade section's, which its re-check rebuilds the loop with; a
+    certificate without a cascade section states none (it certifies no sampled loop)."""
+    stated = cert.delay_samples
+    if cert.cascade is None:
+        return Check("delay_samples", stated is None, "no cascade section: no delay stated" if stated is None
+                     else f"states delay_samples {stated} without a cascade section that certifies it")
+    section = stated_delay(cert.cascade)
+    ok = section is not None and (stated if stated is not None else 0) == section
+    return Check("delay_samples", ok, f"stated {stated}, cascade section {cert.cascade.get('delay_samples')} "
+                                      "(the section's re-check rebuilds the loop with its own)")
 
 
 def _settings_check(cert: Certificate) -> Check:

@@ -33,7 +33,7 @@ def certify_steps(tuned: bool) -> int:
 def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLoopGains | None = None,
             options: Any = None, progress: Callable[[str], None] | None = None,
             rate_hz: float | None = None, box: Any = None, widest_box: bool = False,
-            tuning_record: Mapping[str, Any] | None = None) -> Certificate:
+            tuning_record: Mapping[str, Any] | None = None, delay_samples: int = 0) -> Certificate:
     """Tune (unless gains are given), solve every LMI, simulate the reference runs and sign.
 
     The certificate is verified independently (:func:`verify`) before it is
@@ -78,6 +78,9 @@ def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLo
         section of the certificate or ``tune --json`` file they come from), kept as
         this certificate's ``tuning`` record when it was tuned on ``options.model``
         (a record, never checked but for its model; ``certify --gains-from``).
+    delay_samples
+        Measurement delay [samples] the cascade section certifies (:func:`build_certificate`; ``nniquad certify``
+        defaults to :data:`nniquad.config.ROBUST_DELAY_SAMPLES`).
 
     Returns
     -------
@@ -129,7 +132,7 @@ def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLo
                              tilt_limit_deg=options.tilt_limit_deg, mass_range=options.mass_range,
                              model=options.model, tuning=tuning, progress=progress,
                              box=box, widest_box=widest_box, refuse_unsettled=True, law_class=law_class,
-                             rate_hz=options.rate_hz if rate_hz is None else rate_hz)
+                             rate_hz=options.rate_hz if rate_hz is None else rate_hz, delay_samples=delay_samples)
     unsettled = unsettled_reference_run(cert)
     if unsettled is not None:
         raise CertificateError(f"refused: {unsettled}; nothing certified")

@@ -73,6 +73,8 @@ class Scenario:
     reference, feedforward, feedforward_lead_s
         The reference followed and its feedforward (:attr:`StudySetup.reference`); with a reference
         :attr:`xi0_m` is the displacement from its start.
+    delay_samples
+        Measurement delay [samples] (:attr:`ScenarioRanges.delay_samples`).
     """
 
     index: int
@@ -93,6 +95,7 @@ class Scenario:
     reference: Reference | None = None
     feedforward: bool = False
     feedforward_lead_s: float = 0.0
+    delay_samples: int = 0
 
     @property
     def sim_params(self) -> SimParams:
@@ -195,6 +198,7 @@ def draw_scenario(index: int, seed: int, ranges: ScenarioRanges, setup: StudySet
         factors=(("mass", f_m), ("Jx", f_J[0]), ("Jy", f_J[1]), ("Jz", f_J[2]), ("attitude_gain", f_att)),
         controller=setup.controller, controller_sampling=setup.controller_sampling,
         reference=setup.reference, feedforward=setup.feedforward, feedforward_lead_s=setup.feedforward_lead_s,
+        delay_samples=ranges.delay_samples,
     )
 
 

@@ -17,8 +17,10 @@ from nniquad.config import (
     WIND_WEIGHT_FRACTION_RANGE,
 )
 from nniquad.errors import MonteCarloError
+from nniquad.validate import finite_int
 
-__all__ = ["ScenarioRanges", "DEFAULT_RANGES", "BOX_KEYS", "certificate_rate_hz", "within_certificate_ranges"]
+__all__ = ["ScenarioRanges", "DEFAULT_RANGES", "BOX_KEYS", "certificate_rate_hz", "within_certificate_ranges",
+           "certified_delay_samples"]
 
 
 def _pair(name: str, value: Any, *, lo: float | None = None, hi: float | None = None,
@@ -80,6 +82,9 @@ class ScenarioRanges:
     rim_fraction
         Fraction of the starts drawn on the rim of the displacement disk, the others uniformly over it
         (default 0; ``--within-certificate``: :data:`nniquad.config.MC_WITHIN_RIM_FRACTION`).
+    delay_samples
+        Measurement delay of every scenario [samples at ``noise_rate_hz``] (default 0;
+        :attr:`nniquad.sim.SimOptions.delay_samples`; ``--within-certificate``: the certified delay).
     """
 
     mass_factor: tuple[float, float] = (0.8, 1.2)
@@ -94,6 +99,7 @@ class ScenarioRanges:
     max_displacement_m: float = 5.0
     altitude_limit_m: float = ALTITUDE_LIMIT_M
     rim_fraction: float = 0.0
+    delay_samples: int = 0
 
     def __post_init__(self) -> None:
         set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731
@@ -122,13 +128,16 @@ class ScenarioRanges:
         if isinstance(rim, bool) or not isinstance(rim, (int, float)) or not 0.0 <= rim < 1.0:
             raise MonteCarloError(f"rim_fraction must be a number in [0, 1), got {rim!r}")
         set_("rim_fraction", float(rim))
+        set_("delay_samples", finite_int("delay_samples", self.delay_samples, error=MonteCarloError, minimum=0))
 
     def with_(self, **changes: Any) -> "ScenarioRanges":
         """Copy with some ranges changed (validated again)."""
         return replace(self, **changes)
 
     def to_json(self) -> dict[str, Any]:
-        return {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(self).items()}
+        # without a delay the record stays what it was before the field existed
+        return {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(self).items()
+                if k != "delay_samples" or v}
 
 
 DEFAULT_RANGES = ScenarioRanges()
@@ -162,6 +171,18 @@ def certificate_rate_hz(cert: Mapping[str, Any]) -> float:
     return float(CONTROL_RATE_HZ)
 
 
+def certified_delay_samples(cert: Mapping[str, Any]) -> int:
+    """The measurement delay a certificate certifies [samples]: its ``delay_samples``, 0 when it states none.
+
+    Parameters
+    ----------
+    cert
+        A loaded certificate (a mapping).
+    """
+    d = cert.get("delay_samples") if isinstance(cert, Mapping) else None
+    return d if isinstance(d, int) and not isinstance(d, bool) and d >= 0 else 0
+
+
 def within_certificate_ranges(cert: Mapping[str, Any]) -> tuple[ScenarioRanges, float, float]:
     """Scenario ranges that stay inside what a certificate's ``cascade`` section certifies.
 
@@ -190,6 +211,9 @@ def within_certificate_ranges(cert: Mapping[str, Any]) -> tuple[ScenarioRanges, 
     rate_hz : float
         The certified rate [Hz].
 
+    The scenarios read the position with the certified measurement delay (the certificate's
+    ``delay_samples``, 0 when it states none).
+
     Raises
     ------
     MonteCarloError
@@ -217,5 +241,5 @@ def within_certificate_ranges(cert: Mapping[str, Any]) -> tuple[ScenarioRanges, 
         raise MonteCarloError("the certificate's cascade section states no rate_hz")
     ranges = ScenarioRanges(**factors, tau_motor_s=None, noise_sigma_m=(0.0, 0.0), noise_rate_hz=rate,
                             wind_weight_fraction=(0.0, 0.0), wind_N=None, max_displacement_m=region,
-                            rim_fraction=MC_WITHIN_RIM_FRACTION)
+                            rim_fraction=MC_WITHIN_RIM_FRACTION, delay_samples=certified_delay_samples(cert))
     return ranges, region, rate

@@ -22,7 +22,7 @@ Modules
 
 from nniquad.sim.codegen import cache_dir, compile_status
 from nniquad.sim.models import output_function, rhs_function, step_function, vehicle_dynamics
-from nniquad.sim.options import CONTROLLER_SAMPLING, MODELS, SimOptions, check_rate_hz
+from nniquad.sim.options import CONTROLLER_SAMPLING, MODELS, SimOptions, check_delay_samples, check_rate_hz
 from nniquad.sim.params import (
     EXO_FIELDS,
     OUTPUT_NAMES,
@@ -33,6 +33,7 @@ from nniquad.sim.params import (
     VehicleParams,
     n_params,
     param_layout,
+    delay_state_names,
     state_names,
     to_gains,
 )
@@ -61,8 +62,10 @@ __all__ = [
     "MODELS",
     "CONTROLLER_SAMPLING",
     "check_rate_hz",
+    "check_delay_samples",
     "STATE_NAMES",
     "state_names",
+    "delay_state_names",
     "OUTPUT_NAMES",
     "EXO_FIELDS",
     "paper_figure_runs",

@@ -295,7 +295,7 @@ def output_function(model: str, controller: str = "nni") -> ca.Function:
 
 
 @cached_casadi_function
-def step_function(model: str, controller: str = "nni") -> ca.Function:
+def step_function(model: str, controller: str = "nni", delay_samples: int = 0) -> ca.Function:
     """One RK4 step ``step(x, e, p) -> x_next`` of length ``p[dt]``.
 
     At the start of the step a sample flag ``e[2] >= 1`` latches the measured error
@@ -309,8 +309,16 @@ def step_function(model: str, controller: str = "nni") -> ca.Function:
     what :class:`nniquad.control.discrete.DiscreteLaw` runs); the PD law with the
     true velocity latches the velocity with the position instead (a sampled
     velocity sensor).
+
+    With a measurement delay of ``N = delay_samples`` samples the state ends with a delay line of ``N``
+    samples per axis (:func:`nniquad.sim.params.delay_state_names`, constant between samples): a sample
+    latches ``held ← d_N``, ``d_j ← d_{j-1}``, ``d_1 ← ξ + n - ξ_d``, so the law acts on the measurement
+    taken ``N`` periods earlier (the velocity of ``pd_velocity`` is not delayed).
     """
+    nd = 2 * int(delay_samples)
     X, e, p = _symbols(model, controller)
+    if nd:  # the delay line trails the state: the step of the rest is the one without delay
+        X = ca.SX.sym("x", X.numel() + nd)
     ix = _index(model, controller)
     hs = [ix["held_x"], ix["held_y"]]
     law = law_named(check_controller(controller))
@@ -331,26 +339,44 @@ def step_function(model: str, controller: str = "nni") -> ca.Function:
                                            ca.if_else(advance, P["run.sample_period"], 0.0)))
         # the controller states and the held measurement are contiguous runs of the state (state_names)
         Xa = ca.vertcat(X[: zs[0]], zc, X[zs[-1] + 1 :])
-    # the latch takes the error to the reference sampled with the measurement
-    Xs = ca.vertcat(Xa[: hs[0]], ca.if_else(e[2] > 0.5, pos + _exo(e, "noise") - _exo(e, "ref"), Xa[hs]),
-                    Xa[hs[-1] + 1 :])
+    # the latch takes the error to the reference sampled with the measurement (through the delay line, if any)
+    new = pos + _exo(e, "noise") - _exo(e, "ref")
+    nb = X.numel() - nd
+    line = [Xa[nb + 2 * j : nb + 2 * j + 2] for j in range(nd // 2)]
+    latch = e[2] > 0.5
+    Xs = ca.vertcat(Xa[: hs[0]], ca.if_else(latch, line[-1] if line else new, Xa[hs]), Xa[hs[-1] + 1 : nb],
+                    *[ca.if_else(latch, ([new] + line)[j], line[j]) for j in range(len(line))])
     f = rhs_function(model, controller)
+    if nd:
+        f = _frozen_tail(f, nd)
     h = p[[entry.name for entry in param_layout(controller)].index("run.dt")]
     k1 = f(Xs, e, p)
     k2 = f(Xs + h / 2 * k1, e, p)
     k3 = f(Xs + h / 2 * k2, e, p)
     k4 = f(Xs + h * k3, e, p)
     Xn = Xs + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-    return ca.Function(f"step_{model}{_suffix(controller)}", [X, e, p], [ca.cse(Xn)], ["x", "e", "p"], ["x_next"])
+    name = f"step_{model}{_suffix(controller)}" + (f"_delay{nd // 2}" if nd else "")
+    return ca.Function(name, [X, e, p], [ca.cse(Xn)], ["x", "e", "p"], ["x_next"])
+
+
+def _frozen_tail(f: ca.Function, n: int) -> ca.Function:
+    """``f(x, e, p)`` on a state with ``n`` more entries at its end, whose rate is zero (the delay line)."""
+    X = ca.SX.sym("x", f.size1_in(0) + n)
+    e, p = ca.SX.sym("e", f.size1_in(1)), ca.SX.sym("p", f.size1_in(2))
+    return ca.Function(f"{f.name()}_tail{n}", [X, e, p], [ca.vertcat(f(X[: -n], e, p), ca.SX.zeros(n))])
 
 
 @lru_cache(maxsize=None)
-def chunk_function(model: str, K: int, controller: str = "nni") -> ca.Function:
-    """``K`` steps: ``chunk(x, E[n_exo x K], p) -> (x_K, y_K)`` (:data:`EXO_FIELDS`), compiled when possible."""
-    step = step_function(model, controller)
+def chunk_function(model: str, K: int, controller: str = "nni", delay_samples: int = 0) -> ca.Function:
+    """``K`` steps: ``chunk(x, E[n_exo x K], p) -> (x_K, y_K)`` (:data:`EXO_FIELDS`), compiled when possible.
+
+    ``delay_samples``: the measurement delay line's length (:func:`step_function`).
+    """
+    step = step_function(model, controller, delay_samples)
     # MX around the SX step keeps the K steps a loop in the generated C (step emitted once):
     # the same speed as unrolled SX, a tenth of the compile time.
-    X = ca.MX.sym("x", len(state_names(model, controller)))
+    nb = len(state_names(model, controller))
+    X = ca.MX.sym("x", len(state_names(model, controller, delay_samples)))
     p = ca.MX.sym("p", len(param_layout(controller)))
     E = ca.MX.sym("E", len(EXO_FIELDS), K)
     if K == 1:
@@ -358,7 +384,8 @@ def chunk_function(model: str, K: int, controller: str = "nni") -> ca.Function:
     else:
         xs = step.mapaccum("steps", K)(X, E, ca.repmat(p, 1, K))
         xK = xs[:, -1]
-    y = output_function(model, controller)(xK, E[:, -1], p)
-    fn = ca.Function(f"nniquad_chunk_{model}{_suffix(controller)}_{K}", [X, E, p], [xK, y], ["x", "E", "p"],
+    y = output_function(model, controller)(xK[:nb], E[:, -1], p)
+    tag = f"_delay{delay_samples}" if delay_samples else ""
+    fn = ca.Function(f"nniquad_chunk_{model}{_suffix(controller)}{tag}_{K}", [X, E, p], [xK, y], ["x", "E", "p"],
                      ["x_K", "y_K"])
     return compile_function(fn)

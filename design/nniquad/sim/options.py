@@ -18,7 +18,7 @@ from nniquad.control.references import Reference
 from nniquad.errors import SimulationError
 from nniquad.validate import finite_number
 
-__all__ = ["MODELS", "CONTROLLER_SAMPLING", "SimOptions", "check_model", "check_rate_hz"]
+__all__ = ["MODELS", "CONTROLLER_SAMPLING", "SimOptions", "check_model", "check_rate_hz", "check_delay_samples"]
 
 #: Models of the closed loop (:mod:`nniquad.sim.models`).
 MODELS: tuple[str, ...] = ("linear", "reduced", "full")
@@ -82,6 +82,26 @@ def check_rate_hz(rate_hz: Any, dt_s: float = DT_S, *, discrete: bool = True, op
         raise error(f"{option}: the discrete controller needs a sample period 1/{rate:g} Hz that is a whole multiple "
                     f"of the time step {dt_s:g} s (e.g. {', '.join(_whole_rates(dt_s))} Hz)")
     return rate
+
+
+def check_delay_samples(value: Any, *, sampled: bool = True, error: type[Exception] = SimulationError) -> int:
+    """A measurement delay in samples: an integer ``>= 0``, and ``0`` unless the measurement is sampled.
+
+    Parameters
+    ----------
+    value
+        The delay [samples].
+    sampled
+        Whether the run samples the measurement (a delay of whole samples needs samples).
+    error
+        Exception class raised (one line).
+    """
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
+        raise error(f"delay_samples must be a whole number of samples >= 0, got {value!r}")
+    if value and not sampled:
+        raise error(f"a delay of {int(value)} samples needs a sampled run (controller sampling held or discrete), "
+                    "not a continuous-time one")
+    return int(value)
 
 
 def _finite(name: str, value: Any, *, positive: bool = False, nonneg: bool = False) -> float:
@@ -157,6 +177,11 @@ class SimOptions:
     v0
         Initial horizontal velocity [m/s] (a start from motion; the law's state is its take-over state for
         the error ``xi0 - ξ_d(0)``, :mod:`nniquad.laws.base`, "Reference and feedforward").
+    delay_samples
+        Measurement delay [samples] (≥ 0, sampled runs only): the position (noise and reference error included)
+        reaches the law this many sample periods ``1/noise_rate_hz`` late, through a delay line of that many
+        samples per axis (:func:`nniquad.sim.models.step_function`); the line starts full of the start
+        measurement (the vehicle sat at ``xi0`` before take-over).
     """
 
     model: str = "full"
@@ -182,6 +207,7 @@ class SimOptions:
     feedforward: bool = False
     feedforward_lead_s: float = 0.0
     v0: tuple[float, float] = (0.0, 0.0)
+    delay_samples: int = 0
 
     def __post_init__(self) -> None:
         check_model(self.model)
@@ -237,6 +263,7 @@ class SimOptions:
         if self.feedforward_lead_s > 0 and not self.feedforward:
             raise SimulationError("a feedforward lead needs the feedforward")
         set_("v0", self._pair("initial velocity v0", self.v0))
+        set_("delay_samples", check_delay_samples(self.delay_samples, sampled=self.sampled))
 
     @staticmethod
     def _pair(name: str, value: Any) -> tuple[float, float]:
@@ -295,4 +322,6 @@ class SimOptions:
             del d["v0"]
         else:
             d["v0"] = list(self.v0)
+        if not self.delay_samples:
+            del d["delay_samples"]
         return d

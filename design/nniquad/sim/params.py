@@ -47,6 +47,7 @@ __all__ = [
     "EXO_FIELDS",
     "STATE_NAMES",
     "state_names",
+    "delay_state_names",
     "OUTPUT_NAMES",
     "ParamField",
     "VehicleParams",
@@ -69,11 +70,11 @@ EXO_FIELDS: tuple[str, ...] = ("noise_x", "noise_y", "sample_flag", "gust_x", "g
                                "ref_x", "ref_y", "ref_vx", "ref_vy", "ff_x", "ff_y")
 
 
-def state_names(model: str, controller: str = "nni") -> tuple[str, ...]:
+def state_names(model: str, controller: str = "nni", delay_samples: int = 0) -> tuple[str, ...]:
     """State of a model with a controller law: the plant, the law's controller states
     (:attr:`nniquad.laws.base.ControlLaw.sim_state_names`: ``zc_x, zc_y`` for a one-state law, ``sni2`` adds
-    ``zcd_x, zcd_y``), the sampled-and-held measurement ``held_*``, and on ``full`` the altitude integrator and
-    the rotor speeds.
+    ``zcd_x, zcd_y``), the sampled-and-held measurement ``held_*``, on ``full`` the altitude integrator and
+    the rotor speeds, and last the measurement delay line (:func:`delay_state_names`).
 
     Parameters
     ----------
@@ -81,13 +82,30 @@ def state_names(model: str, controller: str = "nni") -> tuple[str, ...]:
         ``"linear"``, ``"reduced"`` or ``"full"``.
     controller
         A registered law's name.
+    delay_samples
+        Length of the measurement delay line [samples] (:attr:`nniquad.sim.options.SimOptions.delay_samples`).
     """
     ctrl = law_named(check_controller(controller)).sim_state_names
     if model in ("linear", "reduced"):
-        return ("x", "x_dot", "y", "y_dot") + ctrl + ("held_x", "held_y")
+        return ("x", "x_dot", "y", "y_dot") + ctrl + ("held_x", "held_y") + delay_state_names(delay_samples)
     if model == "full":
-        return STATE_ORDER + ctrl + ("held_x", "held_y", "z_int", "w1", "w2", "w3", "w4")
+        return (STATE_ORDER + ctrl + ("held_x", "held_y", "z_int", "w1", "w2", "w3", "w4")
+                + delay_state_names(delay_samples))
     raise SimulationError(f"unknown model {model!r} (choose one of linear, reduced, full)")
+
+
+def delay_state_names(delay_samples: int) -> tuple[str, ...]:
+    """The measurement delay line: ``zcd1_x, zcd1_y, ..., zcdN_x, zcdN_y``, ``zcdj`` the measurement ``j``
+    samples old (before the latch of a sample).  The names start with ``zc`` and end with the axis, so the
+    cascade certificate's subsystems (:func:`nniquad.analysis.cascade.family.subsystems`) count them as the
+    axis's controller states.
+
+    Parameters
+    ----------
+    delay_samples
+        Number of samples ``N``.
+    """
+    return tuple(f"zcd{j}_{axis}" for j in range(1, int(delay_samples) + 1) for axis in ("x", "y"))
 
 
 #: State of each model with a one-state controller law (:func:`state_names` of the NNI law).

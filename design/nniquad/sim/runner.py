@@ -47,7 +47,8 @@ from nniquad.model.vehicle import PAPER_VEHICLE, Vehicle
 from nniquad.resources import usable_cpu_count
 from nniquad.sim.models import chunk_function, output_function
 from nniquad.sim.options import MODELS, SimOptions, check_model
-from nniquad.sim.params import EXO_FIELDS, OUTPUT_NAMES, SimParams, check_controller, n_params, state_names, to_gains
+from nniquad.sim.params import (EXO_FIELDS, OUTPUT_NAMES, SimParams, check_controller, delay_state_names, n_params,
+                                state_names, to_gains)
 from nniquad.sim.results import SimulationResult, Trajectory
 from nniquad.sim.step_check import check_step
 
@@ -91,7 +92,8 @@ def batch_threads(runs: int) -> int:
 
 
 @lru_cache(maxsize=64)
-def _segment_function(model: str, K: int, M: int, B: int, shared_exo: bool, controller: str = "nni") -> ca.Function:
+def _segment_function(model: str, K: int, M: int, B: int, shared_exo: bool, controller: str = "nni",
+                      delay_samples: int = 0) -> ca.Function:
     """``M`` output samples of ``B`` runs, evaluated in turn on the calling thread:
     ``seg(x0[nx x B], E[n_exo x K M (B)], p[np x B]) -> (X, Y)``.
 
@@ -101,7 +103,7 @@ def _segment_function(model: str, K: int, M: int, B: int, shared_exo: bool, cont
     isolated (docs/notes/speed.md); measured on 2 cores, 40 full-model runs of 20 s: 0.38 s this way against 0.43-0.47 s
     with the ``"thread"`` map, and 0.76 s one by one (``benchmarks/bench_simulate.py``).
     """
-    chunk = chunk_function(model, K, controller)
+    chunk = chunk_function(model, K, controller, delay_samples)
     acc = chunk.mapaccum("samples", M)
     nx = chunk.size1_in(0)
     x = ca.MX.sym("x", nx)
@@ -109,7 +111,7 @@ def _segment_function(model: str, K: int, M: int, B: int, shared_exo: bool, cont
     p = ca.MX.sym("p", n_params(controller))
     # p is the same for every sample of a run: repeat it explicitly (mapaccum maps every non-accumulated input)
     Xs, Ys = acc(x, E, ca.repmat(p, 1, M))
-    sfx = f"_{controller}"
+    sfx = f"_{controller}" + (f"_delay{delay_samples}" if delay_samples else "")
     seg = ca.Function(f"seg_{model}{sfx}_{K}_{M}", [x, E, p], [Xs, Ys], ["x0", "E", "p"], ["X", "Y"])
     if B == 1:
         return seg
@@ -199,7 +201,7 @@ def _reference_columns(E: np.ndarray, o: SimOptions, t: np.ndarray, idx: np.ndar
 
 def initial_state(model: str, params: SimParams, xi0: Sequence[float] = XI0_M,
                   zc0: Sequence[float] = (0.0, 0.0), v0: Sequence[float] = (0.0, 0.0),
-                  ref0: Sequence[float] = (0.0, 0.0)) -> np.ndarray:
+                  ref0: Sequence[float] = (0.0, 0.0), delay_samples: int = 0) -> np.ndarray:
     """Initial state: at ``xi0`` with the horizontal velocity ``v0`` (default at rest), level, ψ = 0, z = 0;
     motors at the nominal hover speed.
 
@@ -207,11 +209,12 @@ def initial_state(model: str, params: SimParams, xi0: Sequence[float] = XI0_M,
     position at ``t = 0``; :meth:`nniquad.laws.base.ControlLaw.sim_start_state`: the NNI law at zero, the
     ``sni2`` law at rest at its DC value ``z = C(0) e_0``, the filtered PD's filter at ``d = e_0``), plus ``zc0``
     on each axis's first state.  That is the state consistent with a start from motion
-    (:mod:`nniquad.laws.base`, "Reference and feedforward").
+    (:mod:`nniquad.laws.base`, "Reference and feedforward").  The measurement delay line of ``delay_samples``
+    samples per axis holds ``e_0`` too: the vehicle sat at ``xi0`` before take-over.
     """
     check_model(model)
     controller = params.controller
-    names = state_names(model, controller)
+    names = state_names(model, controller, delay_samples)
     x0 = np.zeros(len(names))
     ix = {n: i for i, n in enumerate(names)}
     x0[ix["x"]], x0[ix["y"]] = xi0
@@ -226,6 +229,8 @@ def initial_state(model: str, params: SimParams, xi0: Sequence[float] = XI0_M,
         x0[ix[sim_names[0]]] += zc0[0]
         x0[ix[sim_names[1]]] += zc0[1]
     x0[ix["held_x"]], x0[ix["held_y"]] = e0
+    for name in delay_state_names(delay_samples):
+        x0[ix[name]] = e0[0 if name.endswith("_x") else 1]
     if model == "full":
         nom = params.nominal
         w_hover = math.sqrt(nom.m * nom.g / (4 * nom.b))
@@ -257,6 +262,7 @@ def run_batch(
     progress: Callable[[float], None] | None = None,
     n_segments: int | None = None,
     controller: str = "nni",
+    delay_samples: int = 0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Low-level batched run of parameter vectors; the building block of :func:`simulate`.
 
@@ -281,6 +287,8 @@ def run_batch(
         Number of calls into CasADi (more gives finer progress); default about 20.
     controller
         One of :data:`CONTROLLERS` (the layout of ``params``).
+    delay_samples
+        Length of the measurement delay line (:attr:`SimOptions.delay_samples`; the layout of ``x0``).
 
     Returns
     -------
@@ -295,7 +303,7 @@ def run_batch(
     P = np.atleast_2d(np.asarray(params, float))
     X0 = np.atleast_2d(np.asarray(x0, float))
     B = P.shape[0]
-    nx, ny = len(state_names(model, controller)), len(OUTPUT_NAMES[model])
+    nx, ny = len(state_names(model, controller, delay_samples)), len(OUTPUT_NAMES[model])
     if P.shape[1] != n_p:
         raise ValueError(f"params must have {n_p} columns, got {P.shape[1]}")
     if X0.shape != (B, nx):
@@ -321,8 +329,9 @@ def run_batch(
     Yall = np.empty((B, N + 1, ny))
     Xall[:, 0] = X0
     e0 = E[0] if shared else E[:, 0]
+    nb = len(state_names(model, controller))
     for b in range(B):
-        Yall[b, 0] = np.asarray(out_fn(X0[b], e0 if shared else e0[b], P[b])).ravel()
+        Yall[b, 0] = np.asarray(out_fn(X0[b, :nb], e0 if shared else e0[b], P[b])).ravel()
     # Zero-copy calls (FunctionBuffer): CasADi is column-major, so a (rows, cols) CasADi
     # matrix is a C-contiguous numpy array of shape (cols, rows): x0 (nx x B) <-> (B, nx),
     # E (n_exo x B M K) <-> (B, M K, n_exo), outputs (nx x B M) <-> (B, M, nx).  A slice of runs
@@ -334,7 +343,8 @@ def run_batch(
     Eseg = np.zeros((M * K, ne)) if shared else np.zeros((B, M * K, ne))
     calls = []
     for part in slices:
-        buf, trigger = _segment_function(model, K, M, part.stop - part.start, shared, controller).buffer()
+        buf, trigger = _segment_function(model, K, M, part.stop - part.start, shared, controller,
+                                          delay_samples).buffer()
         buf.set_arg(0, memoryview(xc[part]))
         buf.set_arg(1, memoryview(Eseg if shared else Eseg[part]))
         buf.set_arg(2, memoryview(Pc[part]))
@@ -491,10 +501,11 @@ def simulate(
         raise GainError(f"one simulate call runs one controller law, got {' and '.join(laws)}")
     controller = laws[0]
     first = olist[0]
-    timing = (first.model, first.n_samples, first.steps_per_sample, first.dt_s)
+    timing = (first.model, first.n_samples, first.steps_per_sample, first.dt_s, first.delay_samples)
     for o in olist:
-        if (o.model, o.n_samples, o.steps_per_sample, o.dt_s) != timing:
-            raise SimulationError("all option sets of one simulate call must share model, horizon, dt and output dt")
+        if (o.model, o.n_samples, o.steps_per_sample, o.dt_s, o.delay_samples) != timing:
+            raise SimulationError("all option sets of one simulate call must share model, horizon, dt, output dt "
+                                  "and measurement delay")
     if plist is None:
         plist = [SimParams.from_options(vehicle, g, o) for g, o in zip(glist, olist)]
     _check_step(plist, first.model)
@@ -505,7 +516,8 @@ def simulate(
                                   f"period 1/{o.noise_rate_hz:g} Hz of the options")
     model = first.model
     P = np.stack([p.vector() for p in plist])
-    X0 = np.stack([initial_state(model, p, o.xi0, o.zc0, o.v0, _start_of(o)) for p, o in zip(plist, olist)])
+    delay = first.delay_samples
+    X0 = np.stack([initial_state(model, p, o.xi0, o.zc0, o.v0, _start_of(o), delay) for p, o in zip(plist, olist)])
     keys = {_exo_key(o) for o in olist}
     if len(keys) == 1:
         E = exogenous_inputs(first)
@@ -513,9 +525,9 @@ def simulate(
         cache: dict[tuple, np.ndarray] = {}
         E = np.stack([cache.setdefault(_exo_key(o), exogenous_inputs(o)) for o in olist])
     X, Y = run_batch(model, P, X0, E, steps_per_sample=first.steps_per_sample, n_samples=first.n_samples,
-                     progress=progress, controller=controller)
+                     progress=progress, controller=controller, delay_samples=delay)
     t = np.arange(first.n_samples + 1) * first.output_dt_s
-    return SimulationResult(model, t, X, Y, state_names(model, controller), OUTPUT_NAMES[model], tuple(glist), tuple(olist),
+    return SimulationResult(model, t, X, Y, state_names(model, controller, delay), OUTPUT_NAMES[model], tuple(glist), tuple(olist),
                             tuple(plist), vehicle)
 
 

@@ -97,7 +97,7 @@ def _run_one(s: Scenario) -> ScenarioResult:
         opts = SimOptions(**{"model": "full", "horizon_s": s.horizon_s, "dt_s": s.dt_s, "output_dt_s": s.output_dt_s,
                              "noise_sigma_m": s.noise_sigma_m, "noise_rate_hz": s.noise_rate_hz,
                              "controller_sampling": s.controller_sampling, "seed": s.noise_seed, "xi0": s.xi0_m,
-                             **follow})
+                             "delay_samples": s.delay_samples, **follow})
         with np.errstate(all="ignore"):
             res = simulate(None, None, opts, params=[s.sim_params])
     except NniquadError as exc:

@@ -478,8 +478,9 @@ def _simulate_scenarios(vehicle: Vehicle, designs: list, options: TuneOptions, h
         chunk = jobs[lo:lo + ROBUST_BATCH_RUNS]
         pairs = [scen[s].params(vehicle, designs[d][0], designs[d][1], horizon_s, options.tilt_limit_deg,
                                 motor_lag=options.motor_lag, rate_hz=options.rate_hz) for d, s in chunk]
-        with np.errstate(all="ignore"):
-            res = simulate(None, None, [o for o, _ in pairs], params=[p for _, p in pairs])
+        with np.errstate(all="ignore"):  # the perturbed scenarios read the position options.delay_samples late
+            res = simulate(None, None, [o.with_(delay_samples=options.delay_samples) for o, _ in pairs],
+                           params=[p for _, p in pairs])
         _RUNS[0] += len(pairs)
         xy, phi, theta, z = res.xy, res.phi, res.theta, res.z_ned  # computed once (properties)
         for i, (d, s) in enumerate(chunk):

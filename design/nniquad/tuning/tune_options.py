@@ -6,14 +6,21 @@ import math
 from dataclasses import asdict, dataclass
 from typing import Any, Callable
 
-from nniquad.config import CONTROL_RATE_HZ, GAMMA_MAX, TILT_LIMIT_DEG, TUNING_SCENARIO_SEED, XI0_NORM_M
+from nniquad.config import (
+    CONTROL_RATE_HZ,
+    GAMMA_MAX,
+    ROBUST_DELAY_SAMPLES,
+    TILT_LIMIT_DEG,
+    TUNING_SCENARIO_SEED,
+    XI0_NORM_M,
+)
 from nniquad.control.references import Reference
 from nniquad.errors import GainError, NniquadError, VehicleError
 from nniquad.laws.base import ControlLaw
 from nniquad.laws.classes import LAW_CLASSES
 from nniquad.laws.registry import law_named, law_names
 from nniquad.scenarios.ranges import DEFAULT_RANGES
-from nniquad.validate import finite_number
+from nniquad.validate import finite_int, finite_number
 
 #: ‖ξ_h(0)‖ of the paper's run [m]: the default certified reach.
 DEFAULT_ROA_RADIUS_M = XI0_NORM_M
@@ -253,6 +260,11 @@ class TuneOptions:
         With feedforward: read it this much ahead [s] (:attr:`nniquad.sim.SimOptions.feedforward_lead_s`).
     tracking_window
         ``(t0, t1)`` [s] of the tracking RMS; the tracking run lasts ``t1``.  ``None``: :func:`default_tracking_window`.
+    delay_samples
+        Measurement delay [samples at :attr:`rate_hz`] of the robust objective's perturbed scenarios (the
+        position reaches the law that many control periods late, :attr:`nniquad.sim.SimOptions.delay_samples`);
+        the nominal run has none.  ``None`` (default): :data:`nniquad.config.ROBUST_DELAY_SAMPLES` with the
+        robust objective, else 0.
     """
 
     model: str = "reduced"
@@ -281,6 +293,7 @@ class TuneOptions:
     feedforward: bool = False
     feedforward_lead_s: float = 0.0
     tracking_window: tuple[float, float] | None = None
+    delay_samples: int | None = None
 
     def __post_init__(self) -> None:
         self._check_reference()
@@ -343,6 +356,10 @@ class TuneOptions:
         if self.require_margins and self.model != "full":
             raise NniquadError("the margin requirement applies to the full cascade: use model 'full'")
         object.__setattr__(self, "require_margins", bool(self.require_margins))
+        delay = (ROBUST_DELAY_SAMPLES if self.robust else 0) if self.delay_samples is None else self.delay_samples
+        object.__setattr__(self, "delay_samples", finite_int("delay_samples", delay, minimum=0))
+        if self.delay_samples and not self.robust:
+            raise NniquadError("the measurement delay applies to the robust objective's scenarios (model full)")
         object.__setattr__(self, "gamma_max", g)
         # the PD laws have no sector bound, hence no certified region: the reach check does not apply
         object.__setattr__(self, "roa_radius_m", r if self.law.ni_structure else 0.0)

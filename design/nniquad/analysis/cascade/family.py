@@ -29,9 +29,9 @@ from nniquad.laws.base import GainBlock
 from nniquad.model.layout import DEFAULT_FRAME
 from nniquad.model.numeric import rotor_modes
 from nniquad.model.vehicle import Vehicle
-from nniquad.sim import initial_state, param_layout, state_names
+from nniquad.sim import delay_state_names, initial_state, param_layout, state_names
 
-__all__ = ["CascadeFamily", "sampled_family", "SUBSYSTEMS", "subsystems", "COUPLING_TOL", "RELEVANCE_TOL",
+__all__ = ["CascadeFamily", "sampled_family", "with_delay_line", "SUBSYSTEMS", "subsystems", "COUPLING_TOL", "RELEVANCE_TOL",
            "RELEVANCE_BAND", "mode_transform", "coupling", "relevant_coordinates", "relevance_consistent"]
 
 # =============================================================================== the family of sampled loops
@@ -73,6 +73,9 @@ class CascadeFamily:
         Motor-command blocks (for :meth:`cascade_at`).
     frame
         The vehicle's rotor layout (its rotor modes: :func:`mode_transform`).
+    delay_samples
+        Measurement delay ``N`` [samples]: the state ends with the delay line ``d_j = ξ_{k-j}``
+        (:func:`nniquad.sim.params.delay_state_names`), the law reads ``d_N`` in place of ``C_p x``.
     """
 
     points: np.ndarray
@@ -101,6 +104,7 @@ class CascadeFamily:
     tau_motor: np.ndarray
     context: Any = None
     frame: str = DEFAULT_FRAME
+    delay_samples: int = 0
 
     def __len__(self) -> int:
         return self.points.shape[0]
@@ -113,10 +117,11 @@ class CascadeFamily:
     def cascade_at(self, i: int) -> LinearCascade:
         """The :class:`LinearCascade` of point ``i`` (for the continuous-time margins)."""
         ctx = self.context
-        n_k = self.A_k.shape[0]
+        n_p, n_k = self.A_p.shape[1], self.A_k.shape[0]  # the delay line, if any, is not the cascade's
         return LinearCascade(
             vehicle=ctx["vehicle"], gains=ctx["gains"], inner=ctx["inner"], motor_lag=True, lin=ctx["lin"],
-            plant_states=self.state_names[:-n_k], rigid_states=ctx["rigid"], controller_states=self.state_names[-n_k:],
+            plant_states=self.state_names[:n_p], rigid_states=ctx["rigid"],
+            controller_states=self.state_names[n_p:n_p + n_k],
             A_p=self.A_p[i], B_p=self.B_p[i], C_p=self.C_p, A_k=self.A_k, B_k=self.B_k, C_k=self.C_k, D_k=self.D_k,
             W_r=self.W_r[i], W_a=self.W_a[i], A_rw=self.A_rw[i], tau_motor=float(self.tau_motor[i]),
             M_alloc=ctx["M_alloc"])
@@ -127,7 +132,8 @@ def _batched_expm(M: np.ndarray) -> np.ndarray:
 
 
 def sampled_family(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, points: np.ndarray, *,
-                   tilt_limit_deg: float = TILT_LIMIT_DEG, rate_hz: float = CONTROL_RATE_HZ) -> CascadeFamily:
+                   tilt_limit_deg: float = TILT_LIMIT_DEG, rate_hz: float = CONTROL_RATE_HZ,
+                   delay_samples: int = 0) -> CascadeFamily:
     """Linearise and sample the cascade at many parameter points at once.
 
     One mapped CasADi evaluation of the simulator's Jacobians (at ``±ε`` on the
@@ -146,6 +152,8 @@ def sampled_family(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, po
         Tilt limit [deg] (sets :attr:`CascadeFamily.accel_limit`; inactive at hover).
     rate_hz
         Sample rate [Hz].
+    delay_samples
+        Measurement delay ``N`` [samples] (:func:`with_delay_line`).
 
     Raises
     ------
@@ -220,6 +228,7 @@ def sampled_family(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, po
     A0[:, n_p:, n_p:] = A_kd
     Bs = np.zeros((N, n, 2))
     Bs[:, :n_p] = Gam
+    A0, Bs, K = with_delay_line(A0, Bs, K, C_p, B_kd, D_k, delay_samples)
     A_d = A0 + Bs @ K
     A_wr = J[:, iw][:, :, ir]
     W_r = tau[:, None, None] * A_wr
@@ -229,10 +238,53 @@ def sampled_family(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, po
     lin0 = Linearisation("full", snames, x_eq[0], float(residual[0]), J[0], Y[0], base)
     ctx = {"vehicle": vehicle, "gains": gains, "inner": inner, "lin": lin0, "rigid": rigid,
            "M_alloc": allocation_jacobian(base)}
-    return CascadeFamily(points=pts, state_names=tuple(rigid + motors + ctrl), T=T, A_p=A_p, B_p=B_p, C_p=C_p,
+    return CascadeFamily(points=pts, state_names=tuple(rigid + motors + ctrl) + delay_state_names(delay_samples), T=T, A_p=A_p, B_p=B_p, C_p=C_p,
                          A_k=A_k, B_k=B_k, C_k=C_k, D_k=D_k, A_kd=A_kd, B_kd=B_kd, Phi=Phi, Gam=Gam, A_d=A_d, A0=A0,
                          B=Bs, K=K, accel_limit=L, residual=residual, W_r=W_r, W_a=W_a, A_rw=A_rw, tau_motor=tau,
-                         context=ctx, frame=vehicle.frame)
+                         context=ctx, frame=vehicle.frame, delay_samples=int(delay_samples))
+
+
+def with_delay_line(A0: np.ndarray, B: np.ndarray, K: np.ndarray, C_p: np.ndarray, B_kd: np.ndarray,
+                    D_k: np.ndarray, delay_samples: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The saturation split ``(A0, B, K)`` with a measurement delay line of ``N`` samples appended to the state.
+
+    The state becomes ``(x_p, x_k, d_1, ..., d_N)``, ``d_j = C_p x_{p,k-j}`` (both axes per sample, the order
+    of :func:`nniquad.sim.params.delay_state_names`).  The law reads ``d_N`` where it read ``C_p x_p``: the
+    controller update ``x_k⁺ = A_kd x_k + B_kd d_N`` and the command ``a = C_k x_k + D_k d_N``; the line
+    shifts, ``d_1⁺ = C_p x_p``, ``d_j⁺ = d_{j-1}``.  ``N = 0`` returns the arguments.
+
+    Parameters
+    ----------
+    A0 : array (N_pts, n, n)
+        The split without delay (``n = n_p + n_k``).
+    B : array (N_pts, n, 2)
+        Its input.
+    K : array (2, n)
+        Its command.
+    C_p : array (2, n_p)
+        Position output of the plant.
+    B_kd, D_k
+        The controller's sampled input and feedthrough (:class:`CascadeFamily`).
+    delay_samples
+        ``N``.
+    """
+    N = int(delay_samples)
+    if N <= 0:
+        return A0, B, K
+    n_p, n = C_p.shape[1], A0.shape[-1]
+    nd = 2 * N
+    last = np.zeros((2, nd))
+    last[:, nd - 2:] = np.eye(2)  # d_N
+    A = np.zeros(A0.shape[:-2] + (n + nd, n + nd))
+    A[..., :n, :n] = A0
+    A[..., n_p:n, :n_p] = 0.0  # the controller no longer reads the position now ...
+    A[..., n_p:n, n:] = B_kd @ last  # ... but the one N samples old
+    A[..., n:n + 2, :n_p] = C_p
+    A[..., n + 2:, n:n + nd - 2] = np.eye(nd - 2)
+    Bd = np.zeros(B.shape[:-2] + (n + nd, B.shape[-1]))
+    Bd[..., :n, :] = B
+    Kd = np.hstack([np.zeros((2, n_p)), K[:, n_p:], D_k @ last])
+    return A, Bd, Kd
 
 
 def take_points(fam: CascadeFamily, idx: np.ndarray) -> CascadeFamily:
@@ -391,7 +443,8 @@ def relevance_consistent(fam: CascadeFamily, box: ParameterBox, dims: Mapping[st
 
 
 def relevant_coordinates(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, box: ParameterBox, *,
-                         tilt_limit_deg: float, rate_hz: float, tol: float = RELEVANCE_TOL) -> dict[str, tuple[int, ...]]:
+                         tilt_limit_deg: float, rate_hz: float, tol: float = RELEVANCE_TOL,
+                         delay_samples: int = 0) -> dict[str, tuple[int, ...]]:
     """Which point coordinates change each subsystem's ``A_d`` (moving one coordinate to each end of the box).
 
     A coordinate that changes a subsystem by less than ``tol`` (relative) is
@@ -399,7 +452,7 @@ def relevant_coordinates(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGai
     (:func:`grid_check`) is done with all six.
     """
     fam = sampled_family(vehicle, gains, inner, relevance_points(box), tilt_limit_deg=tilt_limit_deg,
-                         rate_hz=rate_hz)
+                         rate_hz=rate_hz, delay_samples=delay_samples)
     return _relevance_from(fam, box, tol)
 
 
@@ -410,11 +463,12 @@ _FAMILIES: dict[tuple, "CascadeFamily"] = {}
 
 
 def family_cached(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, points: np.ndarray, tilt_limit_deg: float,
-                   rate_hz: float) -> "CascadeFamily":
+                   rate_hz: float, delay_samples: int = 0) -> "CascadeFamily":
     pts = np.ascontiguousarray(points, dtype=float)
-    key = (vehicle, gains, inner, float(tilt_limit_deg), float(rate_hz), pts.shape, pts.tobytes())
+    key = (vehicle, gains, inner, float(tilt_limit_deg), float(rate_hz), pts.shape, pts.tobytes(), int(delay_samples))
     if key not in _FAMILIES:
         if len(_FAMILIES) >= 16:
             _FAMILIES.clear()
-        _FAMILIES[key] = sampled_family(vehicle, gains, inner, pts, tilt_limit_deg=tilt_limit_deg, rate_hz=rate_hz)
+        _FAMILIES[key] = sampled_family(vehicle, gains, inner, pts, tilt_limit_deg=tilt_limit_deg, rate_hz=rate_hz,
+                                        delay_samples=delay_samples)
     return _FAMILIES[key]

@@ -48,9 +48,9 @@ from nniquad.analysis.cascade.section import (
     LYAPUNOV_COVERAGE,
     LYAPUNOV_COVERAGE_GRID_ONLY,
     LYAPUNOV_FORM,
-    MARGIN_MODEL,
     MARGIN_POINTS,
     margin_fields,
+    margin_model,
     model_text,
 )
 from nniquad.analysis.fast_margins import fast_cascade_margins
@@ -63,7 +63,7 @@ from nniquad.laws.base import GainBlock
 from nniquad.model.vehicle import Vehicle
 from nniquad.sim import state_names
 
-__all__ = ["check_cascade_section", "check_cascade_rows"]
+__all__ = ["check_cascade_section", "check_cascade_rows", "stated_delay"]
 
 
 def _close(a: Any, b: Any, rtol: float = 1e-9) -> bool:
@@ -212,7 +212,7 @@ BOX_PROOF_KEYS = frozenset({"outcome", "rho", "cells", "initial_cells", "refined
 def _box_proof_row(section: Mapping[str, Any], vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains,
                    tilt_limit_deg: float, rate: float, box: ParameterBox, grid_n: int, P_affine: Any,
                    grid_fam: Any, grid_rho: float, design: list[Any], add: Callable[..., bool], cache: Cache,
-                   thorough: bool) -> None:
+                   thorough: bool, delay: int = 0) -> None:
     """The row ``box cells``: the stated ``box_proof`` (if any) checked for form, and with ``thorough`` re-proven."""
     stated = section.get("box_proof")
     rhos = allowed_box_rhos(grid_rho)
@@ -233,7 +233,7 @@ def _box_proof_row(section: Mapping[str, Any], vehicle: Vehicle, gains: GainBloc
                                       f"proven at rho {rho:.10g}; form checked (the cells are re-proven by --thorough)")
             return
     def evaluate(points: np.ndarray) -> np.ndarray:
-        return family_cached(vehicle, gains, inner, points, tilt_limit_deg, rate).A_d
+        return family_cached(vehicle, gains, inner, points, tilt_limit_deg, rate, delay).A_d
 
     got = cache("cascade.box_proof", design + [rho], lambda: box_proof(evaluate, box, grid_n, P_affine, rho,
                                                                        known_points=grid_fam.points,
@@ -249,19 +249,35 @@ def _box_proof_row(section: Mapping[str, Any], vehicle: Vehicle, gains: GainBloc
 
 
 def _design_inputs(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, tilt_limit_deg: float,
-                   rate: float, box: Any, grid_n: int) -> list[Any]:
+                   rate: float, box: Any, grid_n: int, delay: int = 0) -> list[Any]:
     """What every rebuilt matrix of a section depends on, as JSON (the first inputs of each cached row)."""
     from dataclasses import asdict
 
     return [vehicle.as_dict(), type(gains).__name__, asdict(gains), asdict(inner), float(tilt_limit_deg),
-            float(rate), box, int(grid_n)]
+            float(rate), box, int(grid_n), int(delay)]
+
+
+def stated_delay(section: Mapping[str, Any]) -> int | None:
+    """The section's measurement delay [samples] (0 when it states none: written before the delay line), or
+    ``None`` when it is not a whole number ``>= 0``.
+
+    Parameters
+    ----------
+    section
+        A ``cascade`` section.
+    """
+    d = section.get("delay_samples", 0)
+    return d if isinstance(d, int) and not isinstance(d, bool) and d >= 0 else None
 
 
 def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains,
              tilt_limit_deg: float, xi0_m: Sequence[float], add: Callable[..., bool], cache: Cache,
              thorough: bool = False) -> None:
     """The rows of :func:`check_cascade_section`, each handed to ``add(name, ok, detail)``."""
-    expected = subsystems(state_names("full", gains.controller))
+    delay = stated_delay(section) if isinstance(section, Mapping) else 0
+    if not add("delay samples", delay is not None, f"measurement delay line of {delay} samples"):
+        return
+    expected = subsystems(state_names("full", gains.controller, delay))
 
     need = ("rate_hz", "controller", "attitude_loop", "model", "box", "monte_carlo_default_box",
             "covers_monte_carlo_default", "lyapunov", "grid", "region_of_attraction", "margins", "matrices",
@@ -279,14 +295,14 @@ def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: GainBlock, inn
         add("rate and box", False, str(exc))
         return
     add("controller variant", section["controller"] == "discrete" and section["attitude_loop"] == "continuous"
-        and section["model"] == model_text(gains.law),
+        and section["model"] == model_text(gains.law, delay),
         f"{section['controller']}, attitude {section['attitude_loop']}")
     add("Monte Carlo default box", mc == ParameterBox.monte_carlo_default(), str(mc.to_json()))
     try:
         coverage = LYAPUNOV_COVERAGE if "box_proof" in section else LYAPUNOV_COVERAGE_GRID_ONLY
         texts = (section["lyapunov"]["form"] == LYAPUNOV_FORM and section["lyapunov"]["coverage"] == coverage
                  and section["region_of_attraction"]["note"] == roa_note(gains.law)
-                 and section["margins"]["points"] == MARGIN_POINTS and section["margins"]["model"] == MARGIN_MODEL
+                 and section["margins"]["points"] == MARGIN_POINTS and section["margins"]["model"] == margin_model(delay)
                  and all(list(section["lyapunov"]["subsystems"][n]["states"]) == list(expected[n])
                          for n in SUBSYSTEMS))
     except (KeyError, TypeError):
@@ -312,7 +328,7 @@ def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: GainBlock, inn
     pts = {name: grid_subset(box, dims[name], LMI_POINTS_PER_AXIS) for name in SUBSYSTEMS}
     allp = np.vstack([np.ones((1, 6))] + list(pts.values()) + [box.grid(grid_n), probes])
     try:
-        big = family_cached(vehicle, gains, inner, allp, tilt_limit_deg, rate)
+        big = family_cached(vehicle, gains, inner, allp, tilt_limit_deg, rate, delay)
     except CascadeError as exc:
         add("rebuild", False, str(exc))
         return
@@ -367,7 +383,7 @@ def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: GainBlock, inn
         f"decay {min(l.decay_rate_1_s for l in lyap.values()):.6g} 1/s")
     grid_fam = take_points(fam, np.arange(k, n_cert))
     # the Lyapunov blocks above are functions of the design and the stated lyapunov section alone
-    design = _design_inputs(vehicle, gains, inner, tilt_limit_deg, rate, section["box"], grid_n) + [lyap_s]
+    design = _design_inputs(vehicle, gains, inner, tilt_limit_deg, rate, section["box"], grid_n, delay) + [lyap_s]
     P_affine = full_affine_P(Pk, dims, fam.state_names, fam.frame)
     gc = None
     try:
@@ -391,7 +407,7 @@ def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: GainBlock, inn
             add("box cells", False, "not re-proven: the grid check could not run")
     else:
         _box_proof_row(section, vehicle, gains, inner, tilt_limit_deg, rate, box, grid_n, P_affine, grid_fam,
-                       float(gc.worst_rho), design, add, cache, thorough)
+                       float(gc.worst_rho), design, add, cache, thorough, delay)
     try:
         lz_lmi, lz_grid = cache("cascade.linear_zone", design, lambda: (linear_zone_reach(lyap, dims, box, fam, L),
                                                                          linear_zone_reach(lyap, dims, box, grid_fam, L)))
@@ -402,7 +418,8 @@ def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: GainBlock, inn
         reach, detail = min(lz_lmi, lz_grid), f"linear zone {min(lz_lmi, lz_grid):.6g} m"
         if method == "linear_zone":
             ok = ok and _close(roa.get("max_displacement_m"), reach) and "lure" not in roa
-        elif method == "lure" and gains.law.starts_at_zero(gains, vehicle.m):  # solved for a start with the controller at 0
+        elif method == "lure" and gains.law.starts_at_zero(gains, vehicle.m) and not delay:
+            # solved for a start with the controller at 0 and no delay line
             start, lmi = 1, {}
             for name in SUBSYSTEMS:  # each horizontal axis's LMI points, as the family is stacked above
                 if name in HORIZONTAL:

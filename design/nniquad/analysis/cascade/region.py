@@ -56,6 +56,7 @@ from nniquad.analysis.cascade.family import (
 from nniquad.analysis.cascade.lyapunov import RobustLyapunov, affine_in, spectral_norms
 from nniquad.analysis.lmi import checks as lmi_checks
 from nniquad.laws.base import ControlLaw
+from nniquad.sim import delay_state_names
 
 __all__ = ["linear_zone_reach", "HORIZONTAL", "features", "LureRegion", "decrease_forms", "LureCheck",
            "lure_check", "coupled_decrease", "coupled_parts", "huber", "lure_block", "check_lure_block", "ROA_NOTE", "roa_note",
@@ -90,7 +91,8 @@ def roa_note(law: ControlLaw) -> str:
 
 def start_vector(fam: CascadeFamily, axis: str) -> np.ndarray:
     """The start state of an axis's subsystem per metre of displacement: the position 1, the law's controller
-    states at their take-over values (:meth:`nniquad.laws.base.ControlLaw.start_map`), every other state 0.
+    states at their take-over values (:meth:`nniquad.laws.base.ControlLaw.start_map`), the measurement delay
+    line (if any) 1 too (the vehicle sat at the start before take-over), every other state 0.
 
     Parameters
     ----------
@@ -111,6 +113,9 @@ def start_vector(fam: CascadeFamily, axis: str) -> np.ndarray:
         for i, name in enumerate(law.sim_state_names):
             if name.endswith(f"_{axis}") and name in names:
                 v[names.index(name)] = S[i, a]
+    for name in delay_state_names(fam.delay_samples):
+        if name.endswith(f"_{axis}"):
+            v[names.index(name)] = 1.0
     return v
 
 

@@ -62,7 +62,8 @@ from nniquad.errors import CascadeError, SolverError
 from nniquad.laws.base import ControlLaw, GainBlock
 from nniquad.model.vehicle import Vehicle
 
-__all__ = ["LMI_POINTS_PER_AXIS", "BoxSearch", "widest_box", "cascade_section", "last_timings", "model_text"]
+__all__ = ["LMI_POINTS_PER_AXIS", "BoxSearch", "widest_box", "cascade_section", "last_timings", "model_text",
+           "margin_model"]
 
 
 #: Points per coordinate of each subsystem's Lyapunov LMI (the vertices and the centre); the numpy grid
@@ -72,17 +73,32 @@ LMI_POINTS_PER_AXIS = 3
 CASCADE_STATES_BESIDES_THE_LAW = 17
 
 
-def model_text(law: ControlLaw) -> str:
+def model_text(law: ControlLaw, delay_samples: int = 0) -> str:
     """The section's stated model, naming the states and the law's controller (the NNI law: 19 states, "NNI").
 
     Parameters
     ----------
     law
         The certified law.
+    delay_samples
+        Length of the measurement delay line [samples] (2 states per sample).
     """
-    n = CASCADE_STATES_BESIDES_THE_LAW + len(law.sim_state_names)
+    n = CASCADE_STATES_BESIDES_THE_LAW + len(law.sim_state_names) + 2 * int(delay_samples)
+    line = f", measurement delay line of {int(delay_samples)} samples" if delay_samples else ""
     return (f"full (linearised at hover, {n} states: rigid body, altitude PID, yaw, attitude PD, motors, "
-            f"{law.controller_label})")
+            f"{law.controller_label}{line})")
+
+
+def margin_model(delay_samples: int = 0) -> str:
+    """The stated model of the margins (:data:`MARGIN_MODEL`; the measurement delay is not in it).
+
+    Parameters
+    ----------
+    delay_samples
+        The section's measurement delay [samples].
+    """
+    return MARGIN_MODEL + (", without the measurement delay (the Lyapunov blocks include it)" if delay_samples
+                           else "")
 LYAPUNOV_FORM = "P(θ) = P0 + Σ θ_j P_j per decoupled subsystem, θ ∈ [-1, 1] the log factors normalised on the box"
 LYAPUNOV_COVERAGE = ("the LMI holds at the LMI points (grid of 3 per coordinate: vertices, centre, mid-faces); "
                      "the contraction is proven at the grid points, and over every cell between them by box_proof "
@@ -96,7 +112,7 @@ MARGIN_MODEL = "Padé (order 2) model of the sampling, continuous time (nniquad.
 last_timings: dict[str, float] = {}
 
 
-def _certify_box(vehicle, gains, inner, box, *, tilt_limit_deg, rate_hz, dims, grid_n):
+def _certify_box(vehicle, gains, inner, box, *, tilt_limit_deg, rate_hz, dims, grid_n, delay_samples=0):
     """The subsystem LMIs at the LMI points and the full grid check; raises SolverError when not certified.
 
     The horizontal axes get two candidates: the fastest decay (:func:`robust_lyapunov`) and the widest
@@ -105,7 +121,8 @@ def _certify_box(vehicle, gains, inner, box, *, tilt_limit_deg, rate_hz, dims, g
     """
     pts = {name: grid_subset(box, dims[name], LMI_POINTS_PER_AXIS) for name in SUBSYSTEMS}
     allp = np.vstack([np.ones((1, 6))] + list(pts.values()) + [box.grid(grid_n)])
-    fam = sampled_family(vehicle, gains, inner, allp, tilt_limit_deg=tilt_limit_deg, rate_hz=rate_hz)
+    fam = sampled_family(vehicle, gains, inner, allp, tilt_limit_deg=tilt_limit_deg, rate_hz=rate_hz,
+                         delay_samples=delay_samples)
     L = tilt_accel_limit(vehicle, box, tilt_limit_deg)
     lyap, wide, k = {}, {}, 1
     blocks: dict[str, tuple] = {}
@@ -165,7 +182,7 @@ class BoxSearch:
 def widest_box(vehicle, gains, inner, base: ParameterBox, *, tilt_limit_deg, rate_hz,
                grid_n: int = CASCADE_GRID_POINTS_PER_AXIS, widest: bool = False,
                steps: int = CASCADE_WIDEST_STEPS, s_max: float = CASCADE_WIDEST_SCALE_MAX,
-               s_min: float = CASCADE_SMALLEST_SCALE) -> BoxSearch:
+               s_min: float = CASCADE_SMALLEST_SCALE, delay_samples: int = 0) -> BoxSearch:
     """The widest scale ``s`` with ``base.scaled(s)`` certified, with the certificate's own grid check.
 
     Certified means what the certificate states: every subsystem LMI feasible at
@@ -189,6 +206,8 @@ def widest_box(vehicle, gains, inner, base: ParameterBox, *, tilt_limit_deg, rat
         Search above the first certified scale too.
     steps, s_max, s_min
         Bisection steps, largest and smallest scale tried.
+    delay_samples
+        Measurement delay [samples] (:func:`nniquad.analysis.cascade.family.with_delay_line`).
 
     Returns
     -------
@@ -205,9 +224,10 @@ def widest_box(vehicle, gains, inner, base: ParameterBox, *, tilt_limit_deg, rat
     def ok(s: float) -> bool:
         box = base.scaled(s)
         try:
-            dims = relevant_coordinates(vehicle, gains, inner, box, tilt_limit_deg=tilt_limit_deg, rate_hz=rate_hz)
+            dims = relevant_coordinates(vehicle, gains, inner, box, tilt_limit_deg=tilt_limit_deg, rate_hz=rate_hz,
+                                        delay_samples=delay_samples)
             found[s] = (_certify_box(vehicle, gains, inner, box, tilt_limit_deg=tilt_limit_deg, rate_hz=rate_hz,
-                                     dims=dims, grid_n=grid_n), dims)
+                                     dims=dims, grid_n=grid_n, delay_samples=delay_samples), dims)
         except (SolverError, CascadeError):
             pass
         tried.append((s, s in found))
@@ -233,7 +253,7 @@ def widest_box(vehicle, gains, inner, base: ParameterBox, *, tilt_limit_deg, rat
     return BoxSearch(scale=s, first_failed_scale=bad, steps=tuple(tried), parts=parts, dims=dims)
 
 
-def _vertex_margins(fam: CascadeFamily, rate_hz: float) -> dict[str, Any]:
+def _vertex_margins(fam: CascadeFamily, rate_hz: float, delay_samples: int = 0) -> dict[str, Any]:
     """Worst fast margins (:mod:`nniquad.analysis.fast_margins`) over the points of ``fam``."""
 
     worst: dict[str, dict[str, Any]] = {}
@@ -251,7 +271,7 @@ def _vertex_margins(fam: CascadeFamily, rate_hz: float) -> dict[str, Any]:
         for k, v in list(w.items()):
             if isinstance(v, float) and not math.isfinite(v):
                 w[k] = str(v)
-    return {"points": MARGIN_POINTS, "model": MARGIN_MODEL, "worst": worst}
+    return {"points": MARGIN_POINTS, "model": margin_model(delay_samples), "worst": worst}
 
 
 _SECTIONS: dict[tuple, dict[str, Any]] = {}
@@ -260,7 +280,7 @@ _SECTIONS: dict[tuple, dict[str, Any]] = {}
 def cascade_section(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, *, tilt_limit_deg: float,
                     rate_hz: float = CONTROL_RATE_HZ, box: ParameterBox | None = None,
                     widest: bool = False, grid_points_per_axis: int = CASCADE_GRID_POINTS_PER_AXIS,
-                    xi0_m: Sequence[float] = XI0_M) -> dict[str, Any]:
+                    xi0_m: Sequence[float] = XI0_M, delay_samples: int = 0) -> dict[str, Any]:
     """The schema-2 ``cascade`` section of a certificate (module docstring for the maths).
 
     A section is a pure function of its inputs, so one computed earlier in the
@@ -272,18 +292,18 @@ def cascade_section(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, *
     # the grid size is checked before the lookup: int(3.0) == 3 would otherwise find a section of a valid size
     # computed earlier in this process, and the one rule verify applies would depend on what ran before
     key = (vehicle, gains, inner, float(tilt_limit_deg), float(rate_hz), box, bool(widest),
-           checked_grid_size(grid_points_per_axis), tuple(float(v) for v in xi0_m))
+           checked_grid_size(grid_points_per_axis), tuple(float(v) for v in xi0_m), int(delay_samples))
     if key not in _SECTIONS:
         _SECTIONS[key] = _cascade_section(vehicle, gains, inner, tilt_limit_deg=tilt_limit_deg, rate_hz=rate_hz,
                                           box=box, widest=widest, grid_points_per_axis=grid_points_per_axis,
-                                          xi0_m=xi0_m)
+                                          xi0_m=xi0_m, delay_samples=delay_samples)
     return copy.deepcopy(_SECTIONS[key])
 
 
 def _cascade_section(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, *, tilt_limit_deg: float,
                      rate_hz: float = CONTROL_RATE_HZ, box: ParameterBox | None = None,
                      widest: bool = False, grid_points_per_axis: int = CASCADE_GRID_POINTS_PER_AXIS,
-                     xi0_m: Sequence[float] = XI0_M) -> dict[str, Any]:
+                     xi0_m: Sequence[float] = XI0_M, delay_samples: int = 0) -> dict[str, Any]:
     """:func:`cascade_section` without the cache.
 
     Parameters
@@ -308,6 +328,11 @@ def _cascade_section(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, 
         :data:`nniquad.config.CASCADE_GRID_POINTS_PER_AXIS`).
     xi0_m
         The reference start [m]: ``start_certified`` states whether it lies in the certified region.
+    delay_samples
+        Measurement delay [samples] the loop is certified with: a delay line of that many samples per axis
+        between the position and the law (:func:`nniquad.analysis.cascade.family.with_delay_line`); the start
+        fills it with the start position.  The region is then the linear zone's (the Lur'e-Postnikov region is
+        solved for a start with nothing but the position and the law's state), and the margins are without it.
 
     Raises
     ------
@@ -322,14 +347,16 @@ def _cascade_section(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, 
     if box is None or widest:
         # one search, with the certificate's own grid: the Monte Carlo box, halved until it certifies
         search = widest_box(vehicle, gains, inner, mc, tilt_limit_deg=tilt_limit_deg, rate_hz=rate_hz,
-                            grid_n=grid_n, widest=widest)
+                            grid_n=grid_n, widest=widest, delay_samples=delay_samples)
     if box is None:
         box = mc.scaled(search.scale) if search.scale != 1.0 else mc
         (fam, pts, lyap, grid_fam, gc), dims = search.parts, search.dims
     else:
-        dims = relevant_coordinates(vehicle, gains, inner, box, tilt_limit_deg=tilt_limit_deg, rate_hz=rate_hz)
+        dims = relevant_coordinates(vehicle, gains, inner, box, tilt_limit_deg=tilt_limit_deg, rate_hz=rate_hz,
+                                    delay_samples=delay_samples)
         fam, pts, lyap, grid_fam, gc = _certify_box(vehicle, gains, inner, box, tilt_limit_deg=tilt_limit_deg,
-                                                    rate_hz=rate_hz, dims=dims, grid_n=grid_n)
+                                                    rate_hz=rate_hz, dims=dims, grid_n=grid_n,
+                                                    delay_samples=delay_samples)
     s_ok = search.scale if search is not None else math.nan
     s_bad = search.first_failed_scale if search is not None else math.nan
     T = fam.T
@@ -341,8 +368,8 @@ def _cascade_section(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, 
     # the Lur'e-Postnikov region, kept when it passes every numpy check and reaches further than the linear zone;
     # it is solved for a start with the controller state 0, so not for a law that starts elsewhere (sni2: at its
     # DC value)
-    lure, record = (lure_section(fam, pts, lyap, grid_fam, box, dims) if gains.law.starts_at_zero(gains, vehicle.m)
-                    else (None, None))
+    lure, record = (lure_section(fam, pts, lyap, grid_fam, box, dims)
+                    if gains.law.starts_at_zero(gains, vehicle.m) and not delay_samples else (None, None))
     reach = min(lz_lmi, lz_grid)
     roa_block: dict[str, Any] = {"u0_m_s2": L, "tilt_limit_deg": float(tilt_limit_deg), "method": "linear_zone"}
     if lure is not None and min(lure["check_lmi_points"]["reach_m"], lure["check_grid"]["reach_m"]) > reach:
@@ -355,18 +382,19 @@ def _cascade_section(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, 
     timings["roa_s"] = time.perf_counter() - t0 - sum(timings.values())
     mdims = tuple(sorted(set(dims["x"]) | set(dims["y"])))
     margins = _vertex_margins(sampled_family(vehicle, gains, inner, grid_subset(box, mdims, 2),
-                                             tilt_limit_deg=tilt_limit_deg, rate_hz=rate_hz), rate_hz)
+                                             tilt_limit_deg=tilt_limit_deg, rate_hz=rate_hz), rate_hz,
+                              delay_samples)
     nom = take_points(fam, np.arange(1))
     loops = block_loops(fam, box, pts, dims)
     timings["margins_s"] = time.perf_counter() - t0 - sum(timings.values())
     proof = prove_box(lambda p: sampled_family(vehicle, gains, inner, p, tilt_limit_deg=tilt_limit_deg,
-                                               rate_hz=rate_hz).A_d,
+                                               rate_hz=rate_hz, delay_samples=delay_samples).A_d,
                       box, grid_n, full_affine_P({n: l.P for n, l in lyap.items()}, dims, fam.state_names, fam.frame),
                       float(gc.worst_rho), known_points=grid_fam.points, known_A=grid_fam.A_d)
     timings["box_proof_s"] = time.perf_counter() - t0 - sum(timings.values())
     section = {
         "rate_hz": float(rate_hz), "controller": "discrete", "attitude_loop": "continuous",
-        "model": model_text(gains.law),
+        "model": model_text(gains.law, delay_samples), "delay_samples": int(delay_samples),
         "box": box.to_json(), "monte_carlo_default_box": mc.to_json(),
         "covers_monte_carlo_default": bool(box.contains(mc)),
         # how the box was found: a record (nniquad.certificates.verify.RECORD_FIELDS), not a claim: verify

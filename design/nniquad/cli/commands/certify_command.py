@@ -11,6 +11,7 @@ from nniquad.cli.commands.common import (
     add_controller_option,
     add_gain_options,
     add_output_option,
+    delay_samples,
     finite_positive,
     gain_option,
     gains_from_args,
@@ -18,7 +19,7 @@ from nniquad.cli.commands.common import (
     vehicle_from_args,
 )
 from nniquad.cli.commands.tune_command import add_tuning_options, print_tune_result, tune_options_from_args
-from nniquad.config import CONTROL_RATE_HZ, DT_S, XI0_M
+from nniquad.config import CONTROL_RATE_HZ, DT_S, ROBUST_DELAY_SAMPLES, XI0_M
 from nniquad.control.inner_gains import DEFAULT_INNER_LOOP_GAINS
 from nniquad.errors import CertificateError, NniquadError
 from nniquad.format import fmt, margin_text, margin_verdict
@@ -90,6 +91,7 @@ def run(args: argparse.Namespace) -> int:
 
     # before any tuning: a bad rate fails at once
     rate = check_rate_hz(CONTROL_RATE_HZ if args.rate is None else args.rate, DT_S, error=CertificateError)
+    delay = ROBUST_DELAY_SAMPLES if delay_samples(args) is None else delay_samples(args)
     law = law_named(args.controller)
     gains_given = any(getattr(args, n, None) is not None for n in law.gain_names)
     if args.warm_start and (gains_given or args.gains_from is not None):
@@ -115,7 +117,7 @@ def run(args: argparse.Namespace) -> int:
         records: list = []
         (gains, inner), = designs_from_files([args.gains_from], "--gains-from", records)
         cert = certify(vehicle, gains, inner=inner, options=options, progress=progress.steps(certify_steps(False)),
-                       rate_hz=rate,
+                       rate_hz=rate, delay_samples=delay,
                        box=box, widest_box=args.widest_box, tuning_record=records[0])
     elif given is not None:
         gains = given
@@ -131,7 +133,7 @@ def run(args: argparse.Namespace) -> int:
         check_step(SimParams.from_options(vehicle, gains, run), "full",
                    hint=step_hints(attitude="--attitude-wn", motor_lag="the vehicle's tau_motor"))
         cert = certify(vehicle, gains, inner=inner, options=options, progress=progress.steps(certify_steps(False)),
-                       rate_hz=rate,
+                       rate_hz=rate, delay_samples=delay,
                        box=box, widest_box=args.widest_box)
     else:
         from nniquad.cli.commands.tune_command import warm_starts_from_args
@@ -139,7 +141,7 @@ def run(args: argparse.Namespace) -> int:
         tuned = tune(vehicle, options, progress=progress.message, warm_starts=warm_starts_from_args(args))
         print_tune_result(tuned)
         cert = certify(vehicle, tuned, options=options, progress=progress.steps(certify_steps(True), done=1),
-                       rate_hz=rate,
+                       rate_hz=rate, delay_samples=delay,
                        box=box, widest_box=args.widest_box)
     progress(1.0, "certificate signed and verified")
     progress.close()
@@ -212,5 +214,9 @@ def summary_lines(cert: Any) -> list[str]:
             lines.append(f"box search ({search['method']}): widest scale certified "
                          f"{search['widest_certified_scale']:.4g} x the Monte Carlo ranges (log space), first failed "
                          f"{failed if isinstance(failed, str) else format(failed, '.4g')}")
+    if cert.delay_samples is not None:
+        lines.append(f"measurement delay certified: {cert.delay_samples} samples "
+                     f"({1000.0 * cert.delay_samples / float(cert.cascade['rate_hz']):g} ms at "
+                     f"{cert.cascade['rate_hz']:g} Hz)")
     lines.append(f"digest sha256 {cert.signature}")
     return lines

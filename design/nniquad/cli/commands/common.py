@@ -9,7 +9,7 @@ from dataclasses import MISSING, fields
 from pathlib import Path
 from typing import Any
 
-from nniquad.config import TILT_LIMIT_DEG, XI0_M
+from nniquad.config import CONTROL_RATE_HZ, TILT_LIMIT_DEG, XI0_M
 from nniquad.errors import GainError, NniquadError
 from nniquad.io import atomic_write_json, check_output_folder, check_output_paths
 from nniquad.laws.base import field_unit
@@ -19,7 +19,8 @@ from nniquad.validate import finite_number
 
 __all__ = ["add_tilt_limit_option", "add_xi0_option", "add_vehicle_option", "vehicle_from_args", "add_json_option",
            "write_json_if_asked", "finite_positive", "add_output_option", "check_declared_outputs", "declared_outputs",
-           "gain_option", "add_controller_option", "add_gain_options", "gains_from_args", "law_gains", "step_hints"]
+           "gain_option", "add_controller_option", "add_gain_options", "gains_from_args", "law_gains", "step_hints",
+           "add_delay_option", "delay_samples"]
 
 
 def add_output_option(parser: argparse.ArgumentParser, *flags: str, kind: str = "file",
@@ -247,3 +248,30 @@ def step_hints(**extra: str) -> dict[str, str]:
         hints[law.pole_label] = f"{', '.join(ctrl)} or --dt" if ctrl else "--dt"
     hints.update({k.replace("_", " "): v for k, v in extra.items()})
     return hints
+
+
+def add_delay_option(parser: Any, default: int | None, what: str) -> None:
+    """Add ``--delay-samples N``: the measurement delay in control periods, with what it means in milliseconds.
+
+    Parameters
+    ----------
+    parser
+        The parser or argument group.
+    default
+        The default [samples] (``None``: the command's own, said in ``what``).
+    what
+        The end of the help text (what the delay applies to, and the default).
+    """
+    ms = 1000.0 / CONTROL_RATE_HZ
+    parser.add_argument("--delay-samples", type=int, default=default, metavar="N",
+                        help=f"measurement delay in samples: the position reaches the law N control periods late "
+                             f"(N/rate s: {ms:g} ms per sample at {CONTROL_RATE_HZ:g} Hz, so 2 = {2 * ms:g} ms); "
+                             + what)
+
+
+def delay_samples(args: argparse.Namespace) -> int | None:
+    """``--delay-samples`` checked (a whole number >= 0; one line otherwise), ``None`` when not given."""
+    value = getattr(args, "delay_samples", None)
+    if value is not None and value < 0:
+        raise NniquadError(f"--delay-samples must be a whole number of samples >= 0, got {value}")
+    return value

@@ -10,7 +10,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from nniquad.cli.commands.common import add_output_option
+from nniquad.cli.commands.common import add_delay_option, add_output_option, delay_samples
 from nniquad.cli.commands.reference_options import add_reference_options, reference_settings
 from nniquad.config import CONTROL_RATE_HZ, MC_STALL_TIMEOUT_S
 from nniquad.errors import EXIT_INTERRUPTED, EXIT_TERMINATED, MonteCarloError
@@ -98,6 +98,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="control rate: the position is sampled at HZ and the NNI controller runs in discrete "
                              "time at HZ (default: the certificate's rate, cascade.rate_hz or margins.rate_hz, "
                              f"else {CONTROL_RATE_HZ:g})")
+    add_delay_option(parser, None, "every scenario (default 0, with --within-certificate the certificate's "
+                                   "certified delay_samples); beyond the certified delay it is flagged, and "
+                                   "refused with --within-certificate")
     parser.add_argument("--within-certificate", action="store_true",
                         help="draw only inside what the certificate certifies (its cascade section: parameter box, "
                              "region of attraction, rate; no noise, no wind); every scenario must converge, "
@@ -159,9 +162,11 @@ def _ranges(args: argparse.Namespace, cert: Any = None):
     """The ranges of the study and, with --within-certificate, the certified region [m] (else ``None``)."""
     # lazily: `nniquad --help` loads every command module, and its cold start stays under 0.5 s
     from nniquad.sim.options import check_rate_hz
+    from nniquad.scenarios.ranges import certified_delay_samples
     from nniquad.study import MonteCarloError, ScenarioRanges, certificate_rate_hz, within_certificate_ranges
 
     given = [flag for attr, _, flag in _RANGE_OPTIONS if getattr(args, attr) is not None]
+    delay, certified = delay_samples(args), certified_delay_samples(cert)
     if args.within_certificate:
         if given:
             raise MonteCarloError(f"--within-certificate takes its ranges from the certificate: drop {given[0]}")
@@ -169,9 +174,14 @@ def _ranges(args: argparse.Namespace, cert: Any = None):
             raise MonteCarloError("--within-certificate runs at the certificate's rate: drop --rate")
         ranges, region, rate = within_certificate_ranges(cert)
         check_rate_hz(rate, error=MonteCarloError, option="the certificate's cascade.rate_hz")
-        return ranges, region
+        if delay is not None and delay > certified:
+            raise MonteCarloError(f"--within-certificate: a measurement delay of {delay} samples is beyond the "
+                                  f"certified delay ({certified} samples)")
+        return (ranges if delay is None else ranges.with_(delay_samples=delay)), region
     changes: dict[str, Any] = {field: (tuple(v) if isinstance(v, list) else v)
                                for attr, field, _ in _RANGE_OPTIONS if (v := getattr(args, attr)) is not None}
+    if delay is not None:
+        changes["delay_samples"] = delay
     rate = certificate_rate_hz(cert) if args.rate is None else args.rate
     changes["noise_rate_hz"] = check_rate_hz(rate, error=MonteCarloError,
                                              option="--rate" if args.rate is not None else "the certificate's rate")
@@ -184,6 +194,8 @@ def _rerun_hint(args: argparse.Namespace) -> str:
         parts += ["--within-certificate"]
     if args.rate is not None:
         parts += ["--rate", f"{args.rate:g}"]
+    if args.delay_samples is not None:
+        parts += ["--delay-samples", str(args.delay_samples)]
     if args.horizon != 20.0:
         parts += ["--horizon", f"{args.horizon:g}"]
     for attr, _, flag in _RANGE_OPTIONS:
@@ -291,6 +303,9 @@ def run(args: argparse.Namespace) -> int:
                               "moving reference")
     cert = load_certificate(args.certificate)
     ranges, region = _ranges(args, cert)
+    beyond = _beyond_certified_delay(cert, ranges)
+    if beyond is not None:
+        print(f"[montecarlo] {beyond}", file=sys.stderr)
     setup = replace(study_setup(cert, ranges, horizon_s=args.horizon, region_m=region), **follow)
     # the RK4 step against the fastest scenario the ranges can draw (strongest attitude gain, fastest motor)
     check_study_step(setup, ranges,
@@ -337,7 +352,8 @@ def run(args: argparse.Namespace) -> int:
                 failure, result = exc, exc.result
             hint = _rerun_hint(args)
             data: dict[str, Any] = result.to_json()
-            data["study"] = {"certificate": str(args.certificate), **data["study"]}
+            data["study"] = {"certificate": str(args.certificate), **data["study"],
+                             "beyond_certified_delay": beyond is not None}
             data["rerun"] = hint
             if result.partial:
                 saved = _save_partial(partial_path(args.json, args.seed), data)
@@ -353,6 +369,9 @@ def run(args: argparse.Namespace) -> int:
         g = setup.base.gains
         print(f"gains: {gains_text(g)}   horizon {setup.horizon_s:g} s, "
               f"displacement up to {setup.region_m:.3g} m, settling band {setup.band_m:.3g} m")
+        if ranges.delay_samples or beyond is not None:
+            print(f"measurement delay: {ranges.delay_samples} samples at {ranges.noise_rate_hz:g} Hz"
+                  + (f"; {beyond}" if beyond is not None else " (within the certified delay)"))
         print(result.table(rerun_hint=hint))
         print(f"{study.executor}, {study.workers} worker(s), batches of {study.batch_size}: "
               f"{study.scenarios_per_s:.2f} scenarios/s")
@@ -372,6 +391,18 @@ def run(args: argparse.Namespace) -> int:
     if args.within_certificate:
         return _within_certificate_verdict(study.results, hint)
     return 0
+
+
+def _beyond_certified_delay(cert: Any, ranges: Any) -> str | None:
+    """The flag of a study whose measurement delay exceeds the certificate's certified one, else ``None``."""
+    # lazily: `nniquad --help` loads every command module, and its cold start stays under 0.5 s
+    from nniquad.scenarios.ranges import certified_delay_samples
+
+    certified = certified_delay_samples(cert)
+    if ranges.delay_samples <= certified:
+        return None
+    return (f"FLAGGED: a measurement delay of {ranges.delay_samples} samples is beyond the certified delay "
+            f"({certified} samples): nothing certifies these runs")
 
 
 def _within_certificate_verdict(results, hint: str) -> int:

@@ -8,12 +8,14 @@ from pathlib import Path
 
 from nniquad.cli.commands.common import (
     add_controller_option,
+    add_delay_option,
     add_gain_options,
     add_json_option,
     add_output_option,
     add_tilt_limit_option,
     add_vehicle_option,
     add_xi0_option,
+    delay_samples,
     gain_option,
     law_gains,
     step_hints,
@@ -109,6 +111,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     d.add_argument("--sampling", choices=CONTROLLER_SAMPLING, default=None,
                    help="how the controller sees the position: continuous; held (sampled and held, controller "
                         "integrated continuously on it); discrete (default with --rate or --noise)")
+    add_delay_option(d, None, "samples the measurement (discrete at --rate, default "
+                              f"{CONTROL_RATE_HZ:g} Hz); default 0.  With --certificate, a delay beyond the one the "
+                              "certificate certifies is flagged")
     d.add_argument("--seed", type=int, default=None, metavar="N", help="seed of the noise and gust (default 0)")
     d.add_argument("--wind", type=float, nargs=2, default=None, metavar=("FX", "FY"),
                    help="constant wind force north/east in N (default 0 0)")
@@ -136,7 +141,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 _RUN_FIELDS = (("model", "model"), ("horizon", "horizon_s"), ("dt", "dt_s"), ("output_dt", "output_dt_s"),
                ("xi0", "xi0"), ("tilt_limit", "tilt_limit_deg"), ("noise", "noise_sigma_m"), ("seed", "seed"),
                ("wind", "wind_N"), ("gust", "gust_N"), ("gust_tau", "gust_tau_s"), ("motor_lag", "motor_lag"),
-               ("tau_motor", "tau_motor_s"), ("true_mass", "true_mass_kg"))
+               ("tau_motor", "tau_motor_s"), ("true_mass", "true_mass_kg"), ("delay_samples", "delay_samples"))
 #: The option that sets each run field (for the list of overrides).
 _OPTION_OF = {**{f: "--" + d.replace("_", "-") for d, f in _RUN_FIELDS}, "noise_rate_hz": "--rate",
               "sampling": "--sampling", "inner": "--attitude-wn/--attitude-zeta", "vehicle": "--vehicle",
@@ -186,7 +191,7 @@ def _sampling(args: argparse.Namespace, base, dt: float) -> tuple[float, str]:
 
     sampling = args.sampling
     if sampling is None:
-        sampled = args.rate is not None or (args.noise or 0.0) > 0
+        sampled = args.rate is not None or (args.noise or 0.0) > 0 or (delay_samples(args) or 0) > 0
         sampling = "discrete" if sampled and base.sampling == "continuous" else base.sampling
     if args.rate is not None and sampling == "continuous":
         raise SimulationError("--rate samples the measurement: it cannot be used with --sampling continuous")
@@ -280,6 +285,9 @@ def run(args: argparse.Namespace) -> int:
     elif base is not None:
         print(f"certificate: {args.certificate}, its reference run performance.{base.model} (vehicle, inner loops, "
               f"{_sampling_text(options)}, motor lag {fmt(options.motor_lag)}, start, horizon {options.horizon_s:g} s)")
+    beyond = _beyond_certified_delay(args, options)
+    if beyond is not None:
+        print(f"certificate: {beyond}")
     rows = [
         ("settling time (2 % band)", fmt(m.settling_s, "s"),
          "(following a reference)" if m.follows_reference else "not settled" if m.settling_s is None else ""),
@@ -330,13 +338,29 @@ def run(args: argparse.Namespace) -> int:
             data["certificate"] = {"path": args.certificate, "note": note, "overridden": overridden,
                                    "run": None if base is None else f"performance.{base.model}",
                                    "stated": None if compared is None else dict(flight.stated),
-                                   "reproduced": None if compared is None else not compared}
+                                   "reproduced": None if compared is None else not compared,
+                                   "beyond_certified_delay": beyond is not None}
         if args.json:
             atomic_write_json(args.json, data)
     for path in (written, args.plot, args.json):
         if path is not None:
             print(f"wrote {path}", file=sys.stderr)
     return EXIT_CHECK_FAILED if compared else 0
+
+
+def _beyond_certified_delay(args: argparse.Namespace, options) -> str | None:
+    """The flag of a run with ``--certificate`` whose measurement delay exceeds the certified one, else ``None``."""
+    if not args.certificate:
+        return None
+    # lazily: `nniquad --help` loads every command module, and its cold start stays under 0.5 s
+    from nniquad.certificates.certificate import load_certificate
+
+    stated = load_certificate(args.certificate).get("delay_samples")
+    certified = stated if isinstance(stated, int) and not isinstance(stated, bool) else 0
+    if options.delay_samples <= certified:
+        return None
+    return (f"FLAGGED: a measurement delay of {options.delay_samples} samples is beyond the certified delay "
+            f"({certified} samples): not the certificate's run, and nothing certifies it")
 
 
 def _sampling_text(options) -> str:

@@ -7,6 +7,8 @@ from pathlib import Path
 
 from nniquad.cli.commands.common import (
     add_controller_option,
+    add_delay_option,
+    delay_samples,
     add_json_option,
     add_tilt_limit_option,
     add_vehicle_option,
@@ -14,7 +16,15 @@ from nniquad.cli.commands.common import (
     write_json_if_asked,
 )
 from nniquad.cli.commands.reference_options import add_reference_options, reference_settings, tracking_window
-from nniquad.config import CONTROL_RATE_HZ, DT_S, GAMMA_MAX, REQUIRED_GM_DB, REQUIRED_PM_DEG, TUNING_SCENARIO_SEED
+from nniquad.config import (
+    CONTROL_RATE_HZ,
+    DT_S,
+    GAMMA_MAX,
+    REQUIRED_GM_DB,
+    REQUIRED_PM_DEG,
+    ROBUST_DELAY_SAMPLES,
+    TUNING_SCENARIO_SEED,
+)
 from nniquad.control.inner_gains import InnerLoopGains
 from nniquad.errors import CertificateError, NniquadError
 from nniquad.format import fmt, margin_text, margin_verdict
@@ -127,6 +137,10 @@ def add_tuning_options(parser: argparse.ArgumentParser) -> None:
                              "take HI, the random draws U[LO, HI], one draw per position sample at --rate (default "
                              "0 0.02, the Monte Carlo study's; set it to your sensor's: a velocity-free law "
                              "differentiates the position, so the noise it must tolerate limits its speed)")
+    add_delay_option(parser, None, "in the robust objective's perturbed scenarios (default "
+                                   f"{ROBUST_DELAY_SAMPLES}, the robust default; the nominal run has none); certify "
+                                   "also certifies the cascade with it (default "
+                                   f"{ROBUST_DELAY_SAMPLES})")
 
 
 def tune_options_from_args(args: argparse.Namespace):
@@ -154,7 +168,7 @@ def tune_options_from_args(args: argparse.Namespace):
                        scenario_seed=args.scenario_seed, controller=controller,
                        scenario_noise_range_m=(None if args.scenario_noise_range is None
                                                else tuple(args.scenario_noise_range)),
-                       optimizer=args.optimizer)
+                       optimizer=args.optimizer, delay_samples=delay_samples(args) if robust else None)
 
 
 def tracking_settings(args: argparse.Namespace) -> dict:
@@ -292,6 +306,9 @@ def run(args: argparse.Namespace) -> int:
 
     vehicle = vehicle_from_args(args)
     options = tune_options_from_args(args)
+    if delay_samples(args) and not options.robust:
+        raise NniquadError("--delay-samples delays the robust objective's scenarios: it needs --model full without "
+                           "--nominal")
     warm = warm_starts_from_args(args)
     progress = Progress("tune")
     res = tune(vehicle, options, progress=progress.message, warm_starts=warm)
