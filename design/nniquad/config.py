@@ -28,6 +28,10 @@ __all__ = [
     "REQUIRED_PM_DEG",
     "TAU_MOTOR_FACTOR_RANGE",
     "WIND_WEIGHT_FRACTION_RANGE",
+    "STEADY_OFFSET_WINDOW_S",
+    "NOISE_BUDGET_SIGMA_M",
+    "NOISE_BUDGET_TILT_RMS_DEG",
+    "NOISE_BUDGET_ROTOR_LIMIT_SHARE",
     "ATTITUDE_GAIN_MARGIN",
     "CASCADE_BANDWIDTH_RATIO",
     "TUNING_SCENARIO_SEED",
@@ -99,10 +103,18 @@ REQUIRED_PM_DEG: float = 45.0
 #: Monte Carlo range of the motor time constant as factors of the vehicle's nominal one.
 #: The same factor (its upper end) bounds the attitude bandwidth the tuner may choose.
 TAU_MOTOR_FACTOR_RANGE: tuple[float, float] = (0.5, 2.0)
-#: Monte Carlo range of the constant wind force as a fraction of the nominal weight m g: 6 % is
-#: the drag of a 5 m/s breeze on the paper's 0.5 kg vehicle (C_d A ~ 0.02 m^2), and a tenth of
-#: the m g tan(30 deg) = 58 % of the weight the tilt limit can hold against.
-WIND_WEIGHT_FRACTION_RANGE: tuple[float, float] = (0.0, 0.06)
+#: Monte Carlo range of the constant wind force as a fraction of the nominal weight m g: 10 % is
+#: the drag of a 6.5 m/s breeze on the paper's 0.5 kg vehicle (C_d A ~ 0.02 m^2; 6 % at 5 m/s), and
+#: a sixth of the m g tan(30 deg) = 58 % of the weight the tilt limit can hold against.
+WIND_WEIGHT_FRACTION_RANGE: tuple[float, float] = (0.0, 0.10)
+#: The steady offset of a run (nniquad.sim.metrics.steady_offset_m) is its mean distance from the setpoint
+#: over this final window [s].
+STEADY_OFFSET_WINDOW_S: float = 1.0
+#: Noise budget in hover at NOISE_BUDGET_SIGMA_M position noise at the control rate: RMS commanded tilt [deg]
+#: and share of integration steps with a rotor command at its limit (targets of issue 44).
+NOISE_BUDGET_SIGMA_M: float = 0.02
+NOISE_BUDGET_TILT_RMS_DEG: float = 2.0
+NOISE_BUDGET_ROTOR_LIMIT_SHARE: float = 0.05
 #: Gain margin (a factor on the motor time constant, 2 = 6 dB) the attitude loop keeps at the
 #: slowest motor of TAU_MOTOR_FACTOR_RANGE (nniquad.control.inner_loops.attitude_wn_limit).
 ATTITUDE_GAIN_MARGIN: float = 2.0

@@ -49,7 +49,7 @@ MC_BYTES_PER_SCENARIO: int = 10 * 1024
 WORKER_PROCESS_BYTES: int = 150 * 2**20
 #: Number of states and outputs per model (as in :data:`nniquad.sim.STATE_NAMES` / ``OUTPUT_NAMES``;
 #: a test checks they agree, so this module needs no CasADi import).
-MODEL_SIZES: dict[str, tuple[int, int]] = {"linear": (8, 5), "reduced": (8, 5), "full": (21, 8)}
+MODEL_SIZES: dict[str, tuple[int, int]] = {"linear": (8, 5), "reduced": (8, 5), "full": (21, 12)}
 #: Per-step exogenous inputs (:data:`nniquad.sim.EXO_FIELDS`; a test checks they agree).
 EXO_COLUMNS = 11
 _FLOAT = 8

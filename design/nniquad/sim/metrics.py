@@ -11,7 +11,14 @@ the design notes (``DESIGN.md``):
 * **Overshoot** -- the largest excursion past the origin along the initial
   direction ``e0 = ξ_h(0)/‖ξ_h(0)‖``, ``max_t(-⟨ξ_h(t), e0⟩)`` clipped at 0, in
   percent of ``‖ξ_h(0)‖``.
+* **Steady offset** -- the mean distance ``‖ξ_h‖`` from the setpoint over the
+  last :data:`nniquad.config.STEADY_OFFSET_WINDOW_S` (1 s) of the run
+  (:func:`steady_offset_m`): what a constant force leaves behind.
 * **Tilt** -- the total tilt angle ``arccos(cos φ cos θ)`` in degrees.
+* **Noise budget** -- the RMS of the commanded tilt over the run's hover window
+  (:func:`hover_window_start_s`: from the settling time on, the whole run for a
+  run that starts at the setpoint) and the share of samples with any commanded
+  rotor speed at a limit, 0 or ``ω_max`` (:func:`rotor_limit_share`).
 * **Blew up** -- a non-finite sample (position or altitude), or a horizontal
   distance beyond ``DIVERGENCE_FACTOR`` (100) times the run's scale, by
   default ``‖ξ_h(0)‖`` (1 m for a run that starts at the origin).
@@ -39,7 +46,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from nniquad.config import BAND_FRACTION, DIVERGENCE_FACTOR
+from nniquad.config import BAND_FRACTION, DIVERGENCE_FACTOR, STEADY_OFFSET_WINDOW_S
 from nniquad.errors import SimulationError
 
 __all__ = [
@@ -52,6 +59,9 @@ __all__ = [
     "tilt_deg",
     "peak_tilt_deg",
     "time_on_limit_fraction",
+    "steady_offset_m",
+    "hover_window_start_s",
+    "rotor_limit_share",
     "rms_after",
     "peak_abs",
 ]
@@ -334,3 +344,80 @@ def rms_after(t: ArrayLike, signal: ArrayLike, t0: float | None, *, remove_mean:
 def peak_abs(signal: ArrayLike) -> float:
     """Largest magnitude of a signal of any shape (``nan`` propagates)."""
     return float(np.max(np.abs(np.asarray(signal, dtype=float))))
+
+
+# ---------------------------------------------------------------------------
+# steady state and noise budget
+
+
+def steady_offset_m(t: ArrayLike, xy: ArrayLike, window_s: float = STEADY_OFFSET_WINDOW_S) -> float:
+    """Distance from the setpoint at the end of a run: the time average of ``‖ξ_h‖`` over its last ``window_s``.
+
+    Parameters
+    ----------
+    t
+        Sample times [s], shape ``(N,)``.
+    xy
+        Horizontal positions relative to the setpoint [m], shape ``(N, 2)``.
+    window_s
+        Length of the final window [s] (default 1 s): long enough to average
+        position noise, short enough to be steady after settling.
+
+    Returns
+    -------
+    float
+        Mean distance [m] (trapezoidal rule); ``nan`` if a sample in the window is
+        non-finite; the last distance for a run shorter than one sample step.
+    """
+    ta = time_axis(t)
+    d = np.hypot(*points_batch(ta, xy, batched=False)[0].T)
+    mask = ta >= ta[-1] - window_s
+    tw, dw = ta[mask], d[mask]
+    if tw[-1] - tw[0] <= 0:
+        return float(dw[-1])
+    return float(np.trapezoid(dw, tw) / (tw[-1] - tw[0]))
+
+
+def hover_window_start_s(xy: ArrayLike, settling_s: float | None) -> float | None:
+    """Start [s] of a run's hover window: where the noise budget is measured.
+
+    A run that starts at the setpoint (``ξ_h(0) = 0``) hovers throughout (0.0);
+    any other hovers from its settling time on; one that never settles has no
+    hover window (``None``).
+
+    Parameters
+    ----------
+    xy
+        Horizontal positions [m], shape ``(N, 2)``.
+    settling_s
+        The run's settling time to the setpoint [s] (``None``: not settled).
+    """
+    a = np.asarray(xy, dtype=float)
+    return 0.0 if not np.hypot(*a[0]) > 0 else settling_s
+
+
+def rotor_limit_share(rotor_commands: ArrayLike, omega_max: float, rel_tol: float = 1e-6) -> float:
+    """Share of the samples with any commanded rotor speed at a limit (0 or ``omega_max``).
+
+    Parameters
+    ----------
+    rotor_commands
+        Commanded rotor speeds [rad/s], shape ``(N, 4)`` (one row per sample;
+        recorded every integration step, the share is the share of steps).
+    omega_max
+        Rotor-speed limit [rad/s].
+    rel_tol
+        A command within ``rel_tol · omega_max`` of a limit counts as at it (the
+        allocator clips exactly; the tolerance absorbs ``sqrt(b ω²/b)`` rounding).
+
+    Returns
+    -------
+    float
+        Fraction in ``[0, 1]`` of the rows (``nan`` with no rows).
+    """
+    w = np.asarray(rotor_commands, dtype=float)
+    if w.ndim != 2:
+        raise ValueError(f"rotor commands must have shape (N, rotors), got {w.shape}")
+    tol = rel_tol * omega_max
+    at = np.any((w >= omega_max - tol) | (w <= tol), axis=1)
+    return float(np.mean(at)) if at.size else math.nan

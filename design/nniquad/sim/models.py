@@ -211,7 +211,8 @@ def _closed_loop(model: str, X: ca.SX, e: ca.SX, p: ca.SX, controller: str = "nn
     sdot[1] += wind[0] / P["plant.m"]
     sdot[3] += wind[1] / P["plant.m"]
     Xdot = ca.vertcat(sdot, zc_dot, ca.SX.zeros(2), z, w_dot)
-    return Xdot, ca.vertcat(a_h, tilt, w_act, u[0])
+    # the commanded rotor speeds too: the noise budget counts the steps a command sits at a limit
+    return Xdot, ca.vertcat(a_h, tilt, w_act, u[0], w_cmd)
 
 
 def _vertical_specific_force(X: ca.SX, P: dict, ix: dict[str, int]) -> ca.SX:

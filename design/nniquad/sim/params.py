@@ -118,7 +118,7 @@ STATE_NAMES["reduced"] = STATE_NAMES["linear"]
 #: Outputs of each model: commanded acceleration after the tilt limit, commanded tilt, ...
 OUTPUT_NAMES: dict[str, tuple[str, ...]] = {
     "linear": ("a_x", "a_y", "tilt_cmd", "phi", "theta"),
-    "full": ("a_x", "a_y", "tilt_cmd", "w1", "w2", "w3", "w4", "u1"),
+    "full": ("a_x", "a_y", "tilt_cmd", "w1", "w2", "w3", "w4", "u1", "wc1", "wc2", "wc3", "wc4"),
 }
 OUTPUT_NAMES["reduced"] = OUTPUT_NAMES["linear"]
 

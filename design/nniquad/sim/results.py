@@ -124,6 +124,13 @@ class Trajectory:
         return self.outputs[:, [self.output_names.index(f"w{i}") for i in range(1, 5)]]
 
     @property
+    def rotor_commands(self) -> np.ndarray | None:
+        """Commanded rotor speeds [rad/s] (the allocator's, before the motor lag), shape (N, 4); ``full`` only."""
+        if self.model != "full":
+            return None
+        return self.outputs[:, [self.output_names.index(f"wc{i}") for i in range(1, 5)]]
+
+    @property
     def a_cmd(self) -> np.ndarray:
         """Commanded horizontal acceleration after the tilt limit [m/s²], shape (N, 2)."""
         return self.outputs[:, [self.output_names.index("a_x"), self.output_names.index("a_y")]]
@@ -141,6 +148,8 @@ class Trajectory:
             z=self.z_ned,
             z_ref=0.0,
             follows_reference=self.options.reference is not None,
+            rotor_commands=self.rotor_commands,
+            omega_max=None if self.params is None else float(self.params.plant.omega_max),
         )
 
     def tracking(self, window_s: tuple[float, float] | None = None) -> TrackingMetrics | None:

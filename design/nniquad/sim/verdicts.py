@@ -36,8 +36,11 @@ from nniquad.sim.metrics import (
     overshoot_pct,
     peak_abs,
     points_batch,
+    hover_window_start_s,
     rms_after,
+    rotor_limit_share,
     settling_time,
+    steady_offset_m,
     tilt_deg,
     time_axis,
     time_on_limit_fraction,
@@ -241,6 +244,16 @@ class Metrics:
         The run follows a reference (:mod:`nniquad.sim.tracking`): settling and overshoot, which measure the
         regulation to the origin, do not apply (``None``) and "not settled" is no failure; its tracking metrics
         judge it.
+    steady_offset_m
+        Mean distance from the setpoint over the last second [m]
+        (:func:`nniquad.sim.metrics.steady_offset_m`); ``None`` for a lost run or one following a reference.
+    tilt_command_rms_deg
+        RMS of the commanded tilt over the hover window [deg]
+        (:func:`nniquad.sim.metrics.hover_window_start_s`); ``None`` without a hover window.
+    rotor_limit_share
+        Share of the recorded samples with any commanded rotor speed at 0 or ``ω_max``
+        (:func:`nniquad.sim.metrics.rotor_limit_share`; every integration step when the output period is the
+        step); ``None`` without rotor commands (linear and reduced models).
     """
 
     settling_s: float | None
@@ -256,6 +269,9 @@ class Metrics:
     altitude_lost: bool | None = None
     blew_up: bool | None = None
     follows_reference: bool = False
+    steady_offset_m: float | None = None
+    tilt_command_rms_deg: float | None = None
+    rotor_limit_share: float | None = None
 
     @property
     def failure(self) -> str | None:
@@ -308,6 +324,8 @@ def compute_metrics(
     band_fraction: float = DEFAULT_BAND_FRACTION,
     altitude_limit_m: float = ALTITUDE_LIMIT_M,
     follows_reference: bool = False,
+    rotor_commands: ArrayLike | None = None,
+    omega_max: float | None = None,
 ) -> Metrics:
     """Every metric the given signals allow, bundled in :class:`Metrics`.
 
@@ -334,6 +352,8 @@ def compute_metrics(
         Altitude deviation counted as altitude loss [m].
     follows_reference
         The run follows a reference: no settling or overshoot (:attr:`Metrics.follows_reference`).
+    rotor_commands, omega_max
+        Commanded rotor speeds [rad/s], shape ``(N, 4)``, and their limit [rad/s], for ``rotor_limit_share``.
 
     Returns
     -------
@@ -346,7 +366,9 @@ def compute_metrics(
     points_batch(ta, a, batched=False)
     div = diverged(a, z=z, altitude_limit_m=altitude_limit_m, z_ref=z_ref)
     settling = None if div or follows_reference else settling_time(ta, a, band_fraction)
-    over = None if div or follows_reference else _opt(overshoot_pct(ta, a))
+    # a hover run (started at the setpoint) has no initial direction to overshoot along
+    hover_start = not np.hypot(*a[0]) > 0
+    over = None if div or follows_reference or hover_start else _opt(overshoot_pct(ta, a))
     tilt = None
     if phi is not None and theta is not None:
         tilt = tilt_deg(phi, theta)
@@ -354,6 +376,7 @@ def compute_metrics(
             raise ValueError(f"roll/pitch have shape {tilt.shape} but the time vector has {ta.shape}")
     cmd = None if cmd_tilt_deg is None else np.asarray(cmd_tilt_deg, dtype=float)
     limited = cmd if cmd is not None else tilt
+    hover_from = hover_window_start_s(a, settling) if not div else None
     return Metrics(
         settling_s=settling,
         overshoot_pct=over,
@@ -369,4 +392,8 @@ def compute_metrics(
                                                                       z_ref)[0]),
         blew_up=bool(blew_up_batch(a[None], z_batch=None if z is None else np.asarray(z, float)[None])[0]),
         follows_reference=follows_reference,
+        steady_offset_m=None if div or follows_reference else _opt(steady_offset_m(ta, a)),
+        tilt_command_rms_deg=None if cmd is None else rms_after(ta, cmd, hover_from),
+        rotor_limit_share=None if rotor_commands is None or omega_max is None else rotor_limit_share(
+            rotor_commands, omega_max),
     )

@@ -92,6 +92,18 @@ def _num(x: float | None) -> float | None:
 
 
 _FAILURE_RANK = {"diverged": 0, "altitude lost": 1, "not settled": 2}
+#: The per-scenario figures summarised as p50 / p95 / max: table label, unit, scale of the shown number.
+_BUDGET_FIGURES = {"steady_offset_m": ("steady offset", "m", 1.0),
+                   "tilt_command_rms_deg": ("cmd tilt RMS (hover)", "deg", 1.0),
+                   "rotor_limit_share": ("rotor at limit", "%", 100.0)}
+
+
+def _spread(values: Sequence[float | None]) -> dict[str, float]:
+    """``{"p50", "p95", "max"}`` of the reported values (empty when none is)."""
+    v = np.array([x for x in values if x is not None and math.isfinite(x)], float)
+    if v.size == 0:
+        return {}
+    return {"p50": float(np.quantile(v, 0.5)), "p95": float(np.quantile(v, 0.95)), "max": float(v.max())}
 
 
 @dataclass
@@ -120,6 +132,14 @@ class Summary:
     tracking
         A study that follows a reference: quantiles of the RMS tracking error [m] (failures count as ``+inf``);
         :attr:`settling` is then empty.  Empty for a study without a reference.
+    settling_about_wind_equilibrium
+        The quantiles of :attr:`settling` measured about each scenario's wind
+        equilibrium instead of the setpoint (the goalpost moved by the wind; a
+        run that was lost or never settled there counts as ``+inf``); it
+        decides nothing.
+    noise_budget
+        ``{"steady_offset_m": {...}, "tilt_command_rms_deg": {...}, "rotor_limit_share": {...}}``, each with
+        ``p50``, ``p95`` and ``max`` over the scenarios that report the figure.
     """
 
     n: int
@@ -134,6 +154,8 @@ class Summary:
     worst: list[ScenarioResult]
     partial: bool = False
     tracking: dict[str, tuple[float, float, float]] = field(default_factory=dict)
+    settling_about_wind_equilibrium: dict[str, tuple[float, float, float]] = field(default_factory=dict)
+    noise_budget: dict[str, dict[str, float]] = field(default_factory=dict)
 
     def to_json(self) -> dict[str, Any]:
         def q(t: tuple[float, float, float]) -> dict[str, Any]:
@@ -158,6 +180,10 @@ class Summary:
             **({"tracking_rms_m": {k: q(v) for k, v in self.tracking.items()},
                 "tracking_note": "RMS tracking error over each run; failures count as +inf (written null)"}
                if self.tracking else {}),
+            **({"settling_time_about_wind_equilibrium_s":
+                {k: q(v) for k, v in self.settling_about_wind_equilibrium.items()}}
+               if self.settling_about_wind_equilibrium else {}),
+            **{name: {k: _num(v) for k, v in figs.items()} for name, figs in self.noise_budget.items()},
             "max_wind_offset_m": _num(self.max_offset_m),
             "max_altitude_dev_m": _num(self.max_altitude_dev_m),
             "worst_cases": [r.to_json() for r in self.worst],
@@ -191,6 +217,12 @@ class Summary:
             lines.append(f"{'peak tilt ' + k:<24} {ci(self.peak_tilt[k], 'deg')}")
         lines.append(f"{'peak tilt max':<24} {s(self.peak_tilt['max'], 'deg'):>12}   "
                      f"(scenario {self.peak_tilt['max_index']})")
+        for k, v in self.settling_about_wind_equilibrium.items():
+            lines.append(f"{'settling ' + k + ' about wind eq.':<24} {ci(v, 's', never=True)}  (not the verdict)")
+        for name, (label, unit, scale) in _BUDGET_FIGURES.items():
+            figs = self.noise_budget.get(name)
+            if figs:
+                lines.append(f"{label:<24} " + ", ".join(f"{k} {s(scale * v, unit)}" for k, v in figs.items()))
         lines.append(f"{'max wind offset':<24} {s(self.max_offset_m, 'm'):>12}")
         lines.append(f"{'max altitude deviation':<24} {s(self.max_altitude_dev_m, 'm'):>12}")
         if self.worst:
@@ -245,10 +277,16 @@ def summarize(results: Sequence[ScenarioResult], *, n_worst: int = 10, partial: 
 
     worst = sorted(rs, key=badness)[: max(0, n_worst)]
     alts = [r.max_altitude_dev_m for r in rs if r.max_altitude_dev_m is not None]
+    settle_eq = np.array([math.inf if r.settling_time_about_wind_equilibrium_s is None
+                          else r.settling_time_about_wind_equilibrium_s for r in rs])
+    budget = {name: _spread([getattr(r, name) for r in rs]) for name in _BUDGET_FIGURES}
     return Summary(
         n=n, n_success=k, success_rate=k / n, success_ci=wilson_interval(k, n), failures=failures,
         settling={} if following else {f"p{int(100 * q)}": quantile_ci(settle, q) for q in (0.5, 0.95, 0.99)},
         tracking={f"p{int(100 * q)}": quantile_ci(rms, q) for q in (0.5, 0.95, 0.99)} if following else {},
         peak_tilt=peak, max_offset_m=max(r.offset_m for r in rs),
         max_altitude_dev_m=max(alts) if alts else math.nan, worst=worst, partial=partial,
+        settling_about_wind_equilibrium={} if following else {
+            f"p{int(100 * q)}": quantile_ci(settle_eq, q) for q in (0.5, 0.95, 0.99)},
+        noise_budget={k: v for k, v in budget.items() if v},
     )

@@ -419,8 +419,13 @@ def robust_costs(vehicle: Vehicle, designs: list, options: TuneOptions, horizon_
                  return_pruned: bool = False) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
     """:func:`_cost` of every design on every perturbed scenario of the tuning set (the nominal one excluded).
 
-    A scenario's settling is measured as in the Monte Carlo study: from the static
-    equilibrium under its wind, in the band of 2 % of the nominal ‖ξ_h(0)‖; the
+    A scenario's settling is measured from the static equilibrium the law holds under
+    its wind (:meth:`nniquad.laws.base.ControlLaw.wind_equilibrium`: the setpoint for a
+    law with integral action, whose static stiffness is infinite), in the band of 2 %
+    of the nominal ‖ξ_h(0)‖.  The Monte Carlo verdict measures to the setpoint; the
+    tuner keeps the wind equilibrium so that a law without integral action, which
+    cannot hold the setpoint against a steady wind, is still ranked by how fast it
+    settles (its steady offset is the law's static stiffness, not a tuning matter); the
     honest-settling rule and the altitude cap are those of the nominal cost; the
     actual tilt may exceed the limit by :data:`ROBUST_TILT_SLACK_DEG` (the nominal
     run: by ``TILT_SLACK_DEG``, 1°).  The issue's requirement on every scenario is

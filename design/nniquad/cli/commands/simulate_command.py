@@ -22,7 +22,18 @@ from nniquad.cli.commands.common import (
     vehicle_from_args,
 )
 from nniquad.cli.commands.reference_options import add_reference_options, reference_settings, tracking_window
-from nniquad.config import ALTITUDE_LIMIT_M, CONTROL_RATE_HZ, DIVERGENCE_FACTOR, DT_S, OUTPUT_DT_S, XI0_M
+from nniquad.config import (
+    ALTITUDE_LIMIT_M,
+    CONTROL_RATE_HZ,
+    DIVERGENCE_FACTOR,
+    DT_S,
+    NOISE_BUDGET_ROTOR_LIMIT_SHARE,
+    NOISE_BUDGET_SIGMA_M,
+    NOISE_BUDGET_TILT_RMS_DEG,
+    OUTPUT_DT_S,
+    STEADY_OFFSET_WINDOW_S,
+    XI0_M,
+)
 from nniquad.control.inner_gains import DEFAULT_INNER_LOOP_GAINS
 from nniquad.errors import EXIT_CHECK_FAILED, CertificateError, GainError, NniquadError, SimulationError
 from nniquad.format import fmt
@@ -68,7 +79,7 @@ exits 1.  An option given with --certificate overrides that setting: the
 options that change the run are named, and nothing is compared (the run is
 not the certificate's).
 
-Prints settling time (2 % band, last exit), overshoot, peak tilt, whether
+Prints settling time (2 % band around the setpoint, last exit), overshoot, peak tilt, whether
 the vehicle was lost ("diverged": it blew up -- a non-finite state or a distance
 beyond {DIVERGENCE_FACTOR:g} x its start -- or lost its altitude by more than {ALTITUDE_LIMIT_M:g} m), whether it lost
 its altitude, and the verdict, which names the cause ("diverged" for a blow-up,
@@ -78,7 +89,13 @@ vehicle is lost; the run starts on the reference with its velocity unless
 --start-at-rest, and with --certificate it is no longer the certificate's run) and
 the tracking error is printed: RMS and maximum over --tracking-window, the
 arrival at each waypoint (2 % band of its leg), and the tilt the reference
-demands against the limit (docs/follow.md).  --json writes them with the trajectory file
+demands against the limit (docs/follow.md).  The steady offset is the mean
+distance from the setpoint over the last {STEADY_OFFSET_WINDOW_S:g} s (a constant --wind leaves one
+unless the law integrates).  The noise budget: the RMS of the commanded tilt
+over the hover window (the whole run from --xi0 0 0, else from the settling
+time on) and the share of samples with a rotor command at 0 or its maximum; a
+noisy run is judged against {NOISE_BUDGET_TILT_RMS_DEG:g} deg and {100 * NOISE_BUDGET_ROTOR_LIMIT_SHARE:g} % (the hover check:
+--xi0 0 0 --noise {NOISE_BUDGET_SIGMA_M:g} --output-dt {DT_S:g}).  --json writes them with the trajectory file
 (.npz next to the JSON, or --trajectory FILE with .npz or .csv).  Runs that take
 more than a few seconds show progress on stderr."""
 
@@ -299,6 +316,12 @@ def run(args: argparse.Namespace) -> int:
         ("peak rotor speed", fmt(m.peak_rotor_speed_rad_s, "rad/s"), ""),
         ("peak altitude deviation", fmt(m.altitude_dev_m, "m"), ""),
         ("tilt RMS after settling", fmt(m.tilt_jitter_rms_deg, "deg"), ""),
+        (f"steady offset (last {STEADY_OFFSET_WINDOW_S:g} s)", fmt(m.steady_offset_m, "m"), "(from the setpoint)"),
+        ("commanded tilt RMS", fmt(m.tilt_command_rms_deg, "deg"),
+         "(hover window)" if m.tilt_command_rms_deg is not None else "(no hover window: not settled)"),
+        ("rotor command at a limit", fmt(None if m.rotor_limit_share is None else 100 * m.rotor_limit_share, "%"),
+         f"(of the samples every {options.output_dt_s:g} s)" if m.rotor_limit_share is not None else ""),
+        *_noise_budget_rows(options, m),
         ("diverged", fmt(m.diverged), "(vehicle lost)" if m.diverged else ""),
         ("altitude lost", fmt(m.altitude_lost), "" if m.altitude_lost is None else f"(> {ALTITUDE_LIMIT_M:g} m)"),
         ("verdict", m.failure or ("followed" if m.follows_reference else "settled"), ""),
@@ -328,6 +351,9 @@ def run(args: argparse.Namespace) -> int:
             "altitude_lost": m.altitude_lost,
             "failure": m.failure,
             "horizon_s": m.horizon_s,
+            "steady_offset_m": m.steady_offset_m,
+            "tilt_command_rms_deg": m.tilt_command_rms_deg,
+            "rotor_limit_share": m.rotor_limit_share,
             "trajectory": None if written is None else str(written),
             "metrics": {**m.to_json(), **({} if tracking is None else tracking.to_json())},
             "gains": gains.as_dict(),
@@ -361,6 +387,19 @@ def _beyond_certified_delay(args: argparse.Namespace, options) -> str | None:
         return None
     return (f"FLAGGED: a measurement delay of {options.delay_samples} samples is beyond the certified delay "
             f"({certified} samples): not the certificate's run, and nothing certifies it")
+
+
+def _noise_budget_rows(options, m) -> list[tuple[str, str, str]]:
+    """The noise-budget verdict of a noisy run: commanded tilt RMS and rotor-limit share against the budget."""
+    if not options.noise_sigma_m > 0 or m.tilt_command_rms_deg is None or m.rotor_limit_share is None:
+        return []
+    within = (m.tilt_command_rms_deg <= NOISE_BUDGET_TILT_RMS_DEG
+              and m.rotor_limit_share <= NOISE_BUDGET_ROTOR_LIMIT_SHARE)
+    step = ("" if options.output_dt_s == options.dt_s
+            else f"; the rotor share counts output samples: --output-dt {options.dt_s:g} counts every step")
+    return [("noise budget", "within" if within else "over",
+             f"(<= {NOISE_BUDGET_TILT_RMS_DEG:g} deg, <= {100 * NOISE_BUDGET_ROTOR_LIMIT_SHARE:g} % at "
+             f"{100 * NOISE_BUDGET_SIGMA_M:g} cm{step})")]
 
 
 def _sampling_text(options) -> str:
