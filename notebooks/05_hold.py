@@ -84,25 +84,21 @@ OFFSET_TARGET_M = 0.005  # the issue's target (benchmarks/bench_hold.py states t
 
 # %%
 designs = {}  # label -> (gains, the options of its reference run without delay, what certifies it)
-certified_delay = {}  # label -> the delay its certificate covers [control periods]; None: no certificate
-
-
-def stated_delay(cert):
-    """The delay a certificate covers (its top-level ``delay_samples``; one that states none covers none)."""
-    return cert.to_json().get("delay_samples", 0)
+# label -> the delay its certificate covers [control periods] (0: it states none); None: no certificate
+certified_delay = {}
 
 
 for name, parts in BASE_FILES.items():
     cert = notebook_certificate(*parts, vehicle=V)
     run = cert.run_settings()
     designs[name] = (cert.gains, run.options.with_(delay_samples=0), f"{cert.law_class_name} class certificate")
-    certified_delay[name] = stated_delay(cert)
+    certified_delay[name] = cert.certified_delay_samples
     label = f"{name} + integral"
     if notebook_data(*INTEGRAL_FILES[name]).is_file():
         icert = notebook_certificate(*INTEGRAL_FILES[name], vehicle=V)
         designs[label] = (icert.gains, icert.run_settings().options.with_(delay_samples=0),
                           f"{icert.law_class_name} class certificate")
-        certified_delay[label] = stated_delay(icert)
+        certified_delay[label] = icert.certified_delay_samples
     else:
         law = integral_variant(cert.gains.law)
         designs[label] = (law.seed_from(cert.gains, V.m), run.options.with_(delay_samples=0),
