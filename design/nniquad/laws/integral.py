@@ -291,6 +291,17 @@ class IntegralLaw(ControlLaw):
     def static_stiffness(self, gains: GainBlock, m_hat: float) -> tuple[float, float]:
         return math.inf, math.inf
 
+    def pm_ceiling_deg(self, gamma_max: float) -> float:
+        """The base law's ceiling (:meth:`nniquad.laws.base.NILaw.pm_ceiling_deg`), still an upper bound: the
+        integrator adds ``-j k_i/ν`` to the lead ``k_p - C(jν)/m̂`` (positive real part), which only lowers its phase.
+
+        Parameters
+        ----------
+        gamma_max
+            The sector bound's ceiling.
+        """
+        return self.base.pm_ceiling_deg(gamma_max)
+
     # ------------------------------------------------------------------ tuning
     def coordinates(self, law_class: str | None) -> tuple[str, ...]:
         return (*self.base.coordinates(self.check_class(law_class)), "ln(ki/kp^1.5)")
@@ -328,15 +339,7 @@ class IntegralLaw(ControlLaw):
         return min(max(ki, KI_RATIO_RANGE[0] * kp15), KI_RATIO_RANGE[1] * kp15)
 
     def seed_from(self, gains: GainBlock, m_hat: float) -> GainBlock | None:
-        """A design of this law from another law's: itself, or the base law's seed with :meth:`seed_ki`.
-
-        Parameters
-        ----------
-        gains
-            A gain block of any law.
-        m_hat
-            The controller's nominal mass [kg].
-        """
+        # a design of this law is itself; any other is the base law's seed (equal axes) with seed_ki
         if isinstance(gains, self.gains_type):
             return gains
         base = gains if isinstance(gains, self.base.gains_type) else self.base.seed_from(gains, m_hat)
