@@ -11,6 +11,7 @@ from nniquad.cli.commands.common import (
     add_controller_option,
     add_gain_options,
     add_output_option,
+    apply_integral,
     finite_positive,
     gain_option,
     gains_from_args,
@@ -90,6 +91,7 @@ def run(args: argparse.Namespace) -> int:
 
     # before any tuning: a bad rate fails at once
     rate = check_rate_hz(CONTROL_RATE_HZ if args.rate is None else args.rate, DT_S, error=CertificateError)
+    apply_integral(args)
     law = law_named(args.controller)
     gains_given = any(getattr(args, n, None) is not None for n in law.gain_names)
     if args.warm_start and (gains_given or args.gains_from is not None):
@@ -168,13 +170,19 @@ def summary_lines(cert: Any) -> list[str]:
     from nniquad.certificates.start import lure_fallback_reason, start_lines
 
     gains, perf = cert.gains, cert.performance
-    gamma, gamma_max = cert.sector["gamma"], cert.sector["gamma_max"]
     listed = ", ".join(f"{f.name} = {fmt(getattr(gains, f.name), digits=6)} {field_unit(f)[0]}".rstrip(" -")
                        for f in fields(gains) if getattr(gains, f.name) is not None)
-    lines = [f"{cert.controller} gains {listed}; gamma = {fmt(gamma)} "
-             f"{'<=' if within_sector_bound(gamma, gamma_max) else '>'} {gamma_max:g}"]
+    if "gamma" in cert.sector:
+        gamma, gamma_max = cert.sector["gamma"], cert.sector["gamma_max"]
+        lines = [f"{cert.controller} gains {listed}; gamma = {fmt(gamma)} "
+                 f"{'<=' if within_sector_bound(gamma, gamma_max) else '>'} {gamma_max:g}"]
+    else:  # integral action: no sector constant (certificates.integral)
+        lines = [f"{cert.controller} gains {listed}; no sector bound (integral action)"]
     if cert.law_class is not None:
         lines.append(f"law class {cert.law_class['name']}: certified by {cert.law_class['theorem']}")
+        action = cert.law_class.get("integral_action")
+        if action is not None:
+            lines += [f"not certified by: {action['not_certified_by']}", f"anti-windup: {action['anti_windup']}"]
     for model in ("reduced", "full"):
         lines.append(f"{model:<7} settling {fmt(perf[model]['settling_s'], 's')} "
                      f"({fmt(cert.ratio_to_bound[model], digits=3)} x bound {fmt(cert.bound['enter_band_s'], 's')}), "
