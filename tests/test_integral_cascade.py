@@ -8,12 +8,16 @@ sample update with its excess recomputed in CasADi, so the two share no code but
 
 from __future__ import annotations
 
+import json
 import math
+from pathlib import Path
 
 import numpy as np
+import pytest
 
 from nniquad.analysis.cascade.family import sampled_family
 from nniquad.analysis.linearised_cascade import hover_params
+from nniquad.certificates import canonical_digest, read_certificate, verify_certificate
 from nniquad.laws import integral_variant
 from nniquad.sim import EXO_FIELDS, initial_state, state_names
 from nniquad.sim.models import step_function
@@ -60,3 +64,75 @@ def test_the_family_loop_is_one_step_of_the_simulators_discrete_law_in_saturatio
     # and the anti-windup is what makes them agree: without it the integrator would gain T ξ, not T (ξ - ψ/kp)
     q_no_aw = xc[2:] + T * xi
     assert np.min(np.abs(sim_next[2:] - q_no_aw)) > 1e-3 * T
+
+
+# ----------------------------------------------------------------------------- the certificate
+
+#: A certificate of an integral design on a small box (command in tests/data/README.md).
+CERT_PATH = Path(__file__).resolve().parent / "data" / "nni_i_small_box_certificate.json"
+COMMITTED_NNI = Path(__file__).resolve().parents[1] / "notebooks" / "data" / "full_model_certificate.json"
+
+
+def _resign(c: dict) -> dict:
+    c["digest"]["value"] = canonical_digest(c)
+    return c
+
+
+def _doc() -> dict:
+    return json.loads(CERT_PATH.read_text())
+
+
+def test_an_integral_certificate_verifies_and_claims_only_the_cascade_theorem():
+    cert = read_certificate(CERT_PATH)
+    res = verify_certificate(cert)
+    assert res.ok, res.table()
+    assert cert.gains.law.integral and cert.gains.ki > 0 and "ki" in cert.to_json()["gains"]
+    assert cert.law_class_name == "cascade"
+    # nothing of the paper's reduced loop is claimed: each section says why, in the same words
+    for key in ("sector", "stability_margin", "lmi", "region_of_attraction"):
+        (text,) = dict(getattr(cert, key)).values()
+        assert "not applicable" in text and "thm:main_result" in text
+    action = cert.law_class["integral_action"]
+    assert "back-calculation" in action["anti_windup"] and "cascade" in action["certified_by"]
+    assert "does not certify" in action["not_certified_by"]
+    assert set(cert.start["methods"]) == {"cascade"}  # no reduced-loop region to be inside
+    # the stated anti-windup is T/kp on each axis's integrator, by hand
+    E = np.asarray(cert.cascade["matrices"]["E_anti_windup"])
+    T = 1.0 / cert.cascade["rate_hz"]
+    names = cert.cascade["matrices"]["state_names"][-E.shape[0]:]
+    want = np.zeros_like(E)
+    want[names.index("zci_x"), 0] = want[names.index("zci_y"), 1] = T / cert.gains.kp
+    np.testing.assert_allclose(E, want, rtol=1e-14)
+    # its region reaches through the saturation with the integrator at 0 and the NNI state at its start
+    roa = cert.cascade["region_of_attraction"]
+    assert roa["method"] == "lure" and roa["max_displacement_m"] > 5 * roa["linear_zone_reach_grid_m"]
+
+
+@pytest.mark.parametrize("factor", [1.01, 0.5])
+def test_a_resigned_edit_of_ki_is_caught(factor):
+    c = _doc()
+    c["gains"]["ki"] *= factor
+    res = verify_certificate(_resign(c), simulate=False, fail_fast=True)
+    assert not res.ok and res.first_failure.name in ("margins", "tracking", "cascade.nominal matrices rebuilt")
+
+
+@pytest.mark.parametrize("edit", ["sector claimed", "reason edited", "integral action dropped", "E dropped"])
+def test_a_resigned_claim_beyond_the_cascade_theorem_is_caught(edit):
+    c = _doc()
+    if edit == "sector claimed":
+        c["sector"] = {"gamma": 0.5, "gamma_max": 0.8, "delta_min": 0.5}
+    elif edit == "reason edited":
+        c["lmi"]["not_applicable"] = "the NI sector theorem applies"
+    elif edit == "integral action dropped":
+        del c["law_class"]["integral_action"]
+    else:
+        del c["cascade"]["matrices"]["E_anti_windup"]
+    res = verify_certificate(_resign(c), simulate=False, fail_fast=False)
+    assert not res.ok
+
+
+def test_a_law_of_the_ni_structure_cannot_state_its_theorem_not_applicable():
+    c = json.loads(COMMITTED_NNI.read_text())
+    c["sector"] = {"not_applicable": "no"}
+    res = verify_certificate(_resign(c), simulate=False, fail_fast=True)
+    assert not res.ok and res.first_failure.name == "layout"

@@ -25,10 +25,10 @@ from nniquad.errors import CertificateError, NniquadError
 from nniquad.format import fmt, margin_text, margin_verdict
 from nniquad.laws.base import field_unit
 from nniquad.laws.classes import within_sector_bound
-from nniquad.laws.registry import law_named, ni_law_names
+from nniquad.laws.registry import law_named, law_names, ni_law_names
 from nniquad.progress import Progress
 
-__all__ = ["HELP", "DESCRIPTION", "add_arguments", "run"]
+__all__ = ["HELP", "DESCRIPTION", "add_arguments", "run", "certified_law_names"]
 
 HELP = "tune, then write a certified gain set (JSON)"
 DESCRIPTION = """Tune (as 'nniquad tune'), then certify the result and write it to --out.
@@ -53,11 +53,17 @@ sampled-data cascade section alone.  Gains with an infeasible LMI are refused
 as well: no file is written.  Check a certificate with 'nniquad verify'."""
 
 
+def certified_law_names() -> tuple[str, ...]:
+    """The laws ``certify`` takes: those of the NI structure and their integral variants (``--integral``)."""
+    return ni_law_names() + tuple(n for n in law_names() if law_named(n).integral)
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_tuning_options(parser)
-    add_controller_option(parser, ni_law_names(), "nni", "law to certify (a law of the NI structure)")
+    add_controller_option(parser, certified_law_names(), "nni",
+                          "law to certify (a law of the NI structure, or its integral variant)")
     g = parser.add_argument_group("certify given gains instead of tuning")
-    add_gain_options(g, ni_law_names())
+    add_gain_options(g, certified_law_names())
     g.add_argument("--attitude-wn", type=float, default=None, metavar="RAD_S", help="attitude natural frequency")
     g.add_argument("--attitude-zeta", type=float, default=None, metavar="Z", help="attitude damping ratio")
     g.add_argument("--attitude-accel", type=float, default=None, metavar="RAD_S2",
@@ -116,6 +122,12 @@ def run(args: argparse.Namespace) -> int:
 
         records: list = []
         (gains, inner), = designs_from_files([args.gains_from], "--gains-from", records)
+        if law.integral and not gains.law.integral:  # a base design: its integral variant with the seed's ki
+            seeded = law.seed_from(gains, vehicle.m)
+            if seeded is None:
+                raise NniquadError(f"--gains-from holds a {gains.law.name} design: the {law.name} law has no seed "
+                                   "from it")
+            gains = seeded
         cert = certify(vehicle, gains, inner=inner, options=options, progress=progress.steps(certify_steps(False)),
                        rate_hz=rate,
                        box=box, widest_box=args.widest_box, tuning_record=records[0])
