@@ -31,8 +31,13 @@ Two regions
   converges.  ``P_a, Ĝ_a`` are quadratic in the axis's box coordinates and ``μ`` in the coordinates shared by
   both axes (:func:`features`): ``V`` depends on the (constant) parameters only.
 
-The reach is the largest ``r`` with every start ``r (cos α, sin α)`` at rest (controller state 0) inside:
-``r² max_a P_a,00 + 2 μ Φ(r k_max / L) <= c``, ``k_max`` the larger position gain.  The LMI is in
+The reach is the largest ``r`` with every start ``r (cos α, sin α)`` at rest inside, each axis's controller
+at the law's take-over state for its position (:func:`start_vector` ``v_a``: the position 1, the controller's
+start per metre; ``v_a = e_0`` for a law that starts at 0):
+``r² max_a v_aᵀP_a v_a + 2 μ Φ(r k_s / L) <= c``, ``k_s = max_a |K_a v_a|`` the larger command per metre of
+the start (``Φ`` grows with the norm, and the start's command is ``r (cos α K_x v_x, sin α K_y v_y)``).  The
+loop enters only through ``A_d``, ``B`` and ``K``: with the anti-windup of an integral law ``B`` has controller
+rows (:func:`nniquad.analysis.cascade.family.sampled_family`), and nothing here changes.  The LMI is in
 :mod:`nniquad.analysis.cascade.region_lmi`; everything here is numpy, for ``certify`` and ``verify`` alike.
 """
 
@@ -60,7 +65,7 @@ from nniquad.sim import delay_state_names
 
 __all__ = ["linear_zone_reach", "HORIZONTAL", "features", "LureRegion", "decrease_forms", "LureCheck",
            "lure_check", "coupled_decrease", "coupled_parts", "huber", "lure_block", "check_lure_block", "ROA_NOTE", "roa_note",
-           "start_vector"]
+           "start_vector", "start_command", "axis_states"]
 
 #: The horizontal subsystems, whose command the tilt limit bounds.
 HORIZONTAL: tuple[str, str] = ("x", "y")
@@ -143,6 +148,11 @@ def linear_zone_reach(lyap: Mapping[str, RobustLyapunov], dims, box: ParameterBo
     return float(np.min(np.sqrt(L * L / kmax / pmax)))
 
 
+def axis_states(fam: CascadeFamily) -> dict[str, int]:
+    """Each horizontal axis's number of states in ``fam`` (the law's controller states included)."""
+    return {a: len(subsystems(fam.state_names)[a]) for a in HORIZONTAL}
+
+
 def features(theta: np.ndarray) -> np.ndarray:
     """The basis of a quadratic function of ``θ ∈ [-1, 1]^q``: ``1, θ_j, θ_j θ_k (j < k), θ_j²`` (``(N, nf)``)."""
     th = np.atleast_2d(np.asarray(theta, float))
@@ -207,8 +217,10 @@ class LureRegion:
                 "mu": np.asarray(self.mu).tolist()}
 
     @classmethod
-    def from_json(cls, data: Mapping[str, Any], dims: Mapping[str, Sequence[int]]) -> "LureRegion":
-        """Read a stated region (``dims``: the axes' coordinates stated by the Lyapunov block).
+    def from_json(cls, data: Mapping[str, Any], dims: Mapping[str, Sequence[int]],
+                  states: Mapping[str, int] | None = None) -> "LureRegion":
+        """Read a stated region (``dims``: the axes' coordinates stated by the Lyapunov block; ``states``: each
+        axis's number of states, default the one-state law's :data:`SUBSYSTEMS`).
 
         Raises
         ------
@@ -220,7 +232,7 @@ class LureRegion:
         G = {a: np.asarray(data["G"][a], float) for a in HORIZONTAL}
         mu = np.asarray(data["mu"], float)
         for a in HORIZONTAL:
-            nf, n = n_features(len(dims[a])), len(SUBSYSTEMS[a])
+            nf, n = n_features(len(dims[a])), (states[a] if states is not None else len(SUBSYSTEMS[a]))
             if P[a].shape != (nf, n, n) or G[a].shape != (nf, 1, n):
                 raise ValueError(f"axis {a}: P or G does not have the shape of {nf} features of {n} states")
             if not np.array_equal(P[a], np.swapaxes(P[a], -1, -2)):
@@ -337,8 +349,14 @@ def axis_loops(fam: CascadeFamily, axis: str) -> tuple[np.ndarray, np.ndarray, n
     return A, B * L[:, None, None], K[None] / L[:, None, None]
 
 
+def start_command(fam: CascadeFamily) -> float:
+    """``k_s = max_a |K_a v_a|``: the larger command per metre of the start (:func:`start_vector`) [1/s²]."""
+    return max(abs(float((subsystem_of(fam, a)[3] @ start_vector(fam, a))[0])) for a in HORIZONTAL)
+
+
 def reach_at(p00: np.ndarray, mu: np.ndarray, level: float, L: np.ndarray, k_max: float) -> np.ndarray:
-    """Largest ``r`` with ``r² p00 + 2 μ Φ(r k_max / L) <= c`` at every point (closed form; ``p00 > 0``)."""
+    """Largest ``r`` with ``r² p00 + 2 μ Φ(r k_max / L) <= c`` at every point (closed form; ``p00 > 0``): ``p00``
+    the start's level per square metre, ``k_max`` its command per metre."""
     p00, mu, L = (np.asarray(v, float) for v in (p00, mu, L))
     r_in = np.sqrt(level / (p00 + mu * k_max * k_max / (L * L)))  # the start's command inside the unit ball
     b = 2.0 * mu * k_max / L
@@ -400,18 +418,19 @@ def lure_check(region: LureRegion, box: ParameterBox, fam: CascadeFamily,
                axes: Sequence[str] = HORIZONTAL) -> LureCheck:
     """Re-check ``region`` at every point of ``fam`` for the given axes (module docstring), with numpy.
 
-    The reach uses both axes' ``P`` at every point (a start may point anywhere), whatever ``axes`` holds.
+    The reach uses both axes' ``P`` at every point (a start may point anywhere), whatever ``axes`` holds, and the
+    law's start (:func:`start_vector`, :func:`start_command`).
     """
     L = np.broadcast_to(np.asarray(fam.accel_limit, float), (len(fam),))
     dec, bnd, lam, lam_b, incl, fail, margin = [], [], [], [], [], {}, {}
     p00 = np.zeros(len(fam))
-    k_max, kw_max = 0.0, np.zeros(len(fam))
+    k_max, kw_max = start_command(fam), np.zeros(len(fam))
     mu = None
     for a in HORIZONTAL:
         P, G, mu = region.at(box, fam.points, a)
         A, Bh, Kh = axis_loops(fam, a)
-        k_max = max(k_max, abs(float(subsystem_of(fam, a)[3][0, 0])))
-        p00 = np.maximum(p00, P[:, 0, 0])
+        v = start_vector(fam, a)
+        p00 = np.maximum(p00, np.einsum("i,nij,j->n", v, P, v))
         try:
             W = np.linalg.inv(P)
         except np.linalg.LinAlgError:
@@ -516,7 +535,7 @@ def check_lure_block(block: Mapping[str, Any], dims: Mapping[str, Sequence[int]]
     points (``lmi``), at the grid (both axes) and on the coupled loop at the grid, and every stated number
     compared.  ``reach`` is the smaller of the two recomputed reaches.
     """
-    region = LureRegion.from_json(block, dims)
+    region = LureRegion.from_json(block, dims, axis_states(grid))
     ck = [lure_check(region, box, lmi[a], axes=[a]) for a in HORIZONTAL]
     cg = lure_check(region, box, grid)
     dec, bound = coupled_decrease(region, lyap, dims, box, grid)

@@ -39,6 +39,8 @@ from nniquad.analysis.cascade.region import (
     lure_check,
     merge_checks,
     n_features,
+    start_command,
+    start_vector,
 )
 from nniquad.config import (
     CASCADE_LURE_CUT_POINTS,
@@ -87,7 +89,8 @@ _NUMERICAL = ("NumericalError", "InsufficientProgress", "MaxIterations", "panic"
 
 @dataclass(frozen=True)
 class AxisData:
-    """One axis at its LMI points: loops, coordinates and saturation levels (``L`` per point)."""
+    """One axis at its LMI points: loops, coordinates, saturation levels (``L`` per point), the position gain
+    ``k_pos`` (the solver's scaling) and the start per metre (:func:`nniquad.analysis.cascade.region.start_vector`)."""
 
     A: np.ndarray
     Bh: np.ndarray
@@ -96,20 +99,22 @@ class AxisData:
     theta_mult: np.ndarray
     L: np.ndarray
     k_pos: float
+    start: np.ndarray
 
     def take(self, idx: np.ndarray) -> "AxisData":
         return AxisData(self.A[idx], self.Bh[idx], self.Kh[idx], self.theta[idx], self.theta_mult[idx], self.L[idx],
-                        self.k_pos)
+                        self.k_pos, self.start)
 
     def constant(self) -> "AxisData":
         """The same points without their coordinates: the LMI then has constant ``P, Ĝ, μ`` (one feature)."""
-        return AxisData(self.A, self.Bh, self.Kh, self.theta[:, :0], self.theta_mult[:, :0], self.L, self.k_pos)
+        return AxisData(self.A, self.Bh, self.Kh, self.theta[:, :0], self.theta_mult[:, :0], self.L, self.k_pos,
+                        self.start)
 
     def join(self, other: "AxisData") -> "AxisData":
         cat = np.concatenate
         return AxisData(cat([self.A, other.A]), cat([self.Bh, other.Bh]), cat([self.Kh, other.Kh]),
                         cat([self.theta, other.theta]), cat([self.theta_mult, other.theta_mult]),
-                        cat([self.L, other.L]), self.k_pos)
+                        cat([self.L, other.L]), self.k_pos, self.start)
 
 
 def axis_data(fam: CascadeFamily, box: ParameterBox, axis: str, dims: Sequence[int],
@@ -118,7 +123,7 @@ def axis_data(fam: CascadeFamily, box: ParameterBox, axis: str, dims: Sequence[i
     A, Bh, Kh = axis_loops(fam, axis)
     return AxisData(A, Bh, Kh, normalised_coordinates(box, fam.points, dims), normalised_coordinates(box, fam.points, mult_dims),
                     np.broadcast_to(np.asarray(fam.accel_limit, float), (len(fam),)).copy(),
-                    abs(float(subsystem_of(fam, axis)[3][0, 0])))
+                    abs(float(subsystem_of(fam, axis)[3][0, 0])), start_vector(fam, axis))
 
 
 def solve_lure(axes: Mapping[str, AxisData], D: Mapping[str, np.ndarray], level: float, r0: float, rho: float,
@@ -178,7 +183,7 @@ def solve_lure(axes: Mapping[str, AxisData], D: Mapping[str, np.ndarray], level:
         prob.psd(I0, np.concatenate([iP.ravel(), iG.ravel()]),
                  np.concatenate([IP, IG.reshape(N, nf * n, n + 1, n + 1)], axis=1))
         prob.nonnegative(np.full(N, -_MU_FLOOR / level), i_mu, fm)
-        e = Di[:, 0]
+        e = Di @ d.start  # the start r0 v in the solver's coordinates, per unit r0
         Pe = np.einsum("i,eij,j->e", e, E, e)
         phi = huber(k_max * r0 / d.L)
         prob.nonnegative(np.zeros(N), np.concatenate([iP.ravel(), i_mu, i_t]),
@@ -282,14 +287,14 @@ def lure_region(lmi: Mapping[str, CascadeFamily], grid: CascadeFamily, box: Para
     mult = tuple(sorted(set(dims["x"]) & set(dims["y"])))
     data = {a: axis_data(lmi[a], box, a, dims[a], mult) for a in HORIZONTAL}
     gdata = {a: axis_data(grid, box, a, dims[a], mult) for a in HORIZONTAL}
-    k_max = max(d.k_pos for d in data.values())
+    k_max = start_command(lmi["x"])  # the start's command per metre: the controller's take-over state included
     solved = ("x",) if mirror is not None else HORIZONTAL
     centre = {a: int(np.argmin(np.sum(data[a].theta ** 2, axis=1))) for a in HORIZONTAL}
     choices = {a: coordinate_choices(data[a].A[centre[a]],
                                      affine_in(lyap[a].P, data[a].theta[centre[a]:centre[a] + 1])[0], data[a].k_pos,
                                      float(data[a].L[centre[a]])) for a in solved}
     D_all = [{a: choices[a][i] for a in solved} for i in range(2)]
-    r_lin = float(min(np.min(d.L) for d in data.values())) / k_max  # where a position offset saturates
+    r_lin = float(min(np.min(d.L) for d in data.values())) / k_max  # where the start's command saturates
 
     def region_of(sol: dict, level: float, fams: Sequence[CascadeFamily], constant: bool = False) -> LureRegion:
         full = _mirror_region(sol, mirror) if mirror is not None else sol
@@ -454,7 +459,8 @@ def _cut(cur: dict, check_grid: LureCheck, gdata: Mapping[str, AxisData], solved
             pts = gdata[a].take(bad)
             if a not in solved:  # y mirrors x: y's points, in x's coordinates
                 pts = AxisData(mirror[:, None] * pts.A * mirror[None, :], mirror[:, None] * pts.Bh,
-                               pts.Kh * mirror[None, :], pts.theta, pts.theta_mult, pts.L, pts.k_pos)
+                               pts.Kh * mirror[None, :], pts.theta, pts.theta_mult, pts.L, pts.k_pos,
+                               mirror * pts.start)
             new.append(pts)
             margin.append(check_grid.per_point[a][bad])
         if not new:
