@@ -157,7 +157,7 @@ def test_a_candidate_that_fails_one_corner_pays_the_penalty(monkeypatch):
     gentle = next(s for s in full if s.label == "corner m- tau- att+")
     opts = TuneOptions(model="full", require_margins=False, roa_radius_m=0.0)
     q = encode(NEW_GAINS, V.m, opts.gamma_max, NEW_INNER, attitude_accel_headroom(V, opts.tilt_limit_deg))
-    horizon = 10.5
+    horizon = 12.5  # the gentle corner settles in 4.0 s against a 10 % wind: shown to stay by 12.1 s
     res = {}
     for name, corner in (("slow", slow), ("gentle", gentle)):
         monkeypatch.setattr(O, "robust_scenarios", lambda v, o, c=corner: [full[0], c])

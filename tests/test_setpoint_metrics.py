@@ -111,3 +111,63 @@ def test_rotor_commands_are_the_rotor_speeds_without_motor_lag():
     tr = res[0]
     np.testing.assert_array_equal(tr.rotor_commands, tr.rotor_speeds)
     assert tr.metrics().rotor_limit_share == rotor_limit_share(tr.rotor_speeds, PAPER_VEHICLE.omega_max)
+
+
+# ----------------------------------------------------------------------------- certificates
+
+
+def _committed(name: str) -> dict:
+    import json
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "notebooks" / "data" / "designs" / f"{name}_certificate.json"
+    return json.loads(path.read_text())
+
+
+def _resigned(doc: dict) -> dict:
+    from nniquad.certificates import canonical_digest
+
+    doc["digest"]["value"] = canonical_digest(doc)
+    return doc
+
+
+def _checks_until_failure(doc: dict) -> dict[str, bool]:
+    from nniquad.certificates import verify_certificate
+
+    return {c.name: c.ok for c in verify_certificate(doc, fail_fast=True).checks}
+
+
+def test_an_older_certificate_states_no_steady_offset_and_is_compared_without_it():
+    """A certificate written before issue 44 (no ``steady_offset_m``, no ``offset_abs_m``) keeps its meaning."""
+    from nniquad.certificates import TOLERANCES
+    from nniquad.certificates.certificate import Certificate
+
+    doc = _committed("sni2_paper")
+    assert "offset_abs_m" not in doc["tolerances"] and "steady_offset_m" not in doc["performance"]["full"]
+    run = Certificate.from_json(doc).run_settings("reduced")
+    assert "steady_offset_m" not in run.stated
+    got = {**dict(run.stated), "steady_offset_m": 0.5}  # whatever the offset: it is not claimed
+    assert run.differences(got, TOLERANCES) == []
+    # stated by a newer certificate, it is compared within its tolerance
+    doc["performance"]["reduced"]["steady_offset_m"] = 0.0
+    stated = Certificate.from_json(_resigned(doc))
+    assert stated.run_settings("reduced").differences(got, TOLERANCES) == ["steady_offset_m"]
+
+
+def test_a_steady_offset_stated_without_its_tolerance_is_refused():
+    """Re-signed: an older certificate that gains a stated offset but keeps the older tolerances fails ``verify``'s
+    tolerance check; with the tolerance, the tolerance and layout checks pass (a later check is broken on purpose,
+    so that ``fail_fast`` stops there instead of recomputing the whole certificate)."""
+    from nniquad.certificates import TOLERANCES
+
+    doc = _committed("sni2_paper")
+    doc["performance"]["full"]["settings"]["horizon_s"] += 1.0  # the settings check fails
+    older = _checks_until_failure(_resigned(doc))
+    assert older["tolerances"] and older["layout"] and older["settings"] is False  # as committed: older, consistent
+    for model in ("reduced", "full"):
+        doc["performance"][model]["steady_offset_m"] = 0.0
+    without = _checks_until_failure(_resigned(doc))
+    assert without["tolerances"] is False and "layout" not in without
+    doc["tolerances"] = dict(TOLERANCES)
+    checks = _checks_until_failure(_resigned(doc))
+    assert checks["tolerances"] and checks["layout"] and checks["settings"] is False

@@ -61,6 +61,8 @@ INSENSITIVE: dict[str, str] = {
 WITHIN_TOLERANCE: dict[str, str | None] = {
     "performance.reduced.overshoot_pct": "overshoot_abs_pct",
     "performance.full.overshoot_pct": "overshoot_abs_pct",
+    "performance.reduced.steady_offset_m": "offset_abs_m",  # still air: ~1e-17 m, edited to 1e-6 m
+    "performance.full.steady_offset_m": "offset_abs_m",
     "margins.break_points.*.gm_db": "margin_db_abs",
     "margins.break_points.*.gm_lower_db": "margin_db_abs",
     "margins.break_points.*.pm_deg": "margin_deg_abs",

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import pytest
 
+from nniquad.config import WIND_WEIGHT_FRACTION_RANGE
 from nniquad.model.vehicle import PAPER_VEHICLE, load_vehicle
 from nniquad.tuning.vehicle_limits import check_feasible, feasibility_problems
 from nniquad.errors import VehicleError
@@ -61,9 +62,13 @@ def test_feasibility_limits_by_hand():
     tau_edge = 0.75 / (3 * math.sqrt(0.5))
     assert any(p.startswith("motor lag") for p in feasibility_problems(replace(v, tau_motor=1.01 * tau_edge)))
     assert not any(p.startswith("motor lag") for p in feasibility_problems(replace(v, tau_motor=0.99 * tau_edge)))
-    # wind: 6 % of the weight against tan(tilt): tan 3.4 deg = 5.9 % is refused, tan 3.5 deg = 6.1 % is not
-    assert any(p.startswith("wind") for p in feasibility_problems(v, tilt_limit_deg=3.4))
-    assert not any(p.startswith("wind") for p in feasibility_problems(v, tilt_limit_deg=3.5))
+    # wind: 10 % of the weight against tan(tilt): tan 5.7 deg = 9.98 % is refused, tan 5.8 deg = 10.16 % is not
+    assert any(p.startswith("wind") for p in feasibility_problems(v, tilt_limit_deg=5.7, wind_fraction_max=0.10))
+    assert not any(p.startswith("wind") for p in feasibility_problems(v, tilt_limit_deg=5.8, wind_fraction_max=0.10))
+    # the default wind is the Monte Carlo range's upper end
+    edge = math.degrees(math.atan(WIND_WEIGHT_FRACTION_RANGE[1]))
+    assert any(p.startswith("wind") for p in feasibility_problems(v, tilt_limit_deg=0.99 * edge))
+    assert not any(p.startswith("wind") for p in feasibility_problems(v, tilt_limit_deg=1.01 * edge))
     weak_slow = replace(v, omega_max=math.sqrt(1.1 * v.m * v.g / (4 * v.b)), tau_motor=1.0)
     with pytest.raises(VehicleError, match=r"cannot fly a design: thrust: .*\(and 1 more limit"):
         check_feasible(weak_slow)

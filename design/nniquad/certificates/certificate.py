@@ -122,6 +122,7 @@ __all__ = [
     "reference_run_options",
     "DIGEST_ALGORITHM",
     "TOLERANCES",
+    "LATER_TOLERANCES",
     "PERFORMANCE_HORIZON_S",
     "Certificate",
     "write_certificate",
@@ -147,7 +148,12 @@ TOLERANCES: dict[str, float] = {
     "margin_db_abs": 0.05,       # recomputed classical gain margins vs stated [dB]
     "margin_deg_abs": 0.05,      # recomputed phase margins vs stated [deg]
     "margin_freq_relative": 1e-3,  # recomputed crossover frequencies vs stated
+    "offset_abs_m": 1e-4,        # re-simulated steady offset vs stated [m] (certificates since issue 44)
 }
+
+#: Tolerances added after certificates were first written, each with the stated number it checks: a certificate
+#: whose tolerances lack one states none of those numbers and is read with its old meaning (it does not claim them).
+LATER_TOLERANCES: dict[str, str] = {"offset_abs_m": "steady_offset_m"}
 
 #: Default horizon of the certificate's performance runs [s].
 PERFORMANCE_HORIZON_S = 20.0

@@ -24,14 +24,20 @@ from nniquad.model.vehicle import Vehicle
 from nniquad.sim import SimOptions, SimulationResult, simulate
 from nniquad.sim.verdicts import Metrics
 
-__all__ = ["RUN_METRICS", "METRIC_TOLERANCES", "ReferenceRun", "reference_run_of", "run_metrics"]
+__all__ = ["RUN_METRICS", "LATER_RUN_METRICS", "METRIC_TOLERANCES", "ReferenceRun", "reference_run_of", "run_metrics"]
 
 #: The numbers a certificate states of each reference run (``performance.<model>``), besides its ``settings``.
-RUN_METRICS = ("settling_s", "overshoot_pct", "peak_tilt_deg", "diverged")
+#: ``steady_offset_m`` (the mean distance from the setpoint over the run's last second) only since issue 44: an
+#: older certificate does not state it (:data:`nniquad.certificates.certificate.LATER_TOLERANCES`).
+RUN_METRICS = ("settling_s", "overshoot_pct", "peak_tilt_deg", "diverged", "steady_offset_m")
+
+#: The stated numbers an older certificate may lack; :meth:`ReferenceRun.differences` compares them when stated.
+LATER_RUN_METRICS = ("steady_offset_m",)
 
 #: The tolerance (a key of the certificate's ``tolerances``) each stated number is re-simulated within.
 METRIC_TOLERANCES: Mapping[str, str] = MappingProxyType(
-    {"settling_s": "settling_abs_s", "overshoot_pct": "overshoot_abs_pct", "peak_tilt_deg": "tilt_abs_deg"})
+    {"settling_s": "settling_abs_s", "overshoot_pct": "overshoot_abs_pct", "peak_tilt_deg": "tilt_abs_deg",
+     "steady_offset_m": "offset_abs_m"})
 
 
 def run_metrics(metrics: Metrics) -> dict[str, Any]:
@@ -102,10 +108,14 @@ class ReferenceRun:
             The re-simulated numbers (:func:`run_metrics`).
         tolerances
             The certificate's ``tolerances`` (:data:`METRIC_TOLERANCES` names the key of each number).
+            A number of :data:`LATER_RUN_METRICS` that the certificate does not state is not compared (an older
+            certificate; ``verify``'s tolerance check ties its absence to the older tolerances).
         """
         stated = self.stated or {}
         bad = []
         for key, tkey in METRIC_TOLERANCES.items():
+            if key in LATER_RUN_METRICS and key not in stated:
+                continue
             want, have = stated.get(key), got.get(key)
             if want is None or have is None:
                 same = want is None and have is None
@@ -166,4 +176,5 @@ def reference_run_of(cert: Any, model: str = "full") -> ReferenceRun:
                              "wind_N": tuple(settings.get("wind_N", (0.0, 0.0))), "inner": cert.inner_loop})
     except (TypeError, NniquadError) as exc:
         raise CertificateError(f"certificate performance.{model}.settings: {exc}") from None
-    return ReferenceRun(cert.vehicle, cert.gains, opts, stated=MappingProxyType({k: run.get(k) for k in RUN_METRICS}))
+    stated = {k: run.get(k) for k in RUN_METRICS if k in run or k not in LATER_RUN_METRICS}  # older: no offset
+    return ReferenceRun(cert.vehicle, cert.gains, opts, stated=MappingProxyType(stated))

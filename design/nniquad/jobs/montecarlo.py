@@ -54,7 +54,7 @@ class MonteCarloResult:
 
     @property
     def success_rate(self) -> float:
-        """Fraction of the finished scenarios that settled and never diverged (``nan`` if none finished)."""
+        """Fraction of the finished scenarios that settled to the setpoint and never diverged (``nan`` if none finished)."""
         return float("nan") if self.summary is None else self.summary.success_rate
 
     def __repr__(self) -> str:

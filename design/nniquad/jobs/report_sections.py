@@ -150,6 +150,7 @@ def _model_rows(runs: dict[str, Any]) -> dict[str, dict[str, Any]]:
             "peak_tilt_deg": m.peak_tilt_deg,
             "diverged": bool(m.diverged),
             "horizon_s": m.horizon_s,
+            "steady_offset_m": m.steady_offset_m,
         }
     return rows
 
@@ -160,10 +161,12 @@ def _table(header: list[str], rows: list[list[str]]) -> list[str]:
 
 def _model_table(rows: dict[str, dict[str, Any]]) -> list[str]:
     body = [
-        [model, fmt(r["settling_s"]), fmt(r["overshoot_pct"]), fmt(r["peak_tilt_deg"]), fmt(r["diverged"]), fmt(r["horizon_s"])]
+        [model, fmt(r["settling_s"]), fmt(r["overshoot_pct"]), fmt(r["peak_tilt_deg"]), fmt(r["steady_offset_m"]),
+         fmt(r["diverged"]), fmt(r["horizon_s"])]
         for model, r in rows.items()
     ]
-    return _table(["model", "settling (s)", "overshoot (%)", "peak tilt (deg)", "diverged", "horizon (s)"], body)
+    return _table(["model", "settling (s)", "overshoot (%)", "peak tilt (deg)", "steady offset (m)", "diverged",
+                   "horizon (s)"], body)
 
 
 def build_report(vehicle: Vehicle, options: ReportOptions, progress: Progress | None = None) -> dict[str, Any]:

@@ -218,7 +218,8 @@ class Summary:
         lines.append(f"{'peak tilt max':<24} {s(self.peak_tilt['max'], 'deg'):>12}   "
                      f"(scenario {self.peak_tilt['max_index']})")
         for k, v in self.settling_about_wind_equilibrium.items():
-            lines.append(f"{'settling ' + k + ' about wind eq.':<24} {ci(v, 's', never=True)}  (not the verdict)")
+            lines.append(f"{'wind-eq. settling ' + k:<24} {ci(v, 's', never=True)}  (about the wind equilibrium: "
+                         "not the verdict)")
         for name, (label, unit, scale) in _BUDGET_FIGURES.items():
             figs = self.noise_budget.get(name)
             if figs:
