@@ -437,7 +437,8 @@ def anti_windup_matrix(fam: CascadeFamily) -> dict[str, list]:
     without anti-windup (the section then states no such matrix)."""
     ctx = fam.context
     n_k = fam.A_k.shape[0]
-    E = anti_windup_rows(ctx["gains"], ctx["vehicle"].m, fam.state_names[-n_k:], fam.T)
+    end = len(fam.state_names) - 2 * fam.delay_samples  # the delay line's states follow the controller's
+    E = anti_windup_rows(ctx["gains"], ctx["vehicle"].m, fam.state_names[end - n_k:end], fam.T)
     return {"E_anti_windup": E.tolist()} if np.any(E) else {}
 
 
