@@ -90,6 +90,11 @@ def test_tilt_command_rms_over_the_hover_window_is_the_hand_value():
     # a hover run (starts at the setpoint): the window is the whole run
     hover = compute_metrics(t, np.zeros((t.size, 2)), cmd_tilt_deg=cmd)
     assert hover.tilt_command_rms_deg == pytest.approx(math.sqrt(bias**2 + amp**2 / 2), rel=1e-6)
+    # judged in the band of the nominal start, 2 % of 2.5 m = 5 cm: a 4 cm excursion is inside, 6 cm is not
+    assert hover.settling_s == 0.0 and hover.overshoot_pct is None
+    bump = np.column_stack([np.where((t > 3) & (t < 4), 1.0, 0.0), np.zeros_like(t)])
+    assert compute_metrics(t, 0.04 * bump).settling_s == 0.0
+    assert compute_metrics(t, 0.06 * bump).settling_s == pytest.approx(4.0, abs=1e-3)
     # a run from 1 m that reaches the setpoint at t = 2 s: the window starts at its settling time, 1.96 s
     # (2 % band), and the large command before it does not count
     xy = np.column_stack([np.clip(1.0 - t / 2.0, 0.0, None), np.zeros_like(t)])

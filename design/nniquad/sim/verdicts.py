@@ -28,7 +28,7 @@ from typing import Any, Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from nniquad.config import ALTITUDE_LIMIT_M, TILT_LIMIT_DEG
+from nniquad.config import ALTITUDE_LIMIT_M, TILT_LIMIT_DEG, XI0_M
 from nniquad.errors import SimulationError
 from nniquad.sim.metrics import (
     DEFAULT_BAND_FRACTION,
@@ -213,7 +213,8 @@ class Metrics:
     Attributes
     ----------
     settling_s
-        Settling time [s] (2 % band, last exit); ``None`` if not settled.
+        Settling time [s] (2 % band of ‖ξ_h(0)‖ around the setpoint, last exit; a hover run, started at the
+        setpoint, in the band of the nominal start :data:`nniquad.config.XI0_M`); ``None`` if not settled.
     overshoot_pct
         Overshoot along the initial direction [% of ‖ξ_h(0)‖].
     peak_tilt_deg
@@ -365,9 +366,11 @@ def compute_metrics(
     a = np.asarray(xy, dtype=float)
     points_batch(ta, a, batched=False)
     div = diverged(a, z=z, altitude_limit_m=altitude_limit_m, z_ref=z_ref)
-    settling = None if div or follows_reference else settling_time(ta, a, band_fraction)
-    # a hover run (started at the setpoint) has no initial direction to overshoot along
+    # a hover run (started at the setpoint) has no initial distance to scale its band, nor a direction to
+    # overshoot along: it is judged in the band of the nominal start, as the Monte Carlo study and the tuner judge
     hover_start = not np.hypot(*a[0]) > 0
+    norm = math.hypot(*XI0_M) if hover_start else None
+    settling = None if div or follows_reference else settling_time(ta, a, band_fraction, norm)
     over = None if div or follows_reference or hover_start else _opt(overshoot_pct(ta, a))
     tilt = None
     if phi is not None and theta is not None:

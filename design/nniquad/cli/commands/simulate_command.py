@@ -94,6 +94,7 @@ distance from the setpoint over the last {STEADY_OFFSET_WINDOW_S:g} s (a constan
 unless the law integrates).  The noise budget: the RMS of the commanded tilt
 over the hover window (the whole run from --xi0 0 0, else from the settling
 time on) and the share of samples with a rotor command at 0 or its maximum; a
+hover run (--xi0 0 0) settles in the band of the nominal start; a
 noisy run is judged against {NOISE_BUDGET_TILT_RMS_DEG:g} deg and {100 * NOISE_BUDGET_ROTOR_LIMIT_SHARE:g} % (the hover check:
 --xi0 0 0 --noise {NOISE_BUDGET_SIGMA_M:g} --output-dt {DT_S:g}).  --json writes them with the trajectory file
 (.npz next to the JSON, or --trajectory FILE with .npz or .csv).  Runs that take
