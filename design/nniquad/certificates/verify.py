@@ -300,8 +300,8 @@ def _verify(cert: Certificate, simulate: bool, say: Callable[[str], None], fail_
         lambda: _tolerances_check(cert),
         lambda: _layout_check(cert),
         lambda: _law_class_check(cert),
-        lambda: _delay_check(cert),
         lambda: _settings_check(cert),
+        lambda: _delay_check(cert),
     ]
     if states_reduced_loop(cert.gains.law):
         steps += [

@@ -357,9 +357,8 @@ class TuneOptions:
             raise NniquadError("the margin requirement applies to the full cascade: use model 'full'")
         object.__setattr__(self, "require_margins", bool(self.require_margins))
         delay = (ROBUST_DELAY_SAMPLES if self.robust else 0) if self.delay_samples is None else self.delay_samples
+        # kept when the sweep screens on the nominal run (tuning.search): only the robust scenarios read it
         object.__setattr__(self, "delay_samples", finite_int("delay_samples", delay, minimum=0))
-        if self.delay_samples and not self.robust:
-            raise NniquadError("the measurement delay applies to the robust objective's scenarios (model full)")
         object.__setattr__(self, "gamma_max", g)
         # the PD laws have no sector bound, hence no certified region: the reach check does not apply
         object.__setattr__(self, "roa_radius_m", r if self.law.ni_structure else 0.0)

@@ -216,7 +216,8 @@ def _solved_affine(prob: ConicProblem, it: np.ndarray, iP: np.ndarray, E: np.nda
 
 
 def reach_lyapunov(A_v: np.ndarray, T: float, K: np.ndarray, L: float, rho: float, *,
-                   theta: np.ndarray | None = None, eps: float = 1e-6) -> RobustLyapunov | None:
+                   theta: np.ndarray | None = None, eps: float = 1e-6,
+                   start: np.ndarray | None = None) -> RobustLyapunov | None:
     """A horizontal axis's ``P(θ)`` with the widest linear-zone reach, at a given contraction ``rho``.
 
     The ellipsoid ``{xᵀ P(θ) x <= 1}`` lies where the tilt limit is inactive iff
@@ -245,6 +246,9 @@ def reach_lyapunov(A_v: np.ndarray, T: float, K: np.ndarray, L: float, rho: floa
         The points' coordinates in the θ-cube.
     eps
         Smallest eigenvalue of ``P`` in the balanced coordinates.
+    start : array (n,), optional
+        The start per metre in place of ``e_0`` (its level ``startᵀ P(θ) start`` is minimised; a delay line
+        starts full, :func:`nniquad.analysis.cascade.region.start_vector`).
 
     Returns
     -------
@@ -258,7 +262,7 @@ def reach_lyapunov(A_v: np.ndarray, T: float, K: np.ndarray, L: float, rho: floa
     S, Sinv = np.diag(scale), np.diag(1.0 / scale)
     Ab = Sinv @ A_v @ S
     KS = np.asarray(K, float).reshape(1, n) @ S
-    e0 = Sinv[:, 0]  # x_0 = r e_0 in the balanced coordinates
+    e0 = Sinv[:, 0] if start is None else Sinv @ np.asarray(start, float)  # x_0 = r e_0 in the balanced coordinates
     E = sym_basis(n)
     corners, at_points = _affine_weights(th)
     prob = ConicProblem()

@@ -283,16 +283,17 @@ def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: GainBlock, inn
              thorough: bool = False) -> None:
     """The rows of :func:`check_cascade_section`, each handed to ``add(name, ok, detail)``."""
     delay = stated_delay(section) if isinstance(section, Mapping) else 0
-    if not add("delay samples", delay is not None, f"measurement delay line of {delay} samples"):
-        return
-    expected = subsystems(state_names("full", gains.controller, delay))
 
     need = ("rate_hz", "controller", "attitude_loop", "model", "box", "monte_carlo_default_box",
             "covers_monte_carlo_default", "lyapunov", "grid", "region_of_attraction", "margins", "matrices",
             "decay_rate_1_s", "start_certified")
     missing = [k for k in need if not isinstance(section, Mapping) or k not in section]
-    if not add("section keys", not missing, f"missing {missing}" if missing else "all present"):
+    if delay is None:  # stated, but not a number of samples: the loop it claims cannot be rebuilt
+        missing.append("delay_samples (a whole number >= 0)")
+    if not add("section keys", not missing, f"missing {missing}" if missing else
+               f"all present; measurement delay line of {delay} samples"):
         return
+    expected = subsystems(state_names("full", gains.controller, delay))
     try:
         rate = float(section["rate_hz"])
         T = control_period(rate)

@@ -46,7 +46,7 @@ from nniquad.analysis.cascade.lyapunov import (
     robust_lyapunov,
     witness_margins,
 )
-from nniquad.analysis.cascade.region import linear_zone_reach, roa_note
+from nniquad.analysis.cascade.region import linear_zone_reach, roa_note, start_vector
 from nniquad.analysis.cascade.region_lmi import lure_section
 from nniquad.analysis.fast_margins import fast_cascade_margins
 from nniquad.config import (
@@ -139,7 +139,10 @@ def _certify_box(vehicle, gains, inner, box, *, tilt_limit_deg, rate_hz, dims, g
         if K is not None:  # a horizontal axis: also the widest reach at a slightly slower decay
             rho = math.exp(-CASCADE_REACH_DECAY_FRACTION * lyap[name].decay_rate_1_s * fam.T)
             wide[name] = (mirrored_blocks(wide["x"], d, A, th) if mirrored is not None and wide["x"] is not None
-                          else None) or reach_lyapunov(A, fam.T, K, L, rho, theta=th)
+                          else None) or reach_lyapunov(A, fam.T, K, L, rho, theta=th,
+                                                       # the delay line starts full: its start is not e_0 (without
+                                                       # a delay the search stays the one of the issued certificates)
+                                                       start=start_vector(fam, name) if delay_samples else None)
         k += m
     grid_fam = take_points(fam, np.arange(k, len(fam)))
     lmi_fam = take_points(fam, np.arange(1, k))
