@@ -144,3 +144,16 @@ def test_full_simulator_follows_the_delayed_family(n_delay):
     assert np.max(np.abs(x_sim - predicted(n_delay))) <= 1e-4 * scale
     if n_delay:
         assert np.max(np.abs(x_sim - predicted(n_delay - 1))) > 1e-2 * scale
+
+
+def test_the_robust_default_delays_the_robust_scenarios_only(run_cli):
+    """``ROBUST_DELAY_SAMPLES`` is the robust objective's default; the nominal objective has none, and ``tune``
+    refuses a delay it would not use."""
+    from nniquad.config import ROBUST_DELAY_SAMPLES
+    from nniquad.tuning.tune import TuneOptions
+
+    assert TuneOptions(model="full").delay_samples == ROBUST_DELAY_SAMPLES
+    assert TuneOptions(model="full", delay_samples=0).delay_samples == 0
+    assert TuneOptions(model="reduced").delay_samples == 0
+    code, _, err = run_cli("tune", "--model", "reduced", "--delay-samples", "2")
+    assert code != 0 and "--delay-samples" in err

@@ -291,7 +291,7 @@ def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: GainBlock, inn
     if delay is None:  # stated, but not a number of samples: the loop it claims cannot be rebuilt
         missing.append("delay_samples (a whole number >= 0)")
     if not add("section keys", not missing, f"missing {missing}" if missing else
-               f"all present; measurement delay line of {delay} samples"):
+               "all present" + (f"; measurement delay line of {delay} samples" if delay else "")):
         return
     expected = subsystems(state_names("full", gains.controller, delay))
     try:
