@@ -17,8 +17,8 @@ crash). On each vehicle the design judged is the fastest of its certificates
    :data:`QUICK_MC_SAMPLES` scenarios, named in the row; the Wilson bound of
    fewer than 189 scenarios cannot reach 98 %, so it is then stated, not judged);
 3. robust p95 settling (the certificate's tuning record, robust objective) of
-   the fastest certified integral law: <= :data:`P95_TARGET_S`, the fastest
-   certified law without integral action (``sni2``, paper class);
+   the fastest certified integral law: no slower than the fastest certified law
+   without integral action (:data:`P95_BASE`, its tuning record);
 4. the delay the certificate covers (top-level ``delay_samples``): >= :data:`DELAY_TARGET`;
 5. hover at the setpoint under the noise of the budget (``nniquad.config.NOISE_BUDGET_SIGMA_M``) at the
    certificate's rate, recorded every integration step: tilt-command RMS and the share of steps with a rotor at
@@ -34,6 +34,8 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+from nniquad.config import WIND_WEIGHT_FRACTION_RANGE
+
 __all__ = ["run"]
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -48,17 +50,17 @@ INTEGRAL_CERTIFICATES: dict[str, tuple[str, ...]] = {
     "crazyflie2": ("crazyflie2_integral_certificate.json",),
 }
 
-#: The issue's targets.
-WIND_FRACTION = 0.10
+#: The issue's targets.  The wind: the top of the Monte Carlo's default range, 10 % of m g.
+WIND_FRACTION = WIND_WEIGHT_FRACTION_RANGE[1]
 OFFSET_TARGET_M = 0.005
 MC_SAMPLES = 1000
 MC_SEED = 4404
 QUICK_MC_SAMPLES = 100
 SUCCESS_TARGET = 0.99
 WILSON_LO_TARGET = 0.98
-#: The robust p95 of the fastest certified law without integral action (``sni2``, paper class,
-#: ``designs/sni2_paper_certificate.json``, docs/notes/laws.md).
-P95_TARGET_S = 1.824
+#: The fastest certified law without integral action (``sni2``, paper class, docs/notes/laws.md): the integral
+#: law's robust p95 must be no slower than the one its tuning record states.
+P95_BASE = "sni2_paper_certificate.json"
 DELAY_TARGET = 2
 #: Simulated time of the wind and hover runs [s]: the integrator's slow mode has settled well before the
 #: last second, over which the offset is averaged.
@@ -110,6 +112,21 @@ def _p95(cert) -> float:
     if tuning.get("objective") != "robust" or tuning.get("settling_s") is None:
         return math.inf
     return float(tuning["settling_s"])
+
+
+def _p95_row(cert) -> dict:
+    from nniquad.certificates.certificate import read_certificate
+    from nniquad.errors import NniquadError
+
+    name = f"hold: robust p95 of the fastest certified integral law ({cert.controller})"
+    try:
+        target = _p95(read_certificate(DESIGNS / P95_BASE))
+    except NniquadError as exc:
+        return _no(name, f"no target: {exc}", "s")
+    p95 = _p95(cert)
+    record = "its tuning record" if math.isfinite(p95) else "NO robust tuning record: given gains, not tuned"
+    return {"name": f"{name[:-1]}, {record})", "value": p95, "unit": "s", "target": f"<= {target:.4g}",
+            "ok": p95 <= target}
 
 
 def _offset_row(key: str, cert) -> dict:
@@ -190,10 +207,7 @@ def run(quick: bool = False) -> list[dict]:
                        _no("hold: hover at 2 cm noise", why),
                        _no("hold: cascade region covers the start", why, "m")]
     rows += _montecarlo_rows(cert, QUICK_MC_SAMPLES if quick else MC_SAMPLES)
-    p95 = _p95(cert)
-    record = "its tuning record" if math.isfinite(p95) else "NO robust tuning record: given gains, not tuned"
-    rows.append({"name": f"hold: robust p95 of the fastest certified integral law ({cert.controller}, {record})",
-                 "value": p95, "unit": "s", "target": f"<= {P95_TARGET_S:g}", "ok": p95 <= P95_TARGET_S})
+    rows.append(_p95_row(cert))
     delay = cert.certified_delay_samples  # 0 for a certificate that states none
     rows.append({"name": f"hold: delay the certificate covers ({cert.controller}, at {_rate_hz(cert):g} Hz)",
                  "value": float(delay), "unit": "samples", "target": f">= {DELAY_TARGET}",

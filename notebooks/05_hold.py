@@ -50,7 +50,12 @@ from nniquad import (
     show_table as md_table,
     simulate,
 )
-from nniquad.config import NOISE_BUDGET_ROTOR_LIMIT_SHARE, NOISE_BUDGET_SIGMA_M, NOISE_BUDGET_TILT_RMS_DEG
+from nniquad.config import (
+    NOISE_BUDGET_ROTOR_LIMIT_SHARE,
+    NOISE_BUDGET_SIGMA_M,
+    NOISE_BUDGET_TILT_RMS_DEG,
+    WIND_WEIGHT_FRACTION_RANGE,
+)
 from nniquad.control.inner_gains import InnerLoopGains
 from nniquad.laws import integral_variant
 
@@ -61,7 +66,7 @@ BASE_FILES = {"NNI": ("full_model_certificate.json",), "SNI2": ("designs", "sni2
 INTEGRAL_FILES = {"NNI": ("designs", "nni_integral_certificate.json"),
                   "SNI2": ("designs", "sni2_integral_certificate.json")}
 PD_FILE = ("designs", "pd_velocity.json")
-WIND_FRACTION = 0.10  # of the weight m g, the issue's wind
+WIND_FRACTION = WIND_WEIGHT_FRACTION_RANGE[1]  # of the weight m g: the top of the Monte Carlo's default wind
 WIND_HORIZON_S = 30.0
 DELAYS = range(0, 5)  # control periods
 DELAY_HORIZON_S = 15.0
