@@ -136,3 +136,12 @@ def test_a_law_of_the_ni_structure_cannot_state_its_theorem_not_applicable():
     c["sector"] = {"not_applicable": "no"}
     res = verify_certificate(_resign(c), simulate=False, fail_fast=True)
     assert not res.ok and res.first_failure.name == "layout"
+
+
+@pytest.mark.parametrize("command", ["tune", "certify"])
+def test_integral_of_a_law_without_a_variant_is_one_line(run_cli, command, tmp_path):
+    code, _, err = run_cli(command, "--integral", "--controller", "pd_filtered" if command == "tune" else "nni",
+                           "--law-class", "paper", *(["--out", str(tmp_path / "c.json")] if command == "certify" else []))
+    # tune: pd_filtered has no integral variant; certify: nni_i has no paper class
+    assert code == 2 and len(err.strip().splitlines()) == 1
+    assert ("no integral variant" in err) if command == "tune" else ("no law class 'paper'" in err)
