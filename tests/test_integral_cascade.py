@@ -15,10 +15,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nniquad.analysis.cascade.family import sampled_family
+from nniquad.analysis.cascade.family import sampled_family, subsystems
+from nniquad.analysis.cascade.region import start_command, start_vector
 from nniquad.analysis.linearised_cascade import hover_params
 from nniquad.certificates import canonical_digest, read_certificate, verify_certificate
 from nniquad.laws import integral_variant
+from nniquad.laws.sni2 import SNI2Gains, sni2_from_nni
 from nniquad.sim import EXO_FIELDS, initial_state, state_names
 from nniquad.sim.models import step_function
 from tests.test_robust_cascade import GAINS, INNER, RATE, TILT, V
@@ -145,3 +147,18 @@ def test_integral_of_a_law_without_a_variant_is_one_line(run_cli, command, tmp_p
     # tune: pd_filtered has no integral variant; certify: nni_i has no paper class
     assert code == 2 and len(err.strip().splitlines()) == 1
     assert ("no integral variant" in err) if command == "tune" else ("no law class 'paper'" in err)
+
+
+def test_the_regions_start_is_the_base_laws_take_over_state_and_the_integrator_at_zero():
+    """The start vector of the Lur'e region (region.start_vector) of sni2_i: the position 1, the SNI state at its DC
+    value C(0) = k/ω² per metre, z' = 0 and q = 0; its command per metre is the base law's take-over command
+    -kp + k/(m ω²) (by hand), read through the family's K (from the simulator's Jacobians)."""
+    base = SNI2Gains(*sni2_from_nni(GAINS.kp, GAINS.Gamma, GAINS.delta, 3.0))
+    gi = integral_variant(base.law).with_ki(base, 0.01 * base.kp ** 1.5)
+    fam = sampled_family(V, gi, INNER, np.ones((1, 6)), tilt_limit_deg=TILT, rate_hz=RATE)
+    for axis in ("x", "y"):
+        order = subsystems(fam.state_names)[axis]
+        want = {axis: 1.0, f"zc_{axis}": base.k / base.omega ** 2}  # every other state (zcd, zci) at 0
+        v = start_vector(fam, axis)
+        assert [v[order.index(n)] for n in order] == pytest.approx([want.get(n, 0.0) for n in order], rel=1e-12)
+    assert start_command(fam) == pytest.approx(base.kp - base.k / (V.m * base.omega ** 2), rel=1e-9)
