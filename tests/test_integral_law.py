@@ -107,7 +107,8 @@ def _hand_nni_i_step(gains, m_hat, T, L, zc, q, xi):
     a = -gains.kp * xi + zc / m_hat - gains.ki * q
     sat = a * (L / max(math.hypot(*a), L))
     e = math.exp(-gains.Gamma * gains.delta * T)
-    return e * zc + (1 - e) / gains.delta * xi, q + T * (xi + (a - sat) / gains.kp), sat
+    k_s = gains.kp - 1.0 / (m_hat * gains.delta)  # the base's static stiffness: kp minus C(0)/m̂, C(0) = 1/δ
+    return e * zc + (1 - e) / gains.delta * xi, q + T * (xi + (a - sat) / k_s), sat
 
 
 def test_discrete_step_equals_the_hand_step_saturated_and_not():
@@ -181,18 +182,19 @@ def test_saturated_start_converges_and_anti_windup_does_not_raise_the_overshoot(
 
 def test_continuous_anti_windup_equals_the_hand_ode_through_saturation():
     """The simulator's continuous law (reduced model) from a 2.5 m start against ``scipy.integrate.solve_ivp`` of
-    the hand-written loop ``ξ'' = sat(a)``, ``z' = -Γδ z + Γ ξ``, ``q' = ξ + (a - sat(a))/k_p``; the tolerance is
+    the hand-written loop ``ξ'' = sat(a)``, ``z' = -Γδ z + Γ ξ``, ``q' = ξ + (a - sat(a))/k_s``; the tolerance is
     the RK4 step's error across the saturation's kinks (measured 1e-7 at the default step)."""
     from scipy.integrate import solve_ivp
 
     v, _, gi, tilt = _design("nni")
     L = v.g * math.tan(math.radians(tilt))
+    k_s = gi.kp - 1.0 / (v.m * gi.delta)
 
     def rhs(_t, s):
         x, vel, zc, q = s[0:2], s[2:4], s[4:6], s[6:8]
         a = -gi.kp * x + zc / v.m - gi.ki * q
         sat = a * (L / max(math.hypot(*a), L))
-        return np.r_[vel, sat, -gi.Gamma * gi.delta * zc + gi.Gamma * x, x + (a - sat) / gi.kp]
+        return np.r_[vel, sat, -gi.Gamma * gi.delta * zc + gi.Gamma * x, x + (a - sat) / k_s]
 
     t = np.arange(0.0, 3.0 + 1e-9, 0.05)
     ref = solve_ivp(rhs, (0.0, 3.0), np.r_[2.5, -1.0, np.zeros(6)], t_eval=t, rtol=1e-11, atol=1e-12).y
@@ -201,3 +203,16 @@ def test_continuous_anti_windup_equals_the_hand_ode_through_saturation():
     q = tr.state[:, [tr.state_names.index("zci_x"), tr.state_names.index("zci_y")]]
     assert np.max(np.abs(tr.xy - ref[0:2].T)) < 1e-5 and np.max(np.abs(q - ref[6:8].T)) < 1e-5
     assert np.max(np.abs(q - ref[6:8].T)) < 1e-2 * np.max(np.abs(ref[6:8]))  # q is not ~0 (the check has teeth)
+
+
+def test_two_axis_gains_have_no_integral_variant():
+    from nniquad.errors import GainError
+    from nniquad.laws import Gains
+
+    law = integral_variant(law_named("nni"))
+    two = Gains(kp=5.0, Gamma=160.0, delta=0.6, kpy=6.0)
+    assert law.seed_from(two, 1.0) is None
+    with pytest.raises(GainError, match="one kp"):
+        law.with_ki(two, 0.1)
+    assert law.with_ki(Gains(kp=5.0, Gamma=160.0, delta=0.6), 0.1).values() == dict(kp=5.0, Gamma=160.0, delta=0.6,
+                                                                                     ki=0.1)

@@ -18,7 +18,7 @@ The command ``a_k`` is held until the next sample.  The output stage is the simu
 tilt setpoints ``φ_d, θ_d`` at yaw ``ψ``.  The controller state integrates the measurement
 whatever the limit does (as in the simulator), except for a law with anti-windup
 (:meth:`nniquad.laws.base.ControlLaw.anti_windup_gains`, the integral laws): its state gets
-``W (a_k - sat(a_k))``, ``W = T`` times the anti-windup gains (``q_{k+1} = q_k + T (ξ_k + (a_k - sat(a_k))/k_p)``).
+``W (a_k - sat(a_k))``, ``W = T`` times the anti-windup gains (``q_{k+1} = q_k + T (ξ_k + (a_k - sat(a_k))/k_s)``, ``k_s = k_p (1 - γ)``).
 
 :class:`DiscreteLaw` holds the matrices and steps in numpy (the reference);
 :meth:`DiscreteLaw.casadi_step` is the same step as a CasADi function, which

@@ -17,24 +17,28 @@ Why only the ``cascade`` class
 paper's sector theorem does not apply (:attr:`ni_structure` is False, :meth:`sector_constant` is infinite):
 a design is certified by the sampled-data cascade certificate alone.
 
-Anti-windup (back-calculation, tracking time ``T_t = k_p/k_i``)
+Anti-windup (back-calculation, tracking time ``T_t = k_s/k_i``)
 ---------------------------------------------------------------
-With the tilt limit's excess ``ψ = a_h - sat(a_h)`` (per axis, of the total command, feedforward included):
+With the tilt limit's excess ``ψ = a_h - sat(a_h)`` (per axis, of the total command, feedforward included) and
+``k_s = k_p - C(0)/m̂ = k_p (1 - γ)``, the base law's static stiffness per unit mass:
 
-.. math:: \\dot q = ξ + ψ/k_p.
+.. math:: \\dot q = ξ + ψ/k_s.
 
 It is linear in the dead zone ψ, so the Lur'e region of the cascade certificate covers it as it is
-(conditional integration is a switch outside that framework); while the proportional term saturates the
-integrator sees the error clipped to the linear zone (``q̇ = L/k_p``).  The law exposes the gain through
-:meth:`IntegralLaw.anti_windup_gains` (``1/k_p`` on ``q``, 0 on the base's states): the simulator, the
-discrete controller and the C export add it.
+(conditional integration is a switch outside that framework).  Why ``k_s`` and not ``k_p``: during a long
+saturated approach the base controller settles near its DC value and hands ``γ k_p ξ`` back, so the command
+before the limit is about ``-k_s ξ``; the excess is then ``k_s ξ - L`` and the integrator sees
+``q̇ = L/k_s``, the error clipped to the zone where the base law's static command is not limited.  With
+``1/k_p`` instead it would still wind at about ``γ ξ`` (``docs/notes/laws.md`` gives the measured overshoots).
+The law exposes the gain through :meth:`IntegralLaw.anti_windup_gains` (``1/k_s`` on ``q``, 0 on the base's
+states): the simulator, the discrete controller, the cascade family and the C export add it.
 
 Discrete law (the certified one, period ``T``): the exact zero-order hold of the realisation plus the
 anti-windup term, with the excess of the command held over the period,
 
-.. math:: x^+ = A_d x + B_d ξ_k + E ψ_k, \\qquad q^+ = q + T (ξ_k + ψ_k/k_p),
+.. math:: x^+ = A_d x + B_d ξ_k + E ψ_k, \\qquad q^+ = q + T (ξ_k + ψ_k/k_s),
 
-i.e. in the family's form ``x⁺ = A_0 x + B_s sat(Kx) + E (Kx - sat(Kx))`` with ``E = T/k_p`` on the ``q``
+i.e. in the family's form ``x⁺ = A_0 x + B_s sat(Kx) + E (Kx - sat(Kx))`` with ``E = T/k_s`` on the ``q``
 rows and 0 elsewhere (``q`` has no dynamics of its own, so its ZOH is exact: ``q⁺ = q + T ξ_k``).
 
 Start (bumpless take-over): the base law's start state and ``q(0) = 0``, so the first command is the base
@@ -63,20 +67,21 @@ from typing import Any, ClassVar, Mapping, Sequence
 
 import numpy as np
 
+from nniquad.errors import GainError
 from nniquad.laws.base import ControlLaw, GainBlock, NILaw, PlainGainBlock, TuningBox, gain_field
 from nniquad.laws.nni import NNI
 from nniquad.laws.registry import register
 from nniquad.laws.sni2 import SNI2
 
 __all__ = ["IntegralLaw", "NNIIntegralGains", "SNI2IntegralGains", "NNI_I", "SNI2_I", "integral_variant",
-           "KI_RATIO_RANGE", "KI_SEED_SEPARATION", "reduced_loop_poles"]
+           "KI_RATIO_RANGE", "KI_SEED_SEPARATION", "reduced_loop_poles", "static_command_stiffness"]
 
 #: Range of ``k_i/k_p^{3/2}`` (the integral zero over the inner loop's natural frequency) searched (module docstring).
 KI_RATIO_RANGE: tuple[float, float] = (1e-3, 1.0)
 #: The seed's integrator pole is this many times slower than the base loop's slowest pole (module docstring).
 KI_SEED_SEPARATION: float = 5.0
 
-_KI_META = ("1/s^3", "integral gain: a_h gets -ki q, q' = xi (anti-windup: + excess/kp)", "k_i")
+_KI_META = ("1/s^3", "integral gain: a_h gets -ki q, q' = xi (anti-windup: + excess/ks, ks = kp (1 - gamma))", "k_i")
 
 
 @dataclass(frozen=True)
@@ -151,6 +156,34 @@ def reduced_loop_poles(law: ControlLaw, gains: GainBlock, m_hat: float) -> np.nd
     return np.linalg.eigvals(M)
 
 
+def static_command_stiffness(A: Sequence[Sequence[Any]], B: Sequence[Sequence[Any]], C: Sequence[Sequence[Any]],
+                             D: Sequence[Sequence[Any]]) -> Any:
+    """``-(D - C A⁻¹ B)`` of a one-input law's command realisation given as entries (numbers or CasADi expressions).
+
+    Cramer's rule for the one- and two-state controllers the NI laws have, so the same expression serves the
+    simulator's symbols and numbers.
+
+    Parameters
+    ----------
+    A, B, C, D
+        The realisation's entries (the first input column, the command row).
+
+    Raises
+    ------
+    ValueError
+        A controller of more than two states.
+    """
+    n = len(A)
+    if n == 1:
+        inv_b = [B[0][0] / A[0][0]]
+    elif n == 2:
+        det = A[0][0] * A[1][1] - A[0][1] * A[1][0]
+        inv_b = [(A[1][1] * B[0][0] - A[0][1] * B[1][0]) / det, (A[0][0] * B[1][0] - A[1][0] * B[0][0]) / det]
+    else:
+        raise ValueError(f"the integral wrapper takes controllers of one or two states, not {n}")
+    return -(D[0][0] - sum(C[0][i] * inv_b[i] for i in range(n)))
+
+
 class IntegralLaw(ControlLaw):
     """A base law of the NI structure with an integrator of the position error (module docstring).
 
@@ -202,8 +235,16 @@ class IntegralLaw(ControlLaw):
             A gain block of the base law (equal axes).
         ki
             The integral gain [1/s³].
+
+        Raises
+        ------
+        GainError
+            A base design of another law, or with two axis gains (the integral laws have one ``kp``).
         """
-        values = {k: v for k, v in self.base.gains(base_gains).as_dict().items() if k in self.gain_names}
+        base = self.base.gains(base_gains)
+        if len(set(base.axes())) != 1:
+            raise GainError(f"the {self.name} law has one kp for both axes, got {base.axes()}")
+        values = {k: v for k, v in base.as_dict().items() if k in self.gain_names}
         return self.gains_type(**values, ki=ki)
 
     def _base_p(self, p: Mapping[str, Any]) -> dict[str, Any]:
@@ -219,7 +260,10 @@ class IntegralLaw(ControlLaw):
                 [list(C[0]) + [-p["ki"]]], [list(D[0])])
 
     def anti_windup_gains(self, p: Mapping[str, Any], axis: int = 0) -> list:
-        """``1/k_p`` on ``q`` and 0 on the base's states: ``ẋ_c`` gets this times the axis's excess ``a_h - sat(a_h)``.
+        """``1/k_s`` on ``q`` and 0 on the base's states: ``ẋ_c`` gets this times the axis's excess ``a_h - sat(a_h)``.
+
+        ``k_s = k_p - C(0)/m̂`` is the base law's static stiffness per unit mass, the DC gain of its command
+        ``-(D - C A⁻¹ B)``, written from the realisation's entries so it serves numbers and expressions alike.
 
         Parameters
         ----------
@@ -228,7 +272,8 @@ class IntegralLaw(ControlLaw):
         axis
             0 or 1.
         """
-        return [0.0] * self.base.n_states + [1.0 / p["kp"]]
+        A, B, C, D = self.base.realisation(self._base_p(p), axis)
+        return [0.0] * self.base.n_states + [1.0 / static_command_stiffness(A, B, C, D)]
 
     def sim_rates(self, p: Mapping[str, Any], meas: Sequence[Any], vel: Sequence[Any], xc: Sequence[Any],
                   discrete: Any, lib: Any) -> tuple[list, list]:
@@ -251,7 +296,7 @@ class IntegralLaw(ControlLaw):
 
     def discretisation_text(self) -> str:
         return (f"the {self.base.name} law's states: {self.base.discretisation_text()}; then per axis the integrator "
-                f"q[k+1] = q[k] + T (xi[k] + (a[k] - sat(a[k]))/kp) (its exact ZOH plus the back-calculation "
+                f"q[k+1] = q[k] + T (xi[k] + (a[k] - sat(a[k]))/ks), ks = kp (1 - gamma) the base's static stiffness per unit mass (its exact ZOH plus the back-calculation "
                 f"anti-windup, a[k] the command before the tilt limit, sat(a[k]) after it); the whole state in the "
                 f"order {', '.join(self.sim_state_names)}")
 
@@ -291,6 +336,17 @@ class IntegralLaw(ControlLaw):
     def static_stiffness(self, gains: GainBlock, m_hat: float) -> tuple[float, float]:
         return math.inf, math.inf
 
+    def pm_ceiling_deg(self, gamma_max: float) -> float:
+        """The base law's ceiling (:meth:`nniquad.laws.base.NILaw.pm_ceiling_deg`), still an upper bound: the
+        integrator adds ``-j k_i/ν`` to the lead ``k_p - C(jν)/m̂`` (positive real part), which only lowers its phase.
+
+        Parameters
+        ----------
+        gamma_max
+            The sector bound's ceiling.
+        """
+        return self.base.pm_ceiling_deg(gamma_max)
+
     # ------------------------------------------------------------------ tuning
     def coordinates(self, law_class: str | None) -> tuple[str, ...]:
         return (*self.base.coordinates(self.check_class(law_class)), "ln(ki/kp^1.5)")
@@ -328,20 +384,12 @@ class IntegralLaw(ControlLaw):
         return min(max(ki, KI_RATIO_RANGE[0] * kp15), KI_RATIO_RANGE[1] * kp15)
 
     def seed_from(self, gains: GainBlock, m_hat: float) -> GainBlock | None:
-        """A design of this law from another law's: itself, or the base law's seed with :meth:`seed_ki`.
-
-        Parameters
-        ----------
-        gains
-            A gain block of any law.
-        m_hat
-            The controller's nominal mass [kg].
-        """
+        # a design of this law is itself; any other is the base law's seed (equal axes) with seed_ki
         if isinstance(gains, self.gains_type):
             return gains
         base = gains if isinstance(gains, self.base.gains_type) else self.base.seed_from(gains, m_hat)
         if base is None or len(set(base.axes())) != 1:
-            return None
+            return None  # no base design, or one with two axis gains
         return self.with_ki(base, self.seed_ki(base, m_hat))
 
 

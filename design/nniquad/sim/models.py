@@ -50,6 +50,18 @@ each later sample by the exact ZOH equivalent of the period that ends
 where it has one), before it latches the new measurement, so ``a_h`` is held
 over the period.
 
+Anti-windup
+-----------
+A law with anti-windup gains (:meth:`~nniquad.laws.base.ControlLaw.anti_windup_gains`, the
+integral laws of :mod:`nniquad.laws.integral`) gets them times the tilt limit's excess
+``a_h - sat(a_h)`` of the total command (feedforward included) added to its state
+derivative; ``linear`` has no limit, so no excess.  In discrete time the sample update
+adds ``T`` times them times the excess of the command held over the period that ends,
+recomputed at the sample from the state and the measurement held over it.  That is the
+certified discrete law ``q⁺ = q + T (ξ_k + ψ_k/k_p)`` exactly on ``reduced`` with a constant
+(or no) feedforward; a changing feedforward, and on ``full`` the limit ``g_z tan(T_lim)``,
+are read at the new sample, one period late.
+
 References and feedforward
 --------------------------
 The law acts on the error to the reference, ``ξ_m - ξ_d`` (and a law that measures the
