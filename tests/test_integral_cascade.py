@@ -73,7 +73,7 @@ def test_the_family_loop_is_one_step_of_the_simulators_discrete_law_in_saturatio
     # the same state order on both sides (the family's controller states are the law's, interleaved)
     assert names[-n_k:] == list(LAW.sim_state_names)
     np.testing.assert_allclose(family_next, sim_next, rtol=1e-9, atol=1e-12)
-    # and the anti-windup is what makes them agree: without it the integrator would gain T ξ, not T (ξ - ψ/kp)
+    # and the anti-windup is what makes them agree: without it the integrator would gain T ξ, not T (ξ + ψ/ks)
     q_no_aw = xc[-2:] + T * xi
     assert np.min(np.abs(sim_next[-2:] - q_no_aw)) > 1e-3 * T
 
@@ -108,12 +108,13 @@ def test_an_integral_certificate_verifies_and_claims_only_the_cascade_theorem():
     assert "back-calculation" in action["anti_windup"] and "cascade" in action["certified_by"]
     assert "does not certify" in action["not_certified_by"]
     assert set(cert.start["methods"]) == {"cascade"}  # no reduced-loop region to be inside
-    # the stated anti-windup is T/kp on each axis's integrator, by hand
+    # the stated anti-windup is T/ks on each axis's integrator, ks = kp - C(0)/m = kp - 1/(m delta) by hand
     E = np.asarray(cert.cascade["matrices"]["E_anti_windup"])
     T = 1.0 / cert.cascade["rate_hz"]
     names = cert.cascade["matrices"]["state_names"][-E.shape[0]:]
     want = np.zeros_like(E)
-    want[names.index("zci_x"), 0] = want[names.index("zci_y"), 1] = T / cert.gains.kp
+    ks = cert.gains.kp - 1.0 / (cert.vehicle.m * cert.gains.delta)
+    want[names.index("zci_x"), 0] = want[names.index("zci_y"), 1] = T / ks
     np.testing.assert_allclose(E, want, rtol=1e-14)
     # its region reaches through the saturation with the integrator at 0 and the NNI state at its start
     roa = cert.cascade["region_of_attraction"]
