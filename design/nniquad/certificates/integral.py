@@ -28,10 +28,11 @@ NOT_APPLICABLE = "not_applicable"
 #: The sections of the paper's reduced loop (Theorem thm:main_result and its LMIs).
 REDUCED_LOOP_SECTIONS: tuple[str, ...] = ("sector", "stability_margin", "lmi", "region_of_attraction")
 #: The anti-windup of the integral laws, as a certificate states it.
-ANTI_WINDUP = ("back-calculation with tracking time T_t = kp/ki: q' = xi + (a - sat(a))/kp per axis, a - sat(a) the "
-               "excess of the total command over the norm tilt limit; certified discrete law q[k+1] = q[k] + T (xi[k] "
-               "+ (a[k] - sat(a[k]))/kp), linear in the dead zone, so the cascade's sampled loop x+ = A0 x + B sat(K x) "
-               "holds it exactly (A0 + E K, B = Gamma - E, E = T/kp on the integrator rows)")
+ANTI_WINDUP = ("back-calculation with tracking time T_t = ks/ki, ks = kp - C(0)/m = kp (1 - gamma) the base law's "
+               "static stiffness per unit mass: q' = xi + (a - sat(a))/ks per axis, a - sat(a) the excess of the total "
+               "command over the norm tilt limit; certified discrete law q[k+1] = q[k] + T (xi[k] + (a[k] - "
+               "sat(a[k]))/ks), linear in the dead zone, so the cascade's sampled loop x+ = A0 x + B sat(K x) holds it "
+               "exactly (A0 + E K, B = Gamma - E, E = T/ks on the integrator rows: cascade.matrices.E_anti_windup)")
 #: What the cascade section certifies of an integral law.
 CASCADE_COVERS = ("the sampled-data cascade section: exponential stability of the linearised cascade sampled at the "
                   "control rate over the parameter box, the integrator included, and its Lur'e region of attraction "

@@ -300,7 +300,7 @@ def with_delay_line(A0: np.ndarray, B: np.ndarray, K: np.ndarray, C_p: np.ndarra
 def anti_windup_rows(gains: GainBlock, m_hat: float, names: Sequence[str], T: float) -> np.ndarray:
     """``E`` on the controller states ``names`` (``(len(names), 2)``): ``T`` times the law's anti-windup gain of
     each state (:meth:`nniquad.laws.base.ControlLaw.anti_windup_gains`) in its axis's column, so that one sample
-    adds ``E (a - sat(a))`` to them (``q⁺ = q + T (ξ + (a - sat(a))/k_p)`` of an integral law); zero without one.
+    adds ``E (a - sat(a))`` to them (``q⁺ = q + T (ξ + (a - sat(a))/k_s)`` of an integral law); zero without one.
 
     Parameters
     ----------

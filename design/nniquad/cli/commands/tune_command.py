@@ -155,7 +155,9 @@ def tune_options_from_args(args: argparse.Namespace):
     rate = check_rate_hz(CONTROL_RATE_HZ if args.rate is None else args.rate, DT_S, error=NniquadError)
     apply_integral(args)
     controller = getattr(args, "controller", "nni")  # certify: its own --controller (an NI law)
-    in_class = law_named(controller).in_class(args.law_class)
+    law = law_named(controller)
+    # the class the design is tuned in: the stated one, else the law's first (an integral law: cascade)
+    in_class = law.in_class(args.law_class if args.law_class is not None else law.law_classes[0])
     robust = not (args.nominal or args.model != "full")
     if args.scenario_noise_range is not None and not robust:
         raise NniquadError("--scenario-noise-range sets the noise of the robust objective's scenarios: it needs "
