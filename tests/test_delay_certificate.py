@@ -42,7 +42,11 @@ def test_the_certificate_states_and_verifies_its_delay(doc):
     names = doc["cascade"]["matrices"]["state_names"]
     assert names[-2 * DELAY:] == ["zcd1_x", "zcd1_y"]
     assert doc["cascade"]["lyapunov"]["subsystems"]["x"]["states"][-1] == "zcd1_x"
-    assert verify_certificate(doc, simulate=False).ok
+    # the Lur'e region with the line full at the start (region.start_vector), re-checked by verify below
+    assert doc["cascade"]["region_of_attraction"]["method"] == "lure"
+    check = verify_certificate(doc, simulate=False)
+    assert check.ok and check["delay_samples"].ok
+    assert any(f"exactly {DELAY} samples" in note for note in check.notes)
 
 
 @pytest.mark.parametrize("edit", ["top", "section", "both", "top_null"])

@@ -120,9 +120,6 @@ def lure_fallback_reason(cert: "Certificate") -> str | None:
     if not isinstance(roa, Mapping) or roa.get("method") != "linear_zone":
         return None
     law = cert.gains.law
-    if cert.cascade.get("delay_samples"):
-        return (f"the Lur'e region is solved for a start with nothing but the position and the law's state, and the "
-                f"measurement delay line of {cert.cascade['delay_samples']} samples starts full, so it was not tried")
     search = roa.get("lure_search")
     if search is None and not law.starts_at_zero(cert.gains, cert.vehicle.m):
         # the release that issued it solved the region for a start with the controller state 0 only

@@ -285,6 +285,11 @@ def coverage_notes(cert: Certificate) -> list[str]:
                      "the start's status in every region the certificate states")
     if cert.tracking is None and cert.cascade is not None:  # schema 1 covers no sampled cascade: said above
         notes.append(NOT_STATED)
+    if cert.certified_delay_samples and cert.cascade is not None:
+        n, rate = cert.certified_delay_samples, cert.cascade.get("rate_hz")
+        ms = f" ({1000.0 * n / rate:g} ms at {rate:g} Hz)" if is_number(rate) and rate > 0 else ""
+        notes.append(f"measurement delay: the cascade section certifies the loop with a delay of exactly {n} samples"
+                     f"{ms}; the reduced-loop LMIs, the margins and the reference runs are without it")
     notes.append("records, not verified (no check and no Monte Carlo run reads them): "
                  + ", ".join(RECORD_FIELDS) + " (except tuning.model, which must equal model)")
     return notes

@@ -310,7 +310,7 @@ def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: GainBlock, inn
     try:
         coverage = LYAPUNOV_COVERAGE if "box_proof" in section else LYAPUNOV_COVERAGE_GRID_ONLY
         texts = (section["lyapunov"]["form"] == LYAPUNOV_FORM and section["lyapunov"]["coverage"] == coverage
-                 and section["region_of_attraction"]["note"] == roa_note(gains.law)
+                 and section["region_of_attraction"]["note"] == roa_note(gains.law, delay)
                  and section["margins"]["points"] == MARGIN_POINTS and section["margins"]["model"] == margin_model(delay)
                  and all(list(section["lyapunov"]["subsystems"][n]["states"]) == list(expected[n])
                          for n in SUBSYSTEMS))
@@ -430,7 +430,7 @@ def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: GainBlock, inn
         reach, detail = min(lz_lmi, lz_grid), f"linear zone {min(lz_lmi, lz_grid):.6g} m"
         if method == "linear_zone":
             ok = ok and _close(roa.get("max_displacement_m"), reach) and "lure" not in roa
-        elif method == "lure" and not delay:  # solved for the law's start (region.start_vector), no delay line
+        elif method == "lure":  # solved for the law's start (region.start_vector: controller at take-over, delay line full)
             start, lmi = 1, {}
             for name in SUBSYSTEMS:  # each horizontal axis's LMI points, as the family is stacked above
                 if name in HORIZONTAL:

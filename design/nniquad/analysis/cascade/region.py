@@ -81,7 +81,7 @@ ROA_NOTE = ("lure: the region {V <= c} of V = x'P(θ)x + 2 μ(θ) Φ(K x / L(θ)
 LURE_FORM = ("P_a(θ) = Σ_f φ_f(θ_a) P_a,f, G_a(θ) likewise, μ(θ) = Σ_f φ_f(θ_m) μ_f; φ = 1, θ_j, θ_j θ_k (j < k), "
              "θ_j² of the axis's log factors normalised on the box (θ_m: those of both axes); the sector "
              "multiplier is 1; V(x⁺) - V(x) <= -(1 - rho²) x'Px")
-def roa_note(law: ControlLaw) -> str:
+def roa_note(law: ControlLaw, delay_samples: int = 0) -> str:
     """The stated region-of-attraction note: :data:`ROA_NOTE` with the law's start
     (:attr:`~nniquad.laws.base.ControlLaw.start_description`; :func:`start_vector`) and the coupled loop's size.
 
@@ -89,9 +89,13 @@ def roa_note(law: ControlLaw) -> str:
     ----------
     law
         The certified law.
+    delay_samples
+        The measurement delay line's length: it starts full of the start position.
     """
-    n = 17 + len(law.sim_state_names)
-    return ROA_NOTE.replace("controller state 0", law.start_description).replace("19-state", f"{n}-state")
+    n = 17 + len(law.sim_state_names) + 2 * int(delay_samples)
+    start = law.start_description + (f", the measurement delay line ({int(delay_samples)} samples) full of the start "
+                                      "position" if delay_samples else "")
+    return ROA_NOTE.replace("controller state 0", start).replace("19-state", f"{n}-state")
 
 
 def start_vector(fam: CascadeFamily, axis: str) -> np.ndarray:
@@ -218,9 +222,9 @@ class LureRegion:
 
     @classmethod
     def from_json(cls, data: Mapping[str, Any], dims: Mapping[str, Sequence[int]],
-                  states: Mapping[str, int] | None = None) -> "LureRegion":
-        """Read a stated region (``dims``: the axes' coordinates stated by the Lyapunov block; ``states``: each
-        axis's number of states, default the one-state law's :data:`SUBSYSTEMS`).
+                  n_states: Mapping[str, int] | None = None) -> "LureRegion":
+        """Read a stated region (``dims``: the axes' coordinates stated by the Lyapunov block; ``n_states``: each
+        axis's states, default those of :data:`~nniquad.analysis.cascade.family.SUBSYSTEMS`, more with a delay line).
 
         Raises
         ------
@@ -232,7 +236,7 @@ class LureRegion:
         G = {a: np.asarray(data["G"][a], float) for a in HORIZONTAL}
         mu = np.asarray(data["mu"], float)
         for a in HORIZONTAL:
-            nf, n = n_features(len(dims[a])), (states[a] if states is not None else len(SUBSYSTEMS[a]))
+            nf, n = n_features(len(dims[a])), (len(SUBSYSTEMS[a]) if n_states is None else int(n_states[a]))
             if P[a].shape != (nf, n, n) or G[a].shape != (nf, 1, n):
                 raise ValueError(f"axis {a}: P or G does not have the shape of {nf} features of {n} states")
             if not np.array_equal(P[a], np.swapaxes(P[a], -1, -2)):

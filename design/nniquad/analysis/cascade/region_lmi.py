@@ -99,7 +99,7 @@ class AxisData:
     theta_mult: np.ndarray
     L: np.ndarray
     k_pos: float
-    start: np.ndarray
+    start: np.ndarray | None = None  # the start per metre (region.start_vector); None: the position alone
 
     def take(self, idx: np.ndarray) -> "AxisData":
         return AxisData(self.A[idx], self.Bh[idx], self.Kh[idx], self.theta[idx], self.theta_mult[idx], self.L[idx],
@@ -121,9 +121,10 @@ def axis_data(fam: CascadeFamily, box: ParameterBox, axis: str, dims: Sequence[i
               mult_dims: Sequence[int]) -> AxisData:
     """:class:`AxisData` of ``axis`` at every point of ``fam``."""
     A, Bh, Kh = axis_loops(fam, axis)
+    v = start_vector(fam, axis)  # the position alone, or with the delay line full (the command of the start: K v)
     return AxisData(A, Bh, Kh, normalised_coordinates(box, fam.points, dims), normalised_coordinates(box, fam.points, mult_dims),
                     np.broadcast_to(np.asarray(fam.accel_limit, float), (len(fam),)).copy(),
-                    abs(float(subsystem_of(fam, axis)[3][0, 0])), start_vector(fam, axis))
+                    abs(float((subsystem_of(fam, axis)[3] @ v)[0])), v)
 
 
 def solve_lure(axes: Mapping[str, AxisData], D: Mapping[str, np.ndarray], level: float, r0: float, rho: float,
@@ -183,7 +184,7 @@ def solve_lure(axes: Mapping[str, AxisData], D: Mapping[str, np.ndarray], level:
         prob.psd(I0, np.concatenate([iP.ravel(), iG.ravel()]),
                  np.concatenate([IP, IG.reshape(N, nf * n, n + 1, n + 1)], axis=1))
         prob.nonnegative(np.full(N, -_MU_FLOOR / level), i_mu, fm)
-        e = Di @ d.start  # the start r0 v in the solver's coordinates, per unit r0
+        e = Di[:, 0] if d.start is None else Di @ d.start
         Pe = np.einsum("i,eij,j->e", e, E, e)
         phi = huber(k_max * r0 / d.L)
         prob.nonnegative(np.zeros(N), np.concatenate([iP.ravel(), i_mu, i_t]),
@@ -460,7 +461,7 @@ def _cut(cur: dict, check_grid: LureCheck, gdata: Mapping[str, AxisData], solved
             if a not in solved:  # y mirrors x: y's points, in x's coordinates
                 pts = AxisData(mirror[:, None] * pts.A * mirror[None, :], mirror[:, None] * pts.Bh,
                                pts.Kh * mirror[None, :], pts.theta, pts.theta_mult, pts.L, pts.k_pos,
-                               mirror * pts.start)
+                               None if pts.start is None else pts.start * mirror)
             new.append(pts)
             margin.append(check_grid.per_point[a][bad])
         if not new:

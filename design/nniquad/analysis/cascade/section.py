@@ -335,8 +335,8 @@ def _cascade_section(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, 
     delay_samples
         Measurement delay [samples] the loop is certified with: a delay line of that many samples per axis
         between the position and the law (:func:`nniquad.analysis.cascade.family.with_delay_line`); the start
-        fills it with the start position.  The region is then the linear zone's (the Lur'e-Postnikov region is
-        solved for a start with nothing but the position and the law's state), and the margins are without it.
+        fills it with the start position (:func:`nniquad.analysis.cascade.region.start_vector`, the start of both
+        regions); the margins are without it.
 
     Raises
     ------
@@ -370,9 +370,9 @@ def _cascade_section(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, 
     lz_lmi = linear_zone_reach(lyap, dims, box, fam, L)
     lz_grid = linear_zone_reach(lyap, dims, box, grid_fam, L)
     # the Lur'e-Postnikov region, kept when it passes every numpy check and reaches further than the linear zone;
-    # it is solved for the law's start (its controller at its take-over state: region.start_vector), not with a
-    # measurement delay line, which starts full
-    lure, record = (lure_section(fam, pts, lyap, grid_fam, box, dims) if not delay_samples else (None, None))
+    # it is solved for the law's start (region.start_vector: its controller at its take-over state, a delay line
+    # full of the start position)
+    lure, record = lure_section(fam, pts, lyap, grid_fam, box, dims)
     reach = min(lz_lmi, lz_grid)
     roa_block: dict[str, Any] = {"u0_m_s2": L, "tilt_limit_deg": float(tilt_limit_deg), "method": "linear_zone"}
     if lure is not None and min(lure["check_lmi_points"]["reach_m"], lure["check_grid"]["reach_m"]) > reach:
@@ -380,7 +380,7 @@ def _cascade_section(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, 
         reach = min(lure["check_lmi_points"]["reach_m"], lure["check_grid"]["reach_m"]) * (1.0 - 1e-9)
         roa_block.update(method="lure", lure=lure)
     roa_block.update({"max_displacement_m": reach, "linear_zone_reach_lmi_points_m": lz_lmi,
-                      "linear_zone_reach_grid_m": lz_grid, "note": roa_note(gains.law),
+                      "linear_zone_reach_grid_m": lz_grid, "note": roa_note(gains.law, delay_samples),
                       "lure_search": record})  # a record (nniquad.certificates.verify.RECORD_FIELDS)
     timings["roa_s"] = time.perf_counter() - t0 - sum(timings.values())
     mdims = tuple(sorted(set(dims["x"]) | set(dims["y"])))
