@@ -116,6 +116,20 @@ def robust_lyapunov(A_v: np.ndarray, T: float, *, S: np.ndarray | None = None, t
     SolverError
         A vertex is unstable, or no ``ρ < 1`` is certified.
     """
+    try:
+        return _robust_lyapunov(A_v, T, S=S, theta=theta, rtol=rtol, max_iter=max_iter)
+    except SolverError:
+        if S is not None:
+            raise
+        # the modal coordinates of a loop with a measurement delay line can be too ill-conditioned for a witness
+        # whose margins clear rounding: diagonal balancing instead (only where the modal answer failed)
+        _, (scale, _) = sla.matrix_balance(np.asarray(A_v, float)[0], permute=False, separate=True)
+        return _robust_lyapunov(A_v, T, S=np.diag(scale), theta=theta, rtol=rtol, max_iter=max_iter)
+
+
+def _robust_lyapunov(A_v: np.ndarray, T: float, *, S: np.ndarray | None, theta: np.ndarray | None, rtol: float,
+                     max_iter: int) -> RobustLyapunov:
+    """:func:`robust_lyapunov` in the coordinates ``S`` (``None``: :func:`conditioning_transform` of ``A_v[0]``)."""
     A_v = np.asarray(A_v, float)
     nv, n = A_v.shape[0], A_v.shape[1]
     rho_spec = float(np.max(np.abs(np.linalg.eigvals(A_v))))
