@@ -79,8 +79,9 @@ OFFSET_TARGET_M = 0.005  # the issue's target (benchmarks/bench_hold.py states t
 # Each base design is a committed certificate.  Its integral variant
 # (`nniquad.laws.integral_variant`: the law `nni_i` or `sni2_i`, the base gains
 # and an integral gain `ki`, back-calculation anti-windup with tracking time
-# k_p/k_i) is read from its certificate when `notebooks/data/designs` holds
-# one.  Where it does not, the integral design is **derived** from the base
+# k_s/k_i, k_s = k_p (1 − γ) the base law's static stiffness per unit mass) is
+# read from its certificate when `notebooks/data/designs` holds one.  Where it
+# does not, the integral design is **derived** from the base
 # design (the integral law's seed from the base gains) and flown with the base
 # certificate's settings: such a design is **not certified** until a
 # certificate for it is loaded, and the tables say which is which.  The PD with
