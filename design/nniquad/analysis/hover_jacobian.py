@@ -97,7 +97,7 @@ def linearise(model: str, params: SimParams, *, offset: float = LINEARISATION_OF
         ``"linear"`` or ``"full"`` (``"reduced"`` equals ``"linear"`` near hover).
     params
         Parameter set (:class:`nniquad.sim.SimParams`, gains of a law of the NI structure:
-        :attr:`nniquad.laws.base.ControlLaw.ni_structure`); its ``run.sample_hold`` is set to 1 and
+        :attr:`nniquad.laws.base.ControlLaw.ni_structure`, or of its integral variant); its ``run.sample_hold`` is set to 1 and
         ``run.discrete`` to 0 here.
     offset
         Symmetric offset of the held measurement [m] (module docstring).
@@ -114,9 +114,9 @@ def linearise(model: str, params: SimParams, *, offset: float = LINEARISATION_OF
     """
     if model not in ("linear", "full"):
         raise CascadeError(f"the cascade is linearised on the 'linear' or 'full' model, not {model!r}")
-    if not isinstance(params, SimParams) or not params.gains.law.ni_structure:
+    if not isinstance(params, SimParams) or not (params.gains.law.ni_structure or params.gains.law.integral):
         raise CascadeError("the cascade is linearised with a SimParams of a law of the NI structure "
-                           f"({', '.join(ni_law_names())})")
+                           f"({', '.join(ni_law_names())}) or of its integral variant")
     p = params.with_(run={"sample_hold": 1.0, "discrete": 0.0})  # the continuous controller's Jacobian
     names = state_names(model, params.controller)
     x_eq = initial_state(model, p, (0.0, 0.0))

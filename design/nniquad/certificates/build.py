@@ -16,6 +16,7 @@ from nniquad.analysis.lmi import certified_region, closed_loop_decay, ni_lemma_d
 from nniquad.analysis.margins import cascade_margins
 from nniquad.analysis.reduced_loop import ReducedLoop, reduced_loop
 from nniquad.analysis.tracking_section import tracking_section
+from nniquad.certificates.integral import integral_action_block, reduced_loop_sections, states_reduced_loop
 from nniquad.certificates.start import start_section
 from nniquad.certificates.certificate import (
     NI_FORM,
@@ -114,7 +115,9 @@ def sector_pm_ceiling_deg(gamma_max: float, controller: str = "nni") -> float:
     controller
         The law's name.
     """
-    return law_named(controller).pm_ceiling_deg(gamma_max)
+    law = law_named(controller)
+    # a law outside the NI structure (integral action) has no sector bound: no ceiling below 180
+    return law.pm_ceiling_deg(gamma_max) if states_reduced_loop(law) else 180.0
 
 
 def margins_section(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, *,
@@ -140,7 +143,7 @@ def margins_section(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, *
         "required": {"gm_db": REQUIRED_GM_DB, "pm_deg": REQUIRED_PM_DEG},
         "break_points": points,
         "meets_requirement": all(p["meets_requirement"] for p in points.values()),
-        "horizontal_pm_ceiling_deg": gains.law.pm_ceiling_deg(gamma_max),
+        "horizontal_pm_ceiling_deg": sector_pm_ceiling_deg(gamma_max, gains.law.name),
     }
 
 
@@ -249,9 +252,9 @@ def build_certificate(vehicle: Vehicle, gains: GainBlock, *, inner: InnerLoopGai
     say = progress or (lambda msg: None)
     rate_hz = check_rate_hz(rate_hz, DT_S, option="rate", error=CertificateError)
     delay_samples = check_delay_samples(delay_samples, sampled=cascade, error=CertificateError)
-    if not (isinstance(gains, GainBlock) and gains.law.ni_structure):
-        raise CertificateError(f"certificates cover the laws of the NI structure ({', '.join(ni_law_names())}), "
-                               f"not a {type(gains).__name__}")
+    if not (isinstance(gains, GainBlock) and (gains.law.ni_structure or gains.law.integral)):
+        raise CertificateError(f"certificates cover the laws of the NI structure ({', '.join(ni_law_names())}) and "
+                               f"their integral variants, not a {type(gains).__name__}")
     if len(set(gains.axes())) != 1:
         raise CertificateError("certificates cover equal axis gains only (kpy must equal kp)")
     if not 0.0 < gamma_max < 1.0:
@@ -264,36 +267,17 @@ def build_certificate(vehicle: Vehicle, gains: GainBlock, *, inner: InnerLoopGai
         raise CertificateError(f"the {cls.name} class is certified by the sampled-data cascade section: it cannot "
                                "be written without one (schema 1)")
     m = vehicle.m
-    loop = reduced_loop(vehicle, gains)
-    gamma = loop.smallest_gamma
-    if cls.sector_bound and not within_sector_bound(gamma, gamma_max):
-        what = gains.law.sector_violation(gains, m, gamma_max)
-        raise CertificateError(f"gains violate the sector bound of the paper class: {what}; --law-class cascade "
-                               "drops the bound and certifies with the sampled-data cascade alone")
-    if not gamma < 1.0:
-        what = gains.law.gamma_formula
-        raise CertificateError(f"DC loop gain {what} = {gamma:.6g} >= 1: the reduced loop is not stable "
-                               "(no law class certifies it)")
     lo, hi = mass_range if mass_range is not None else (MASS_RANGE_FRACTION[0] * m, MASS_RANGE_FRACTION[1] * m)
-    say("solving the LMIs")
-    A, B, C, D = loop.plant_matrices()
-    plant = ni_lemma_dissipation(A, B, C, D, name="ni_lemma_dissipation[plant]")
-    Ac, Bc, Cc, _ = loop.controller_matrices()
-    ctrl = ni_lemma_dissipation(Ac, Bc, Cc, name="ni_lemma_dissipation[controller]",
-                                scaling=loop.controller_scaling())
-    cl = closed_loop_decay(loop)
-    rob = robust_mass_decay(loop, lo, hi, parameter_dependent=True, thrust_model=True)
-    region = certified_region(loop, tilt_limit_deg)
-    (roa,) = region
-    for res in (plant, ctrl, cl, rob, roa):
-        if not res.feasible:
-            raise CertificateError(f"LMI {res.name} is infeasible for these gains (solver status {res.status})")
-    pd = loop.poles_and_damping()
-    reach = reach_of(region)
-    u0 = float(roa.values["u0"])
     if not cascade and rate_hz != CONTROL_RATE_HZ:
         raise CertificateError(f"a schema-1 certificate (no cascade section) states no rate: it cannot be "
                                f"built at {rate_hz:g} Hz")
+    if states_reduced_loop(gains.law):
+        sections = _reduced_loop_sections(vehicle, gains, cls, gamma_max, tilt_limit_deg, (lo, hi), say)
+    elif cls.sector_bound or not cascade:
+        raise CertificateError(f"the {gains.law.name} law (integral action) is certified by the sampled-data cascade "
+                               "section alone: --law-class cascade, with the cascade section")
+    else:
+        sections = reduced_loop_sections(gains.law)  # no reduced-loop theorem: why, in each section
     say("computing the classical margins")
     margins = margins_section(vehicle, gains, inner, tilt_limit_deg=tilt_limit_deg, gamma_max=gamma_max,
                               rate_hz=rate_hz)
@@ -325,10 +309,12 @@ def build_certificate(vehicle: Vehicle, gains: GainBlock, *, inner: InnerLoopGai
         except CascadeError as exc:
             raise CertificateError(f"the tracking-error bound is not certified: {exc}") from None
     bound = time_optimal_bound(vehicle, xi0=xi0, tilt_limit_deg=tilt_limit_deg)
-    roa_section = {"max_displacement_m": reach, "u0_m_s2": u0, "tilt_limit_deg": float(tilt_limit_deg), "model": ROA_MODEL}
     # the start per method; start_certified never claims more than the weakest of them
-    start = start_section(xi0, roa_section, section)
+    start = start_section(xi0, sections["region_of_attraction"], section)
     ratios = {k: (None if v["settling_s"] is None else v["settling_s"] / bound.enter_band_s) for k, v in perf.items()}
+    law_class_block = {"name": cls.name, "theorem": cls.theorem}
+    if not states_reduced_loop(gains.law):
+        law_class_block["integral_action"] = integral_action_block(gains.law)
     cert = Certificate(
         model=model,
         vehicle=vehicle,
@@ -336,26 +322,7 @@ def build_certificate(vehicle: Vehicle, gains: GainBlock, *, inner: InnerLoopGai
         inner_loop=inner,
         tilt_limit_deg=float(tilt_limit_deg),
         xi0_m=(float(xi0[0]), float(xi0[1])),
-        sector=sector_section(loop, gamma_max),
-        stability_margin={
-            "routh_margin": loop.routh_margin,
-            "max_real_part_1_s": float(pd.max_real_part),
-            "decay_rate_1_s": float(pd.decay_rate),
-            "min_damping": float(pd.min_damping),
-            "poles_1_s": [[float(p.real), float(p.imag)] for p in pd.poles],
-        },
-        lmi={
-            "plant_ni": {"P": _mat(plant.matrices["P"]), "form": NI_FORM},
-            "controller_ni": {"P": _mat(ctrl.matrices["P"]), "form": NI_FORM},
-            "closed_loop": {"P": _mat(cl.matrices["P"]), "decay_rate_1_s": float(cl.values["decay_rate"])},
-            "robust_mass": {"m_lo_kg": float(lo), "m_hi_kg": float(hi), "m_nominal_kg": m,
-                            "P0": _mat(rob.matrices["P0"]), "P1": _mat(rob.matrices["P1"]),
-                            "decay_rate_1_s": float(rob.values["decay_rate"])},
-            "region_of_attraction": {"P": _mat(roa.matrices["P"]), "G": _mat(roa.matrices["G"]),
-                                     "T": _mat(roa.matrices["T"]), "u0_m_s2": u0,
-                                     "max_displacement_m": reach},
-        },
-        region_of_attraction=roa_section,
+        **sections,
         start_certified=start["every_method"],
         performance=perf,
         bound={"enter_band_s": bound.enter_band_s, "rest_to_rest_s": bound.rest_to_rest_s,
@@ -366,12 +333,68 @@ def build_certificate(vehicle: Vehicle, gains: GainBlock, *, inner: InnerLoopGai
         software=_software(),
         margins=margins,
         cascade=section,
-        law_class={"name": cls.name, "theorem": cls.theorem},
+        law_class=law_class_block,
         start=start,
         tracking=track,
         delay_samples=delay_samples if section is not None else None,
     )
     return cert.signed()
+
+
+def _reduced_loop_sections(vehicle: Vehicle, gains: GainBlock, cls: Any, gamma_max: float, tilt_limit_deg: float,
+                           mass_range: tuple[float, float], say: Callable[[str], None]) -> dict[str, Any]:
+    """The paper's reduced-loop sections of a law of the NI structure (``sector``, ``stability_margin``, ``lmi``,
+    ``region_of_attraction``), after the sector bound of the class; raises :class:`CertificateError`."""
+    m = vehicle.m
+    loop = reduced_loop(vehicle, gains)
+    gamma = loop.smallest_gamma
+    if cls.sector_bound and not within_sector_bound(gamma, gamma_max):
+        what = gains.law.sector_violation(gains, m, gamma_max)
+        raise CertificateError(f"gains violate the sector bound of the paper class: {what}; --law-class cascade "
+                               "drops the bound and certifies with the sampled-data cascade alone")
+    if not gamma < 1.0:
+        what = gains.law.gamma_formula
+        raise CertificateError(f"DC loop gain {what} = {gamma:.6g} >= 1: the reduced loop is not stable "
+                               "(no law class certifies it)")
+    lo, hi = mass_range
+    say("solving the LMIs")
+    A, B, C, D = loop.plant_matrices()
+    plant = ni_lemma_dissipation(A, B, C, D, name="ni_lemma_dissipation[plant]")
+    Ac, Bc, Cc, _ = loop.controller_matrices()
+    ctrl = ni_lemma_dissipation(Ac, Bc, Cc, name="ni_lemma_dissipation[controller]",
+                                scaling=loop.controller_scaling())
+    cl = closed_loop_decay(loop)
+    rob = robust_mass_decay(loop, lo, hi, parameter_dependent=True, thrust_model=True)
+    region = certified_region(loop, tilt_limit_deg)
+    (roa,) = region
+    for res in (plant, ctrl, cl, rob, roa):
+        if not res.feasible:
+            raise CertificateError(f"LMI {res.name} is infeasible for these gains (solver status {res.status})")
+    pd = loop.poles_and_damping()
+    reach = reach_of(region)
+    u0 = float(roa.values["u0"])
+    return {
+        "sector": sector_section(loop, gamma_max),
+        "stability_margin": {
+            "routh_margin": loop.routh_margin,
+            "max_real_part_1_s": float(pd.max_real_part),
+            "decay_rate_1_s": float(pd.decay_rate),
+            "min_damping": float(pd.min_damping),
+            "poles_1_s": [[float(p.real), float(p.imag)] for p in pd.poles],
+        },
+        "lmi": {
+            "plant_ni": {"P": _mat(plant.matrices["P"]), "form": NI_FORM},
+            "controller_ni": {"P": _mat(ctrl.matrices["P"]), "form": NI_FORM},
+            "closed_loop": {"P": _mat(cl.matrices["P"]), "decay_rate_1_s": float(cl.values["decay_rate"])},
+            "robust_mass": {"m_lo_kg": float(lo), "m_hi_kg": float(hi), "m_nominal_kg": m,
+                            "P0": _mat(rob.matrices["P0"]), "P1": _mat(rob.matrices["P1"]),
+                            "decay_rate_1_s": float(rob.values["decay_rate"])},
+            "region_of_attraction": {"P": _mat(roa.matrices["P"]), "G": _mat(roa.matrices["G"]),
+                                     "T": _mat(roa.matrices["T"]), "u0_m_s2": u0,
+                                     "max_displacement_m": reach},
+        },
+        "region_of_attraction": {"max_displacement_m": reach, "u0_m_s2": u0, "tilt_limit_deg": float(tilt_limit_deg),
+                                 "model": ROA_MODEL}}
 
 
 def unsettled_reference_run(cert: Certificate | Mapping[str, Any]) -> str | None:

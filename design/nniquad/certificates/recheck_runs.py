@@ -14,7 +14,9 @@ from typing import Any, Mapping
 from nniquad.certificates.build import MARGIN_FIELDS, margins_section, sector_pm_ceiling_deg
 from nniquad.certificates.certificate import Certificate
 from nniquad.certificates.check_record import Check, close, fmt_value, gains_key, memo
+from nniquad.certificates.integral import NOT_APPLICABLE
 from nniquad.certificates.reference_run import LATER_RUN_METRICS, METRIC_TOLERANCES, run_metrics
+from nniquad.config import GAMMA_MAX
 from nniquad.errors import CertificateError
 from nniquad.format import margin_text, margin_verdict
 
@@ -65,7 +67,8 @@ def margins_check(cert: Certificate, tol: Mapping[str, float]) -> Check:
     stated = cert.margins
     try:
         rate = float(stated["rate_hz"])
-        gamma_max = float(cert.sector["gamma_max"])
+        # no sector bound without the paper's theorem (an integral law): its ceiling is 180 whatever gamma_max
+        gamma_max = float(cert.sector["gamma_max"]) if NOT_APPLICABLE not in cert.sector else GAMMA_MAX
     except (KeyError, TypeError, ValueError):
         raise CertificateError("certificate 'margins' needs a number 'rate_hz'") from None
     if (stated.get("controller") != "discrete" or stated.get("pade_order") != 2

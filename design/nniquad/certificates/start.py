@@ -23,6 +23,7 @@ import math
 from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 from nniquad.certificates.check_record import Check, thaw_json
+from nniquad.certificates.integral import NOT_APPLICABLE
 
 if TYPE_CHECKING:
     from nniquad.certificates.certificate import Certificate
@@ -60,13 +61,16 @@ def start_section(xi0_m: Sequence[float], region_of_attraction: Mapping[str, Any
     xi0_m
         The reference start [m].
     region_of_attraction
-        The reduced loop's ``region_of_attraction`` section.
+        The reduced loop's ``region_of_attraction`` section (one that is not applicable, of a law with integral
+        action, names no method: :mod:`nniquad.certificates.integral`).
     cascade
         The ``cascade`` section, or ``None`` (schema 1: the reduced loop is the only method).
     """
     distance = math.hypot(*(float(v) for v in xi0_m))
-    methods = {REDUCED_LOOP: _entry(REDUCED_LOOP, REDUCED_LOOP_METHOD, region_of_attraction.get("max_displacement_m"),
-                                    distance)}
+    methods = {}
+    if NOT_APPLICABLE not in region_of_attraction:  # a law with integral action has no reduced-loop region
+        methods[REDUCED_LOOP] = _entry(REDUCED_LOOP, REDUCED_LOOP_METHOD,
+                                       region_of_attraction.get("max_displacement_m"), distance)
     if cascade is not None:
         roa = cascade.get("region_of_attraction")
         roa = roa if isinstance(roa, Mapping) else {}
@@ -116,10 +120,11 @@ def lure_fallback_reason(cert: "Certificate") -> str | None:
     if not isinstance(roa, Mapping) or roa.get("method") != "linear_zone":
         return None
     law = cert.gains.law
-    if not law.starts_at_zero(cert.gains, cert.vehicle.m):
-        return (f"the Lur'e region is solved for a start with the controller state 0, and the {law.name} law starts "
-                f"with its {law.start_description}, so it was not tried")
     search = roa.get("lure_search")
+    if search is None and not law.starts_at_zero(cert.gains, cert.vehicle.m):
+        # the release that issued it solved the region for a start with the controller state 0 only
+        return (f"the Lur'e region was solved for a start with the controller state 0 when this certificate was "
+                f"issued, and the {law.name} law starts with its {law.start_description}, so it was not tried")
     status = search.get("solver_status") if isinstance(search, Mapping) else None
     return ("no Lur'e region passed every check and reached beyond the linear zone"
             + (f" (search: {status})" if status else ""))

@@ -47,6 +47,7 @@ from nniquad.analysis.cascade.recheck import stated_delay
 from nniquad.analysis.verified.inequalities import outcome_of
 from nniquad.analysis.verified.spd import FAILS, NOT_PROVEN, PROVEN
 from nniquad.certificates.check_record import PASS, Check, clear_cache, fmt_value, is_number, thaw_json
+from nniquad.certificates.integral import REDUCED_LOOP_SECTIONS, reduced_loop_check, states_reduced_loop
 from nniquad.certificates.recheck_reduced_loop import (
     bound_check,
     cascade_checks,
@@ -270,7 +271,12 @@ def coverage_notes(cert: Certificate) -> list[str]:
             f"continuously) with the nominal vehicle parameters and a mass interval [{fmt_value(rm.get('m_lo_kg'))}, "
             f"{fmt_value(rm.get('m_hi_kg'))}] kg; it covers no sampled-data cascade (control rate, attitude loop, motor lag) "
             "and no parameter box (inertia, attitude gain, motor time constant)")
-    if cert.law_class_name == "cascade":
+    if not states_reduced_loop(cert.gains.law):
+        notes.append(f"integral action ({cert.controller}): the paper's sector theorem does not apply and is not "
+                     "claimed (no reduced-loop section); the design is certified by the sampled-data cascade section "
+                     "alone, the integrator and its anti-windup in its loop, over its parameter box and within its "
+                     "region of attraction")
+    elif cert.law_class_name == "cascade":
         notes.append("class cascade: the paper's sector bound is not claimed; the reduced-loop LMIs are stated (they "
                      "hold whenever m kp delta > 1) but the design is certified by the sampled-data cascade section "
                      "alone, over its parameter box and within its region of attraction")
@@ -301,16 +307,21 @@ def _verify(cert: Certificate, simulate: bool, say: Callable[[str], None], fail_
         lambda: _law_class_check(cert),
         lambda: _settings_check(cert),
         lambda: _delay_check(cert),
-        lambda: sector_check(cert, tol),
-        lambda: poles_check(cert),
-        lambda: ni_checks(cert, tol, "plant_ni"),
-        lambda: ni_checks(cert, tol, "controller_ni"),
-        lambda: closed_loop_check(cert, tol),
-        lambda: roa_check(cert),
-        lambda: start_check(cert),
-        lambda: robust_mass_check(cert, tol),
-        lambda: bound_check(cert),
     ]
+    if states_reduced_loop(cert.gains.law):
+        steps += [
+            lambda: sector_check(cert, tol),
+            lambda: poles_check(cert),
+            lambda: ni_checks(cert, tol, "plant_ni"),
+            lambda: ni_checks(cert, tol, "controller_ni"),
+            lambda: closed_loop_check(cert, tol),
+            lambda: roa_check(cert),
+            lambda: start_check(cert),
+            lambda: robust_mass_check(cert, tol),
+            lambda: bound_check(cert),
+        ]
+    else:  # integral action: the paper's theorem does not apply, and the sections say only that
+        steps += [lambda: reduced_loop_check(cert), lambda: start_check(cert), lambda: bound_check(cert)]
     if cert.margins is not None:
         steps.append(lambda: margins_check(cert, tol))
     if cert.tracking is not None:  # a second (or 20 s over a box's corners): before the cascade's minute
@@ -366,9 +377,14 @@ def _layout_check(cert: Certificate) -> Check:
 
     doc = cert.body()
     bad: list[str] = []
+    reduced = states_reduced_loop(cert.gains.law)
     for path, keys in SECTION_KEYS.items():
         if path in OPTIONAL_SECTIONS and getattr(cert, path) is None:
             continue
+        if not reduced and path.split(".")[0] in REDUCED_LOOP_SECTIONS:
+            continue  # each holds only why it does not apply: reduced_loop_check compares it whole
+        if path == "law_class" and not reduced:
+            keys = keys | {"integral_action"}
         if path == "sector":  # the law's own gain bound: delta_min (NNI), k_max (sni2)
             keys = sector_keys(cert)
         node: Any = doc
@@ -388,7 +404,7 @@ def _layout_check(cert: Certificate) -> Check:
     forms = {"lmi.plant_ni.form": cert.lmi.get("plant_ni", {}).get("form") == NI_FORM,
              "lmi.controller_ni.form": cert.lmi.get("controller_ni", {}).get("form") == NI_FORM,
              "region_of_attraction.model": cert.region_of_attraction.get("model") == ROA_MODEL}
-    bad += [k for k, same in forms.items() if not same]
+    bad += [k for k, same in forms.items() if not same and reduced]
     return Check("layout", not bad, "every section has exactly its keys; the stated forms are the library's"
                  if not bad else f"unexpected keys or forms in: {', '.join(bad)}")
 
@@ -423,9 +439,10 @@ def _settings_check(cert: Certificate) -> Check:
         if stated != want:
             diff = sorted(k for k in set(want) | set(stated or {}) if (stated or {}).get(k) != want.get(k))
             bad.append(f"performance.{model}.settings ({', '.join(diff) or 'not an object'})")
-    if cert.region_of_attraction.get("tilt_limit_deg") != cert.tilt_limit_deg:
+    reduced = states_reduced_loop(cert.gains.law)
+    if reduced and cert.region_of_attraction.get("tilt_limit_deg") != cert.tilt_limit_deg:
         bad.append("region_of_attraction.tilt_limit_deg")
-    if cert.lmi.get("robust_mass", {}).get("m_nominal_kg") != cert.vehicle.m:
+    if reduced and cert.lmi.get("robust_mass", {}).get("m_nominal_kg") != cert.vehicle.m:
         bad.append("lmi.robust_mass.m_nominal_kg (must be the vehicle's mass)")
     if cert.margins is not None:
         rate = cert.cascade.get("rate_hz") if cert.cascade is not None else CONTROL_RATE_HZ
@@ -453,5 +470,8 @@ def _law_class_check(cert: Certificate) -> Check:
         return Check("law_class", False, f"the stated theorem is not the {name} class's: {stated!r}")
     if cls.needs_cascade and cert.cascade is None:
         return Check("law_class", False, f"the {name} class is certified by the cascade section, and there is none")
+    if not states_reduced_loop(cert.gains.law) and (cls.sector_bound or cert.cascade is None):
+        return Check("law_class", False, f"the {cert.controller} law has no reduced-loop theorem: only the cascade "
+                                         "class, with its cascade section, certifies it")
     return Check("law_class", True, f"class {name}{' (not stated: a certificate from before classes)' if cert.law_class is None else ''}; "
                                     f"certified by {cls.theorem}")

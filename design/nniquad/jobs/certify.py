@@ -106,7 +106,6 @@ def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLo
     if not options.law.certifiable:
         raise NniquadError(f"the {options.controller} law is no law of the NI structure and has no NNI image: there "
                            "is nothing to certify")
-    law_class = options.law_class if options.law_class is not None else "paper"
     if gains is None or isinstance(gains, TuneResult):
         if inner is not None:
             raise NniquadError("the inner loops are tuned with the gains: give gains to certify given inner loops")
@@ -121,7 +120,10 @@ def certify(vehicle: Vehicle | None = None, gains: Any = None, *, inner: InnerLo
     if not isinstance(gains, GainBlock):
         raise NniquadError(f"gains must be a gain block of a registered law ({', '.join(law_names())}), got "
                            f"{type(gains).__name__}")
-    image = gains.law.ni_image(gains, vehicle.m)
+    # the class: paper unless stated; a law with integral action has the cascade class alone
+    law_class = options.law_class if options.law_class is not None else (gains.law.law_classes[0] or "paper")
+    # a law with integral action is certified as itself, by the cascade class (nniquad.certificates.integral)
+    image = gains if gains.law.integral else gains.law.ni_image(gains, vehicle.m)
     if image is None:
         raise NniquadError(f"the {gains.law.name} law is no law of the NI structure and has no NNI image: there is "
                            "nothing to certify")

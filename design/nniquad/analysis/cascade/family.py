@@ -31,7 +31,8 @@ from nniquad.model.numeric import rotor_modes
 from nniquad.model.vehicle import Vehicle
 from nniquad.sim import delay_state_names, initial_state, param_layout, state_names
 
-__all__ = ["CascadeFamily", "sampled_family", "with_delay_line", "SUBSYSTEMS", "subsystems", "COUPLING_TOL", "RELEVANCE_TOL",
+__all__ = ["CascadeFamily", "sampled_family", "with_delay_line", "anti_windup_rows", "SUBSYSTEMS", "subsystems",
+           "COUPLING_TOL", "RELEVANCE_TOL",
            "RELEVANCE_BAND", "mode_transform", "coupling", "relevant_coordinates", "relevance_consistent"]
 
 # =============================================================================== the family of sampled loops
@@ -62,7 +63,9 @@ class CascadeFamily:
     A_d : ndarray (N, n, n)
         Closed loop ``x_{k+1} = A_d x_k`` (``n = n_p + 2``).
     A0, B : ndarray (N, n, n), (N, n, 2)
-        Saturation split ``x_{k+1} = A0 x_k + B a_k`` with ``a_k = sat_L(K x_k)``.
+        Saturation split ``x_{k+1} = A0 x_k + B a_k`` with ``a_k = sat_L(K x_k)``, ``A0 + B K = A_d``; with an
+        anti-windup (:func:`anti_windup_rows` ``E``) ``A0`` holds ``E K`` and ``B`` is ``Γ - E``: ``B`` then has
+        controller rows.
     K : ndarray (2, n)
         The acceleration command ``a_k = K x_k`` before the tilt limit.
     accel_limit : ndarray (N,)
@@ -230,6 +233,12 @@ def sampled_family(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, po
     Bs[:, :n_p] = Gam
     A0, Bs, K = with_delay_line(A0, Bs, K, C_p, B_kd, D_k, delay_samples)
     A_d = A0 + Bs @ K
+    # the law's anti-windup, linear in the dead zone: x⁺ = A0 x + Bs sat(Kx) + E (Kx - sat(Kx)), so A0 + E K and
+    # Bs - E split the same A_d (zero for a law without one)
+    E = np.zeros((A0.shape[-1], 2))  # the delay line's states, after the controller's, have none
+    E[n_p:n] = anti_windup_rows(gains, vehicle.m, ctrl, T)
+    A0 = A0 + E @ K
+    Bs = Bs - E
     A_wr = J[:, iw][:, :, ir]
     W_r = tau[:, None, None] * A_wr
     W_a = tau[:, None, None] * B_p[:, nr:]
@@ -238,7 +247,8 @@ def sampled_family(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, po
     lin0 = Linearisation("full", snames, x_eq[0], float(residual[0]), J[0], Y[0], base)
     ctx = {"vehicle": vehicle, "gains": gains, "inner": inner, "lin": lin0, "rigid": rigid,
            "M_alloc": allocation_jacobian(base)}
-    return CascadeFamily(points=pts, state_names=tuple(rigid + motors + ctrl) + delay_state_names(delay_samples), T=T, A_p=A_p, B_p=B_p, C_p=C_p,
+    return CascadeFamily(points=pts, state_names=tuple(rigid + motors + ctrl) + delay_state_names(delay_samples), T=T,
+                         A_p=A_p, B_p=B_p, C_p=C_p,
                          A_k=A_k, B_k=B_k, C_k=C_k, D_k=D_k, A_kd=A_kd, B_kd=B_kd, Phi=Phi, Gam=Gam, A_d=A_d, A0=A0,
                          B=Bs, K=K, accel_limit=L, residual=residual, W_r=W_r, W_a=W_a, A_rw=A_rw, tau_motor=tau,
                          context=ctx, frame=vehicle.frame, delay_samples=int(delay_samples))
@@ -285,6 +295,33 @@ def with_delay_line(A0: np.ndarray, B: np.ndarray, K: np.ndarray, C_p: np.ndarra
     Bd[..., :n, :] = B
     Kd = np.hstack([np.zeros((2, n_p)), K[:, n_p:], D_k @ last])
     return A, Bd, Kd
+
+
+def anti_windup_rows(gains: GainBlock, m_hat: float, names: Sequence[str], T: float) -> np.ndarray:
+    """``E`` on the controller states ``names`` (``(len(names), 2)``): ``T`` times the law's anti-windup gain of
+    each state (:meth:`nniquad.laws.base.ControlLaw.anti_windup_gains`) in its axis's column, so that one sample
+    adds ``E (a - sat(a))`` to them (``q⁺ = q + T (ξ + (a - sat(a))/k_s)`` of an integral law); zero without one.
+
+    Parameters
+    ----------
+    gains
+        The design.
+    m_hat
+        The controller's nominal mass [kg].
+    names
+        The controller states of the family, as the simulator names them (``zci_x``, ...).
+    T
+        Sample period [s].
+    """
+    law = gains.law
+    per_axis = law.anti_windup_gains(law.parameters(gains, m_hat))
+    E = np.zeros((len(names), 2))
+    if per_axis is None:
+        return E
+    for i, name in enumerate(names):
+        base, axis = name.rsplit("_", 1)
+        E[i, "xy".index(axis)] = T * float(per_axis[law.state_names.index(base)])
+    return E
 
 
 def take_points(fam: CascadeFamily, idx: np.ndarray) -> CascadeFamily:

@@ -42,13 +42,21 @@ from nniquad.analysis.cascade.lyapunov import (
     witness_margins,
 )
 from nniquad.analysis.cascade.lure_proof import lure_proofs
-from nniquad.analysis.cascade.region import HORIZONTAL, LureRegion, check_lure_block, linear_zone_reach, roa_note
+from nniquad.analysis.cascade.region import (
+    HORIZONTAL,
+    LureRegion,
+    axis_states,
+    check_lure_block,
+    linear_zone_reach,
+    roa_note,
+)
 from nniquad.analysis.cascade.section import (
     LMI_POINTS_PER_AXIS,
     LYAPUNOV_COVERAGE,
     LYAPUNOV_COVERAGE_GRID_ONLY,
     LYAPUNOV_FORM,
     MARGIN_POINTS,
+    anti_windup_matrix,
     margin_fields,
     margin_model,
     model_text,
@@ -344,7 +352,10 @@ def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: GainBlock, inn
           and _close(mats.get("Phi"), nom.Phi[0]) and _close(mats.get("Gamma_d"), nom.Gam[0])
           and _close(mats.get("A_kd"), fam.A_kd) and _close(mats.get("B_kd"), fam.B_kd)
           and _close(mats.get("C_k"), fam.C_k) and _close(mats.get("D_k"), fam.D_k))
-    add("nominal matrices rebuilt", ok, "A_d, Phi, Gamma_d, A_kd, B_kd, C_k, D_k vs the design")
+    aw = anti_windup_matrix(nom)  # stated iff the law has an anti-windup
+    ok = ok and set(aw) == {k for k in mats if k == "E_anti_windup"} and all(_close(mats[k], v) for k, v in aw.items())
+    add("nominal matrices rebuilt", ok, "A_d, Phi, Gamma_d, A_kd, B_kd, C_k, D_k" + (", E_anti_windup" if aw else "")
+        + " vs the design")
     cpl = coupling(nom)
     add("subsystems decoupled", cpl <= COUPLING_TOL and _close(lyap_s.get("coupling"), cpl, 1e-6),
         f"coupling {cpl:.3g} (stated {lyap_s.get('coupling')})")
@@ -419,7 +430,7 @@ def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: GainBlock, inn
         reach, detail = min(lz_lmi, lz_grid), f"linear zone {min(lz_lmi, lz_grid):.6g} m"
         if method == "linear_zone":
             ok = ok and _close(roa.get("max_displacement_m"), reach) and "lure" not in roa
-        elif method == "lure" and gains.law.starts_at_zero(gains, vehicle.m):  # solved for a start with the controller at 0
+        elif method == "lure":  # solved for the law's start (region.start_vector: controller at take-over, delay line full)
             start, lmi = 1, {}
             for name in SUBSYSTEMS:  # each horizontal axis's LMI points, as the family is stacked above
                 if name in HORIZONTAL:
@@ -429,7 +440,7 @@ def _recheck(section: Mapping[str, Any], vehicle: Vehicle, gains: GainBlock, inn
                                                      lambda: check_lure_block(roa["lure"], dims, box, lmi, grid_fam,
                                                                               lyap))
             roa_proofs = cache("cascade.lure_proofs", design + [roa["lure"]], lambda: lure_proofs(
-                LureRegion.from_json(roa["lure"], dims, {a: len(expected[a]) for a in HORIZONTAL}), box, lmi, grid_fam, lyap, dims))
+                LureRegion.from_json(roa["lure"], dims, axis_states(grid_fam)), box, lmi, grid_fam, lyap, dims))
             # the stated reach is the recomputed one (never larger), and reaches beyond the linear zone
             stated = roa.get("max_displacement_m")
             ok = (ok and lure_ok and _is_number(stated) and lure_reach * (1 - 2e-9) <= stated <= lure_reach

@@ -31,8 +31,13 @@ Two regions
   converges.  ``P_a, Ĝ_a`` are quadratic in the axis's box coordinates and ``μ`` in the coordinates shared by
   both axes (:func:`features`): ``V`` depends on the (constant) parameters only.
 
-The reach is the largest ``r`` with every start ``r (cos α, sin α)`` at rest (controller state 0) inside:
-``r² max_a P_a,00 + 2 μ Φ(r k_max / L) <= c``, ``k_max`` the larger position gain.  The LMI is in
+The reach is the largest ``r`` with every start ``r (cos α, sin α)`` at rest inside, each axis's controller
+at the law's take-over state for its position (:func:`start_vector` ``v_a``: the position 1, the controller's
+start per metre; ``v_a = e_0`` for a law that starts at 0):
+``r² max_a v_aᵀP_a v_a + 2 μ Φ(r k_s / L) <= c``, ``k_s = max_a |K_a v_a|`` the larger command per metre of
+the start (``Φ`` grows with the norm, and the start's command is ``r (cos α K_x v_x, sin α K_y v_y)``).  The
+loop enters only through ``A_d``, ``B`` and ``K``: with the anti-windup of an integral law ``B`` has controller
+rows (:func:`nniquad.analysis.cascade.family.sampled_family`), and nothing here changes.  The LMI is in
 :mod:`nniquad.analysis.cascade.region_lmi`; everything here is numpy, for ``certify`` and ``verify`` alike.
 """
 
@@ -60,7 +65,7 @@ from nniquad.sim import delay_state_names
 
 __all__ = ["linear_zone_reach", "HORIZONTAL", "features", "LureRegion", "decrease_forms", "LureCheck",
            "lure_check", "coupled_decrease", "coupled_parts", "huber", "lure_block", "check_lure_block", "ROA_NOTE", "roa_note",
-           "start_vector"]
+           "start_vector", "start_command", "axis_states"]
 
 #: The horizontal subsystems, whose command the tilt limit bounds.
 HORIZONTAL: tuple[str, str] = ("x", "y")
@@ -145,6 +150,11 @@ def linear_zone_reach(lyap: Mapping[str, RobustLyapunov], dims, box: ParameterBo
         kmax = kw if kmax is None else np.maximum(kmax, kw)
         pmax = level if pmax is None else np.maximum(pmax, level)
     return float(np.min(np.sqrt(L * L / kmax / pmax)))
+
+
+def axis_states(fam: CascadeFamily) -> dict[str, int]:
+    """Each horizontal axis's number of states in ``fam`` (the law's controller states included)."""
+    return {a: len(subsystems(fam.state_names)[a]) for a in HORIZONTAL}
 
 
 def features(theta: np.ndarray) -> np.ndarray:
@@ -343,8 +353,14 @@ def axis_loops(fam: CascadeFamily, axis: str) -> tuple[np.ndarray, np.ndarray, n
     return A, B * L[:, None, None], K[None] / L[:, None, None]
 
 
+def start_command(fam: CascadeFamily) -> float:
+    """``k_s = max_a |K_a v_a|``: the larger command per metre of the start (:func:`start_vector`) [1/s²]."""
+    return max(abs(float((subsystem_of(fam, a)[3] @ start_vector(fam, a))[0])) for a in HORIZONTAL)
+
+
 def reach_at(p00: np.ndarray, mu: np.ndarray, level: float, L: np.ndarray, k_max: float) -> np.ndarray:
-    """Largest ``r`` with ``r² p00 + 2 μ Φ(r k_max / L) <= c`` at every point (closed form; ``p00 > 0``)."""
+    """Largest ``r`` with ``r² p00 + 2 μ Φ(r k_max / L) <= c`` at every point (closed form; ``p00 > 0``): ``p00``
+    the start's level per square metre, ``k_max`` its command per metre."""
     p00, mu, L = (np.asarray(v, float) for v in (p00, mu, L))
     r_in = np.sqrt(level / (p00 + mu * k_max * k_max / (L * L)))  # the start's command inside the unit ball
     b = 2.0 * mu * k_max / L
@@ -406,18 +422,18 @@ def lure_check(region: LureRegion, box: ParameterBox, fam: CascadeFamily,
                axes: Sequence[str] = HORIZONTAL) -> LureCheck:
     """Re-check ``region`` at every point of ``fam`` for the given axes (module docstring), with numpy.
 
-    The reach uses both axes' ``P`` at every point (a start may point anywhere), whatever ``axes`` holds.
+    The reach uses both axes' ``P`` at every point (a start may point anywhere), whatever ``axes`` holds, and the
+    law's start (:func:`start_vector`, :func:`start_command`).
     """
     L = np.broadcast_to(np.asarray(fam.accel_limit, float), (len(fam),))
     dec, bnd, lam, lam_b, incl, fail, margin = [], [], [], [], [], {}, {}
     p00 = np.zeros(len(fam))
-    k_max, kw_max = 0.0, np.zeros(len(fam))
+    k_max, kw_max = start_command(fam), np.zeros(len(fam))
     mu = None
     for a in HORIZONTAL:
         P, G, mu = region.at(box, fam.points, a)
         A, Bh, Kh = axis_loops(fam, a)
-        v = start_vector(fam, a)  # the position alone (e_0), or with the delay line full
-        k_max = max(k_max, abs(float((subsystem_of(fam, a)[3] @ v)[0])))
+        v = start_vector(fam, a)
         p00 = np.maximum(p00, np.einsum("i,nij,j->n", v, P, v))
         try:
             W = np.linalg.inv(P)
@@ -523,7 +539,7 @@ def check_lure_block(block: Mapping[str, Any], dims: Mapping[str, Sequence[int]]
     points (``lmi``), at the grid (both axes) and on the coupled loop at the grid, and every stated number
     compared.  ``reach`` is the smaller of the two recomputed reaches.
     """
-    region = LureRegion.from_json(block, dims, {a: lyap[a].P.shape[-1] for a in HORIZONTAL})
+    region = LureRegion.from_json(block, dims, axis_states(grid))
     ck = [lure_check(region, box, lmi[a], axes=[a]) for a in HORIZONTAL]
     cg = lure_check(region, box, grid)
     dec, bound = coupled_decrease(region, lyap, dims, box, grid)

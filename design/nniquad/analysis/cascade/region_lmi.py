@@ -39,6 +39,7 @@ from nniquad.analysis.cascade.region import (
     lure_check,
     merge_checks,
     n_features,
+    start_command,
     start_vector,
 )
 from nniquad.config import (
@@ -88,7 +89,8 @@ _NUMERICAL = ("NumericalError", "InsufficientProgress", "MaxIterations", "panic"
 
 @dataclass(frozen=True)
 class AxisData:
-    """One axis at its LMI points: loops, coordinates and saturation levels (``L`` per point)."""
+    """One axis at its LMI points: loops, coordinates, saturation levels (``L`` per point), the position gain
+    ``k_pos`` (the solver's scaling) and the start per metre (:func:`nniquad.analysis.cascade.region.start_vector`)."""
 
     A: np.ndarray
     Bh: np.ndarray
@@ -286,14 +288,14 @@ def lure_region(lmi: Mapping[str, CascadeFamily], grid: CascadeFamily, box: Para
     mult = tuple(sorted(set(dims["x"]) & set(dims["y"])))
     data = {a: axis_data(lmi[a], box, a, dims[a], mult) for a in HORIZONTAL}
     gdata = {a: axis_data(grid, box, a, dims[a], mult) for a in HORIZONTAL}
-    k_max = max(d.k_pos for d in data.values())
+    k_max = start_command(lmi["x"])  # the start's command per metre: the controller's take-over state included
     solved = ("x",) if mirror is not None else HORIZONTAL
     centre = {a: int(np.argmin(np.sum(data[a].theta ** 2, axis=1))) for a in HORIZONTAL}
     choices = {a: coordinate_choices(data[a].A[centre[a]],
                                      affine_in(lyap[a].P, data[a].theta[centre[a]:centre[a] + 1])[0], data[a].k_pos,
                                      float(data[a].L[centre[a]])) for a in solved}
     D_all = [{a: choices[a][i] for a in solved} for i in range(2)]
-    r_lin = float(min(np.min(d.L) for d in data.values())) / k_max  # where a position offset saturates
+    r_lin = float(min(np.min(d.L) for d in data.values())) / k_max  # where the start's command saturates
 
     def region_of(sol: dict, level: float, fams: Sequence[CascadeFamily], constant: bool = False) -> LureRegion:
         full = _mirror_region(sol, mirror) if mirror is not None else sol

@@ -26,6 +26,7 @@ from nniquad.analysis.cascade.box_proof import full_affine_P, prove_box
 from nniquad.analysis.cascade.family import (
     SUBSYSTEMS,
     CascadeFamily,
+    anti_windup_rows,
     coupling,
     relevant_coordinates,
     sampled_family,
@@ -62,8 +63,8 @@ from nniquad.errors import CascadeError, SolverError
 from nniquad.laws.base import ControlLaw, GainBlock
 from nniquad.model.vehicle import Vehicle
 
-__all__ = ["LMI_POINTS_PER_AXIS", "BoxSearch", "widest_box", "cascade_section", "last_timings", "model_text",
-           "margin_model"]
+__all__ = ["anti_windup_matrix", "LMI_POINTS_PER_AXIS", "BoxSearch", "widest_box", "cascade_section", "last_timings",
+           "model_text", "margin_model"]
 
 
 #: Points per coordinate of each subsystem's Lyapunov LMI (the vertices and the centre); the numpy grid
@@ -369,10 +370,9 @@ def _cascade_section(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, 
     lz_lmi = linear_zone_reach(lyap, dims, box, fam, L)
     lz_grid = linear_zone_reach(lyap, dims, box, grid_fam, L)
     # the Lur'e-Postnikov region, kept when it passes every numpy check and reaches further than the linear zone;
-    # it is solved for a start with the controller state 0, so not for a law that starts elsewhere (sni2: at its
-    # DC value)
-    lure, record = (lure_section(fam, pts, lyap, grid_fam, box, dims) if gains.law.starts_at_zero(gains, vehicle.m)
-                    else (None, None))
+    # it is solved for the law's start (region.start_vector: its controller at its take-over state, a delay line
+    # full of the start position)
+    lure, record = lure_section(fam, pts, lyap, grid_fam, box, dims)
     reach = min(lz_lmi, lz_grid)
     roa_block: dict[str, Any] = {"u0_m_s2": L, "tilt_limit_deg": float(tilt_limit_deg), "method": "linear_zone"}
     if lure is not None and min(lure["check_lmi_points"]["reach_m"], lure["check_grid"]["reach_m"]) > reach:
@@ -424,13 +424,25 @@ def _cascade_section(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, 
         "margins": margins,
         "matrices": {"state_names": list(fam.state_names), "A_d": nom.A_d[0].tolist(), "Phi": nom.Phi[0].tolist(),
                      "Gamma_d": nom.Gam[0].tolist(), "A_kd": fam.A_kd.tolist(), "B_kd": fam.B_kd.tolist(),
-                     "C_k": fam.C_k.tolist(), "D_k": fam.D_k.tolist()},
+                     "C_k": fam.C_k.tolist(), "D_k": fam.D_k.tolist(),
+                     **anti_windup_matrix(fam)},
         "decay_rate_1_s": decay,
         "start_certified": bool(math.hypot(*(float(v) for v in xi0_m)) <= reach),
     }
     last_timings.clear()
     last_timings.update(timings, total_s=time.perf_counter() - t0)
     return section
+
+
+def anti_windup_matrix(fam: CascadeFamily) -> dict[str, list]:
+    """``{"E_anti_windup": E}`` of the controller states (:func:`nniquad.analysis.cascade.family.anti_windup_rows`:
+    the sampled loop is ``x⁺ = A0 x + B sat(K x)`` with ``A0 + E K`` and ``B = Γ - E``), or ``{}`` for a law
+    without anti-windup (the section then states no such matrix)."""
+    ctx = fam.context
+    n_k = fam.A_k.shape[0]
+    end = len(fam.state_names) - 2 * fam.delay_samples  # the delay line's states follow the controller's
+    E = anti_windup_rows(ctx["gains"], ctx["vehicle"].m, fam.state_names[end - n_k:end], fam.T)
+    return {"E_anti_windup": E.tolist()} if np.any(E) else {}
 
 
 def margin_fields(wm: WitnessMargins) -> dict[str, float]:

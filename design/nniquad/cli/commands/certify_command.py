@@ -12,6 +12,7 @@ from nniquad.cli.commands.common import (
     add_gain_options,
     add_output_option,
     delay_samples,
+    apply_integral,
     finite_positive,
     gain_option,
     gains_from_args,
@@ -25,10 +26,10 @@ from nniquad.errors import CertificateError, NniquadError
 from nniquad.format import fmt, margin_text, margin_verdict
 from nniquad.laws.base import field_unit
 from nniquad.laws.classes import within_sector_bound
-from nniquad.laws.registry import law_named, ni_law_names
+from nniquad.laws.registry import law_named, law_names, ni_law_names
 from nniquad.progress import Progress
 
-__all__ = ["HELP", "DESCRIPTION", "add_arguments", "run"]
+__all__ = ["HELP", "DESCRIPTION", "add_arguments", "run", "certified_law_names"]
 
 HELP = "tune, then write a certified gain set (JSON)"
 DESCRIPTION = """Tune (as 'nniquad tune'), then certify the result and write it to --out.
@@ -53,11 +54,17 @@ sampled-data cascade section alone.  Gains with an infeasible LMI are refused
 as well: no file is written.  Check a certificate with 'nniquad verify'."""
 
 
+def certified_law_names() -> tuple[str, ...]:
+    """The laws ``certify`` takes: those of the NI structure and their integral variants (``--integral``)."""
+    return ni_law_names() + tuple(n for n in law_names() if law_named(n).integral)
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_tuning_options(parser)
-    add_controller_option(parser, ni_law_names(), "nni", "law to certify (a law of the NI structure)")
+    add_controller_option(parser, certified_law_names(), "nni",
+                          "law to certify (a law of the NI structure, or its integral variant)")
     g = parser.add_argument_group("certify given gains instead of tuning")
-    add_gain_options(g, ni_law_names())
+    add_gain_options(g, certified_law_names())
     g.add_argument("--attitude-wn", type=float, default=None, metavar="RAD_S", help="attitude natural frequency")
     g.add_argument("--attitude-zeta", type=float, default=None, metavar="Z", help="attitude damping ratio")
     g.add_argument("--attitude-accel", type=float, default=None, metavar="RAD_S2",
@@ -92,6 +99,7 @@ def run(args: argparse.Namespace) -> int:
     # before any tuning: a bad rate fails at once
     rate = check_rate_hz(CONTROL_RATE_HZ if args.rate is None else args.rate, DT_S, error=CertificateError)
     delay = ROBUST_DELAY_SAMPLES if delay_samples(args) is None else delay_samples(args)
+    apply_integral(args)
     law = law_named(args.controller)
     gains_given = any(getattr(args, n, None) is not None for n in law.gain_names)
     if args.warm_start and (gains_given or args.gains_from is not None):
@@ -116,6 +124,12 @@ def run(args: argparse.Namespace) -> int:
 
         records: list = []
         (gains, inner), = designs_from_files([args.gains_from], "--gains-from", records)
+        if law.integral and not gains.law.integral:  # a base design: its integral variant with the seed's ki
+            seeded = law.seed_from(gains, vehicle.m)
+            if seeded is None:
+                raise NniquadError(f"--gains-from holds a {gains.law.name} design: the {law.name} law has no seed "
+                                   "from it")
+            gains = seeded
         cert = certify(vehicle, gains, inner=inner, options=options, progress=progress.steps(certify_steps(False)),
                        rate_hz=rate, delay_samples=delay,
                        box=box, widest_box=args.widest_box, tuning_record=records[0])
@@ -170,13 +184,19 @@ def summary_lines(cert: Any) -> list[str]:
     from nniquad.certificates.start import lure_fallback_reason, start_lines
 
     gains, perf = cert.gains, cert.performance
-    gamma, gamma_max = cert.sector["gamma"], cert.sector["gamma_max"]
     listed = ", ".join(f"{f.name} = {fmt(getattr(gains, f.name), digits=6)} {field_unit(f)[0]}".rstrip(" -")
                        for f in fields(gains) if getattr(gains, f.name) is not None)
-    lines = [f"{cert.controller} gains {listed}; gamma = {fmt(gamma)} "
-             f"{'<=' if within_sector_bound(gamma, gamma_max) else '>'} {gamma_max:g}"]
+    if "gamma" in cert.sector:
+        gamma, gamma_max = cert.sector["gamma"], cert.sector["gamma_max"]
+        lines = [f"{cert.controller} gains {listed}; gamma = {fmt(gamma)} "
+                 f"{'<=' if within_sector_bound(gamma, gamma_max) else '>'} {gamma_max:g}"]
+    else:  # integral action: no sector constant (certificates.integral)
+        lines = [f"{cert.controller} gains {listed}; no sector bound (integral action)"]
     if cert.law_class is not None:
         lines.append(f"law class {cert.law_class['name']}: certified by {cert.law_class['theorem']}")
+        action = cert.law_class.get("integral_action")
+        if action is not None:
+            lines += [f"not certified by: {action['not_certified_by']}", f"anti-windup: {action['anti_windup']}"]
     for model in ("reduced", "full"):
         lines.append(f"{model:<7} settling {fmt(perf[model]['settling_s'], 's')} "
                      f"({fmt(cert.ratio_to_bound[model], digits=3)} x bound {fmt(cert.bound['enter_band_s'], 's')}), "

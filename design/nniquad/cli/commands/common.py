@@ -13,14 +13,15 @@ from nniquad.config import CONTROL_RATE_HZ, TILT_LIMIT_DEG, XI0_M
 from nniquad.errors import GainError, NniquadError
 from nniquad.io import atomic_write_json, check_output_folder, check_output_paths
 from nniquad.laws.base import field_unit
-from nniquad.laws.registry import LAWS
+from nniquad.laws import integral_variant
+from nniquad.laws.registry import LAWS, law_named
 from nniquad.model.vehicle import Vehicle, load_vehicle
 from nniquad.validate import finite_number
 
 __all__ = ["add_tilt_limit_option", "add_xi0_option", "add_vehicle_option", "vehicle_from_args", "add_json_option",
            "write_json_if_asked", "finite_positive", "add_output_option", "check_declared_outputs", "declared_outputs",
            "gain_option", "add_controller_option", "add_gain_options", "gains_from_args", "law_gains", "step_hints",
-           "add_delay_option", "delay_samples"]
+           "add_delay_option", "delay_samples", "add_integral_option", "apply_integral"]
 
 
 def add_output_option(parser: argparse.ArgumentParser, *flags: str, kind: str = "file",
@@ -152,6 +153,29 @@ def add_controller_option(parser: Any, choices: tuple[str, ...], default: str, w
     titles = "; ".join(f"{name}: {LAWS[name].title}" for name in choices)
     parser.add_argument("--controller", choices=choices, default=default,
                         help=f"{what} (default {default}; {titles})")
+
+
+def add_integral_option(parser: Any) -> None:
+    """``--integral``: the integral variant of ``--controller`` (:func:`apply_integral`)."""
+    parser.add_argument("--integral", action="store_true",
+                        help="the integral variant of --controller (nni -> nni_i, sni2 -> sni2_i): an integrator on "
+                             "the position error with back-calculation anti-windup, gain ki [1/s^3]; law class "
+                             "cascade only (the paper's sector theorem does not apply)")
+
+
+def apply_integral(args: argparse.Namespace) -> None:
+    """Replace ``args.controller`` by its integral variant when ``--integral`` is given (idempotent).
+
+    Raises
+    ------
+    NniquadError
+        The law has no integral variant (one line).
+    """
+    if getattr(args, "integral", False):
+        try:
+            args.controller = integral_variant(law_named(args.controller)).name
+        except ValueError as exc:
+            raise NniquadError(str(exc)) from None
 
 
 def add_gain_options(group: Any, laws: tuple[str, ...] | None = None) -> None:

@@ -9,9 +9,11 @@ from nniquad.cli.commands.common import (
     add_controller_option,
     add_delay_option,
     delay_samples,
+    add_integral_option,
     add_json_option,
     add_tilt_limit_option,
     add_vehicle_option,
+    apply_integral,
     vehicle_from_args,
     write_json_if_asked,
 )
@@ -83,6 +85,7 @@ def add_tuning_options(parser: argparse.ArgumentParser) -> None:
 
     parser.add_argument("--model", choices=("reduced", "full"), default="reduced",
                         help="model the settling time is measured on (default reduced)")
+    add_integral_option(parser)
     parser.add_argument("--gamma-max", type=float, default=GAMMA_MAX, metavar="G",
                         help=f"gamma_max of the sector bound, in (0, 1) (default {GAMMA_MAX:g}, the paper's)")
 
@@ -150,8 +153,11 @@ def tune_options_from_args(args: argparse.Namespace):
 
     # before any work: a bad rate fails at once
     rate = check_rate_hz(CONTROL_RATE_HZ if args.rate is None else args.rate, DT_S, error=NniquadError)
+    apply_integral(args)
     controller = getattr(args, "controller", "nni")  # certify: its own --controller (an NI law)
-    in_class = law_named(controller).in_class(args.law_class)
+    law = law_named(controller)
+    # the class the design is tuned in: the stated one, else the law's first (an integral law: cascade)
+    in_class = law.in_class(args.law_class if args.law_class is not None else law.law_classes[0])
     robust = not (args.nominal or args.model != "full")
     if args.scenario_noise_range is not None and not robust:
         raise NniquadError("--scenario-noise-range sets the noise of the robust objective's scenarios: it needs "
