@@ -22,6 +22,7 @@ from nniquad.certificates import canonical_digest, read_certificate, verify_cert
 from nniquad.cli.commands.certify_command import summary_lines
 from nniquad.laws import integral_variant
 from nniquad.laws.sni2 import SNI2Gains, sni2_from_nni
+from nniquad.reporting.comparison import certificate_column, comparison_table
 from nniquad.sim import EXO_FIELDS, initial_state, state_names
 from nniquad.sim.models import step_function
 from tests.test_honest_word import assert_no_contradiction
@@ -124,6 +125,12 @@ def test_an_integral_certificate_verifies_and_claims_only_the_cascade_theorem():
     assert_no_contradiction(lines, cert)
     assert any("no sector bound" in line for line in lines) and not any("gamma =" in line for line in lines)
     assert any(line.startswith("not certified by: not applicable") for line in lines)
+    # the report's comparison column states no gamma and says why, where a base law's states its sector verdict
+    column = certificate_column(cert)
+    assert column["gamma"] is None and column["within_sector_bound"] is None
+    _, rows = comparison_table({"certified law": column})
+    (gamma_row,) = [r for r in rows if r[0] == "DC loop gain gamma"]
+    assert gamma_row[1].startswith("not applicable (integral action")
 
 
 @pytest.mark.parametrize("factor", [1.01, 0.5])

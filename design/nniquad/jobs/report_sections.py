@@ -285,7 +285,7 @@ def _build(vehicle: Vehicle, options: ReportOptions, tune_opts: Any, out: Path, 
     columns = {
         "paper's law": computed_column(
             vehicle, PAPER_GAINS, DEFAULT_INNER_LOOP_GAINS, tilt_limit_deg=typed.tilt_limit_deg,
-            gamma_max=typed.sector["gamma_max"], xi0=typed.xi0_m, horizon_s=options.paper_horizon_s,
+            gamma_max=typed.sector.get("gamma_max", options.gamma_max), xi0=typed.xi0_m, horizon_s=options.paper_horizon_s,
             rate_hz=typed.cascade["rate_hz"] if typed.cascade is not None else CONTROL_RATE_HZ),
         "certified law": certificate_column(typed),
     }
@@ -310,12 +310,13 @@ def _build(vehicle: Vehicle, options: ReportOptions, tune_opts: Any, out: Path, 
             # every law's gains (the NNI law's kp, Gamma, delta; sni2's kp, k, omega, zeta), as report.md prints them
             "gains_text": gains_text(gains, sep=", ", number=fmt),
             "inner_loop": cert.get("inner_loop"),
-            "gamma": cert["sector"]["gamma"],
-            "gamma_max": cert["sector"]["gamma_max"],
+            # None for an integral law: its sector and reduced-loop sections are not applicable
+            "gamma": cert["sector"].get("gamma"),
+            "gamma_max": cert["sector"].get("gamma_max"),
             "law_class": cert["law_class"],
             "start_certified": cert["start_certified"],
             "start": start_methods(typed),
-            "max_displacement_m": cert["region_of_attraction"]["max_displacement_m"],
+            "max_displacement_m": cert["region_of_attraction"].get("max_displacement_m"),
             # the reach the tuner demanded; of a given certificate, its tuning record's (None: not recorded)
             "roa_radius_m": tuned.roa_radius_m if tuned is not None else (cert.get("tuning") or {}).get("roa_radius_m"),
             "performance": {k: {f: perf[k][f] for f in ("settling_s", "overshoot_pct", "peak_tilt_deg")} for k in ("reduced", "full")},
@@ -413,10 +414,13 @@ def _markdown(d: dict[str, Any], audit_txt: str, verify_txt: str) -> str:
         "## The certified gain set",
         "",
         f"{c['law']} law, {c['gains_text']}; "
-        f"smallest sector gamma = {fmt(c['gamma'])} (gamma_max = {fmt(c['gamma_max'])}). "
-        f"Law class **{c['law_class']['name']}**: certified by {c['law_class']['theorem']}. "
-        f"Certified region of attraction of the reduced loop under the tilt limit: displacements from rest up to "
-        f"{fmt(c['max_displacement_m'])} m "
+        + (f"smallest sector gamma = {fmt(c['gamma'])} (gamma_max = {fmt(c['gamma_max'])}). "
+           if c["gamma"] is not None else "no sector gamma: integral action makes C(0) infinite, the sector theorem "
+           "does not apply. ")
+        + f"Law class **{c['law_class']['name']}**: certified by {c['law_class']['theorem']}. "
+        + (f"Certified region of attraction of the reduced loop under the tilt limit: displacements from rest up to "
+           f"{fmt(c['max_displacement_m'])} m " if c["max_displacement_m"] is not None
+           else "The reduced loop's region of attraction is not applicable (integral action) ")
         + (f"(required: {fmt(c['roa_radius_m'])} m)" if c["roa_radius_m"] is not None else "(no reach recorded as required)")
         + "; the start " + "; ".join(f"{'inside' if m['inside'] else 'NOT inside'} the {k} region ({m['method']}, "
                                      f"reach {fmt(m['reach_m'])} m)" for k, m in c["start"]["methods"].items())

@@ -55,12 +55,21 @@ def certificate_column(cert: Certificate) -> dict[str, Any]:
         "law": cert.controller, "gains": gains_text(cert.gains, sep=", ", number=_number), "source": f"certificate {cert.signature[:12]}",
         "runs": _runs(cert.performance),
         "margins": _margins(cert.margins) if cert.margins is not None else {},
-        "gamma": cert.sector["gamma"], "within_sector_bound": within_sector_bound(cert.sector["gamma"],
-                                                                                cert.sector["gamma_max"]),
+        # an integral law's sector section is not applicable (C(0) is infinite): no gamma, no bound
+        "gamma": cert.sector.get("gamma"),
+        "within_sector_bound": (within_sector_bound(cert.sector["gamma"], cert.sector["gamma_max"])
+                                if "gamma" in cert.sector else None),
         "regions": {k: {"method": m["method"], "reach_m": m["reach_m"], "inside": m["inside"]}
                     for k, m in start["methods"].items()},
         "start_m": start["distance_m"],
     }
+
+
+def _gamma_cell(column: Mapping[str, Any]) -> str:
+    """The DC loop gain and the sector verdict of a column, or why it has none (integral action)."""
+    if column["gamma"] is None:
+        return "not applicable (integral action: C(0) is infinite)"
+    return f"{fmt(column['gamma'])} ({'within' if column['within_sector_bound'] else 'outside'} the sector bound)"
 
 
 def computed_column(vehicle: Vehicle, gains: GainBlock, inner: InnerLoopGains, *, tilt_limit_deg: float,
@@ -120,8 +129,7 @@ def comparison_table(columns: Mapping[str, Mapping[str, Any]]) -> tuple[list[str
     for p in points:
         rows.append([f"margins ({p})", *[(f"{c['margins'][p]['text']}: {c['margins'][p]['verdict']}"
                                           if p in c["margins"] else "-") for c in cols]])
-    rows.append(["DC loop gain gamma", *[f"{fmt(c['gamma'])} ({'within' if c['within_sector_bound'] else 'outside'} "
-                                         "the sector bound)" for c in cols]])
+    rows.append(["DC loop gain gamma", *[_gamma_cell(c) for c in cols]])
     for key in (REDUCED_LOOP, CASCADE):
         rows.append([f"certified reach, {key} region",
                      *[_region_cell(c["regions"][key]) if key in c["regions"] else "-" for c in cols]])
