@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 
 from nniquad.cli.commands.common import (
@@ -272,8 +273,8 @@ def print_tune_result(res) -> None:
         rows += [(f"tracking RMS over [{t0:g}, {t1:g}] s", fmt(res.tracking_rms_m, digits=4), "m"),
                  (f"tracking max over [{t0:g}, {t1:g}] s", fmt(res.tracking_max_m, digits=4), "m")]
     rows += [
-        ("settling time" + (f" (p95 of {res.scenario_count} robust scenarios)" if res.objective == "robust"
-                            else " (worst scenario)"), fmt(res.settling_s, digits=5), "s"),
+        ("settling time" + (f" (p95 of {res.scenario_count} robust scenarios, {_settled_where(res)})"
+                            if res.objective == "robust" else " (worst scenario)"), fmt(res.settling_s, digits=5), "s"),
         ("nominal settling time", fmt(res.nominal_settling_s, digits=5), "s"),
         ("time-optimal bound enter_band_s", fmt(res.bound.enter_band_s, digits=5), "s"),
         ("ratio to bound", fmt(res.ratio_to_bound, digits=4), "-"),
@@ -335,3 +336,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                        help="with --reference: the window of the tracking RMS in s, the tracking run lasting T1 "
                             "(default the second period of a periodic reference, else the whole reference)")
     add_json_option(parser, "tuned gains, metrics, per-seed optima, search statistics and the objective stated")
+
+
+def _settled_where(res) -> str:
+    """Where the robust scenarios' settling is measured: the setpoint for a law whose static stiffness is infinite
+    (integral action), else each scenario's wind equilibrium, which is not the setpoint (the tuner's goalpost)."""
+    stiffness = min(res.gains.law.static_stiffness(res.gains, res.vehicle.m))
+    return "to the setpoint" if math.isinf(stiffness) else "about each scenario's wind equilibrium, not the setpoint"
