@@ -7,6 +7,7 @@ closed-form output stage), a route independent of the CasADi code generation.
 
 from __future__ import annotations
 
+import json
 import math
 import shutil
 import subprocess
@@ -229,6 +230,9 @@ def test_export_compiles_clean_as_c99_cxx_and_single_precision(exports, law):
     for name in ("RATE_HZ", "PERIOD_S", "CERTIFICATE_DIGEST", "TILT_LIMIT_RAD", "MASS_NOMINAL_KG", "GRAVITY_M_S2",
                  "ATTITUDE_WN_RAD_S", "ATTITUDE_ZETA", "ATTITUDE_LAG_S", "BOX_MASS_FACTOR_MIN"):
         assert f"#define {P}_{name} " in header, name
+    # the delay the certificate covers, read from the file itself (these predate the field: none)
+    stated = json.loads(Path(CERTS[law]).read_text()).get("delay_samples", 0)
+    assert f"#define {P}_CERTIFIED_DELAY_SAMPLES {stated}\n" in header
 
 
 @pytest.mark.parametrize("law", sorted(CERTS))

@@ -237,6 +237,9 @@ def _header(ctrl: "DiscreteLaw", cert: "Certificate", p: str, rate_certified: bo
                 "Assumed roll/pitch loop: natural frequency omega_a [rad/s]"),
         _define(f"{P}_ATTITUDE_ZETA", inner["attitude_zeta"], "Assumed roll/pitch loop: damping zeta_a [-]"),
         _define(f"{P}_ATTITUDE_LAG_S", inner["attitude_lag_s"], "Assumed roll/pitch loop lag 2 zeta_a/omega_a [s]"),
+        _define(f"{P}_CERTIFIED_DELAY_SAMPLES", cert.certified_delay_samples,
+                "Measurement delay the certificate covers [samples of PERIOD_S]: the position may reach step this many "
+                "periods after it was measured (exactly this delay; 0: none)"),
     ]
     for key, (lo, hi) in box.items():
         defs.append(_define(f"{P}_BOX_{key.upper()}_MIN", lo, f"Certified box: {key}, lower end"))
