@@ -64,14 +64,18 @@ def test_a_resigned_edit_of_delay_samples_is_caught(doc, edit):
 def test_a_run_beyond_the_certified_delay_is_flagged(run_cli, doc, tmp_path):
     cert = tmp_path / "cert.json"
     cert.write_text(json.dumps(doc))
-    for n, flagged in ((DELAY, False), (DELAY + 1, True)):
+    # the section proves exactly DELAY samples: a longer delay is flagged, a shorter one said to be not covered
+    for n, flagged, covered in ((DELAY, False, True), (DELAY + 1, True, False), (DELAY - 1, False, False)):
         out_json = tmp_path / f"run{n}.json"
         code, out, _ = run_cli("simulate", "--certificate", str(cert), "--delay-samples", str(n), "--horizon", "0.5",
                                "--json", str(out_json))
         assert code == 0
         assert ("beyond the certified delay" in out) is flagged
-        assert json.loads(out_json.read_text())["certificate"]["beyond_certified_delay"] is flagged
-        assert json.loads(out_json.read_text())["options"]["delay_samples"] == n
+        assert ("shorter than the certified" in out) is (not covered and not flagged)
+        stated = json.loads(out_json.read_text())
+        assert stated["certificate"]["beyond_certified_delay"] is flagged
+        assert stated["certificate"]["delay_covered"] is covered
+        assert stated["options"].get("delay_samples", 0) == n  # 0, the default, is not written
 
 
 def test_a_within_certificate_study_beyond_the_certified_delay_is_refused(run_cli, doc, tmp_path):
@@ -80,3 +84,6 @@ def test_a_within_certificate_study_beyond_the_certified_delay_is_refused(run_cl
     code, _, err = run_cli("montecarlo", "--certificate", str(cert), "--within-certificate", "--delay-samples",
                            str(DELAY + 1), "--samples", "1", "--workers", "1")
     assert code != 0 and "beyond the certified delay" in err
+    code, _, err = run_cli("montecarlo", "--certificate", str(cert), "--within-certificate", "--delay-samples",
+                           str(DELAY - 1), "--samples", "1", "--workers", "1")
+    assert code != 0 and "not the certified delay" in err and len(err.strip().splitlines()) == 1

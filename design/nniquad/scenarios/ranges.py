@@ -20,7 +20,7 @@ from nniquad.errors import MonteCarloError
 from nniquad.validate import finite_int
 
 __all__ = ["ScenarioRanges", "DEFAULT_RANGES", "BOX_KEYS", "certificate_rate_hz", "within_certificate_ranges",
-           "certified_delay_samples"]
+           "certified_delay_samples", "delay_coverage_note"]
 
 
 def _pair(name: str, value: Any, *, lo: float | None = None, hi: float | None = None,
@@ -181,6 +181,28 @@ def certified_delay_samples(cert: Mapping[str, Any]) -> int:
     """
     d = cert.get("delay_samples") if isinstance(cert, Mapping) else None
     return d if isinstance(d, int) and not isinstance(d, bool) and d >= 0 else 0
+
+
+def delay_coverage_note(run_delay: int, certified: int, what: str = "run") -> str | None:
+    """Why a certificate does not cover the measurement delay of a run or study, or ``None`` when it does.
+
+    The cascade section proves its loop with exactly ``certified`` samples of delay: a longer delay is flagged, and
+    a shorter one is a different loop that this proof does not cover either (said, not flagged).
+
+    Parameters
+    ----------
+    run_delay, certified
+        The delay flown and the certificate's [samples].
+    what
+        ``"run"`` or ``"study"`` (the wording).
+    """
+    if run_delay == certified:
+        return None
+    if run_delay > certified:
+        return (f"FLAGGED: a measurement delay of {run_delay} samples is beyond the certified delay ({certified} "
+                f"samples): not the certificate's {what}, and nothing certifies it")
+    return (f"not covered: a measurement delay of {run_delay} samples is shorter than the certified {certified}; "
+            f"the cascade section proves its loop with exactly {certified}, so it does not cover this {what}")
 
 
 def within_certificate_ranges(cert: Mapping[str, Any]) -> tuple[ScenarioRanges, float, float]:

@@ -181,9 +181,10 @@ def _ranges(args: argparse.Namespace, cert: Any = None):
             raise MonteCarloError("--within-certificate runs at the certificate's rate: drop --rate")
         ranges, region, rate = within_certificate_ranges(cert)
         check_rate_hz(rate, error=MonteCarloError, option="the certificate's cascade.rate_hz")
-        if delay is not None and delay > certified:
-            raise MonteCarloError(f"--within-certificate: a measurement delay of {delay} samples is beyond the "
-                                  f"certified delay ({certified} samples)")
+        if delay is not None and delay != certified:
+            raise MonteCarloError(f"--within-certificate: a measurement delay of {delay} samples is "
+                                  + ("beyond the" if delay > certified else "not the")
+                                  + f" certified delay ({certified} samples: the cascade section proves exactly it)")
         return (ranges if delay is None else ranges.with_(delay_samples=delay)), region
     changes: dict[str, Any] = {field: (tuple(v) if isinstance(v, list) else v)
                                for attr, field, _ in _RANGE_OPTIONS if (v := getattr(args, attr)) is not None}
@@ -315,9 +316,9 @@ def run(args: argparse.Namespace) -> int:
                               "moving reference")
     cert = load_certificate(args.certificate)
     ranges, region = _ranges(args, cert)
-    beyond = _beyond_certified_delay(cert, ranges)
-    if beyond is not None:
-        print(f"[montecarlo] {beyond}", file=sys.stderr)
+    delay_note = _delay_note(cert, ranges)
+    if delay_note is not None:
+        print(f"[montecarlo] {delay_note}", file=sys.stderr)
     setup = replace(study_setup(cert, ranges, horizon_s=args.horizon, region_m=region), **follow)
     # the RK4 step against the fastest scenario the ranges can draw (strongest attitude gain, fastest motor)
     check_study_step(setup, ranges,
@@ -365,7 +366,8 @@ def run(args: argparse.Namespace) -> int:
             hint = _rerun_hint(args)
             data: dict[str, Any] = result.to_json()
             data["study"] = {"certificate": str(args.certificate), **data["study"],
-                             "beyond_certified_delay": beyond is not None}
+                             "beyond_certified_delay": delay_note is not None and delay_note.startswith("FLAGGED"),
+                             "delay_covered": delay_note is None}
             data["rerun"] = hint
             if result.partial:
                 saved = _save_partial(partial_path(args.json, args.seed), data)
@@ -381,9 +383,9 @@ def run(args: argparse.Namespace) -> int:
         g = setup.base.gains
         print(f"gains: {gains_text(g)}   horizon {setup.horizon_s:g} s, "
               f"displacement up to {setup.region_m:.3g} m, settling band {setup.band_m:.3g} m")
-        if ranges.delay_samples or beyond is not None:
+        if ranges.delay_samples or delay_note is not None:
             print(f"measurement delay: {ranges.delay_samples} samples at {ranges.noise_rate_hz:g} Hz"
-                  + (f"; {beyond}" if beyond is not None else " (within the certified delay)"))
+                  + (f"; {delay_note}" if delay_note is not None else " (the certified delay)"))
         print(result.table(rerun_hint=hint))
         print(f"{study.executor}, {study.workers} worker(s), batches of {study.batch_size}: "
               f"{study.scenarios_per_s:.2f} scenarios/s")
@@ -405,16 +407,12 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _beyond_certified_delay(cert: Any, ranges: Any) -> str | None:
-    """The flag of a study whose measurement delay exceeds the certificate's certified one, else ``None``."""
+def _delay_note(cert: Any, ranges: Any) -> str | None:
+    """Why the certificate does not cover the study's measurement delay, else ``None``."""
     # lazily: `nniquad --help` loads every command module, and its cold start stays under 0.5 s
-    from nniquad.scenarios.ranges import certified_delay_samples
+    from nniquad.scenarios.ranges import certified_delay_samples, delay_coverage_note
 
-    certified = certified_delay_samples(cert)
-    if ranges.delay_samples <= certified:
-        return None
-    return (f"FLAGGED: a measurement delay of {ranges.delay_samples} samples is beyond the certified delay "
-            f"({certified} samples): nothing certifies these runs")
+    return delay_coverage_note(ranges.delay_samples, certified_delay_samples(cert), "study")
 
 
 def _within_certificate_verdict(results, hint: str) -> int:
