@@ -375,21 +375,6 @@ def run(args: argparse.Namespace) -> int:
     return EXIT_CHECK_FAILED if compared else 0
 
 
-def _beyond_certified_delay(args: argparse.Namespace, options) -> str | None:
-    """The flag of a run with ``--certificate`` whose measurement delay exceeds the certified one, else ``None``."""
-    if not args.certificate:
-        return None
-    # lazily: `nniquad --help` loads every command module, and its cold start stays under 0.5 s
-    from nniquad.certificates.certificate import load_certificate
-
-    stated = load_certificate(args.certificate).get("delay_samples")
-    certified = stated if isinstance(stated, int) and not isinstance(stated, bool) else 0
-    if options.delay_samples <= certified:
-        return None
-    return (f"FLAGGED: a measurement delay of {options.delay_samples} samples is beyond the certified delay "
-            f"({certified} samples): not the certificate's run, and nothing certifies it")
-
-
 def _noise_budget_rows(options, m) -> list[tuple[str, str, str]]:
     """The noise-budget verdict of a noisy run: commanded tilt RMS and rotor-limit share against the budget."""
     if not options.noise_sigma_m > 0 or m.tilt_command_rms_deg is None or m.rotor_limit_share is None:
@@ -428,3 +413,18 @@ def _compare(flight, m) -> list[str]:
 def _full(value) -> str:
     """A stated number to every digit the certificate states (``repr``), ``None`` as ``-``."""
     return "-" if value is None else fmt(value) if isinstance(value, bool) else repr(value)
+
+
+def _beyond_certified_delay(args: argparse.Namespace, options) -> str | None:
+    """The flag of a run with ``--certificate`` whose measurement delay exceeds the certified one, else ``None``."""
+    if not args.certificate:
+        return None
+    # lazily: `nniquad --help` loads every command module, and its cold start stays under 0.5 s
+    from nniquad.certificates.certificate import load_certificate
+
+    stated = load_certificate(args.certificate).get("delay_samples")
+    certified = stated if isinstance(stated, int) and not isinstance(stated, bool) else 0
+    if options.delay_samples <= certified:
+        return None
+    return (f"FLAGGED: a measurement delay of {options.delay_samples} samples is beyond the certified delay "
+            f"({certified} samples): not the certificate's run, and nothing certifies it")
