@@ -219,7 +219,8 @@ print("Conclusion: under a constant wind of " + f"{100 * WIND_FRACTION:g} % of t
       + f"; {sum(v <= OFFSET_TARGET_M for v in offsets.values())} of {len(offsets)} designs hold within "
       + f"{1e3 * OFFSET_TARGET_M:g} mm. Stable with a delay of up to "
       + ", ".join(f"{'none' if n is None else n} periods ({label})" for label, n in stable_up_to.items())
-      + f" (swept to {max(DELAYS)}). At {100 * NOISE_BUDGET_SIGMA_M:g} cm of noise the tilt-command RMS and rotor-limit share are "
+      + f" (swept to {max(DELAYS)}). At {100 * NOISE_BUDGET_SIGMA_M:g} cm of noise the tilt-command RMS and "
+      + "rotor-limit share are "
       + ", ".join(f"{rms:.2f} deg / {100 * share:.1f} % ({label})" for label, (rms, share) in budget.items())
       + ". " + (f"Not certified: {', '.join(uncertified)} (derived, no certificate loaded)." if uncertified
                 else "Every integral design flown is read from its certificate."))
