@@ -4,7 +4,7 @@ The designs judged are the integral-action certificates in
 ``notebooks/data/designs/`` (file names in :data:`INTEGRAL_CERTIFICATES`, one
 constant; a missing or unreadable file gives a ``NO`` row that names it, not a
 crash). On each vehicle the design judged is the fastest of its certificates
-(the smallest robust p95 its tuning record states). Rows:
+(the shortest full-model settling of its reference run, ``performance.full``). Rows:
 
 1. steady offset (``steady_offset_m``: distance from the setpoint, mean over the
    last second) under a constant wind of :data:`WIND_FRACTION` of ``m g``
@@ -16,9 +16,11 @@ crash). On each vehicle the design judged is the fastest of its certificates
    success >= 99 %, Wilson 95 % lower bound >= 98 % (``--quick``:
    :data:`QUICK_MC_SAMPLES` scenarios, named in the row; the Wilson bound of
    fewer than 189 scenarios cannot reach 98 %, so it is then stated, not judged);
-3. robust p95 settling of the fastest certified integral law (the certificate's tuning record, robust
-   objective, of its own law: a record carried over from the base design its gains were seeded from does not
-   count): no slower than the fastest certified law without integral action (:data:`P95_BASE`, its record);
+3. p95 settling of the fastest certified integral law, measured to the setpoint over the Monte Carlo of row 2
+   (the study's quantile; a failed scenario counts as never settled): no slower than the robust p95 that the
+   fastest certified law without integral action (:data:`P95_BASE`) states in its tuning record.  The two are
+   not the same scenario set: the record is over the tuner's 20 scenarios (wind to its own range, settling about
+   each scenario's wind equilibrium), the measurement over this study's, to the setpoint, so it is the stricter;
 4. the delay the certificate covers (top-level ``delay_samples``): >= :data:`DELAY_TARGET`;
 5. hover at the setpoint under the noise of the budget (``nniquad.config.NOISE_BUDGET_SIGMA_M``) at the
    certificate's rate, recorded every integration step: tilt-command RMS and the share of steps with a rotor at
@@ -96,7 +98,13 @@ def _load(key: str) -> tuple[list, list[str]]:
             notes.append(f"designs/{name} is not of the vehicle {key}")
             continue
         certs.append(cert)
-    return sorted(certs, key=_p95), notes
+    return sorted(certs, key=_reference_settling_s), notes
+
+
+def _reference_settling_s(cert) -> float:
+    """The full-model settling of the certificate's reference run [s] (``inf`` when it states none)."""
+    full = (cert.performance or {}).get("full") or {}
+    return math.inf if full.get("settling_s") is None else float(full["settling_s"])
 
 
 def _same_vehicle(cert, key: str) -> bool:
@@ -122,18 +130,19 @@ def _p95(cert) -> float:
     return _p95_record(cert)[0]
 
 
-def _p95_row(cert) -> dict:
+def _p95_row(cert, summary, samples: int) -> dict:
     from nniquad.certificates.certificate import read_certificate
     from nniquad.errors import NniquadError
 
-    name = f"hold: robust p95 of the fastest certified integral law ({cert.controller})"
+    name = (f"hold: MC p95 settling to the setpoint, fastest certified integral law ({cert.controller}, "
+            f"{samples} scenarios)")
     try:
         target = _p95(read_certificate(DESIGNS / P95_BASE))
     except NniquadError as exc:
         return _no(name, f"no target: {exc}", "s")
-    p95, record = _p95_record(cert)
-    return {"name": f"{name[:-1]}, {record})", "value": p95, "unit": "s", "target": f"<= {target:.4g}",
-            "ok": p95 <= target}
+    p95 = summary.settling["p95"][0]
+    return {"name": f"{name} vs {P95_BASE[:-5]}'s tuning record", "value": p95, "unit": "s",
+            "target": f"<= {target:.4g}", "ok": p95 <= target}
 
 
 def _offset_row(key: str, cert) -> dict:
@@ -146,7 +155,7 @@ def _offset_row(key: str, cert) -> dict:
             "ok": offset <= OFFSET_TARGET_M}
 
 
-def _montecarlo_rows(cert, samples: int) -> list[dict]:
+def _montecarlo_rows(cert, samples: int) -> tuple[list[dict], object]:
     from nniquad import DEFAULT_RANGES, montecarlo
 
     delay = cert.certified_delay_samples
@@ -162,7 +171,7 @@ def _montecarlo_rows(cert, samples: int) -> list[dict]:
              "unit": "%", "target": f">= {100 * SUCCESS_TARGET:g}", "ok": s.success_rate >= SUCCESS_TARGET},
             {"name": f"{tag}: Wilson 95 % lower bound", "value": 100 * lo, "unit": "%",
              "target": f">= {100 * WILSON_LO_TARGET:g}" if judged else f"n/a (n={samples})",
-             "ok": lo >= WILSON_LO_TARGET if judged else None}]
+             "ok": lo >= WILSON_LO_TARGET if judged else None}], s
 
 
 def _hover_rows(cert) -> list[dict]:
@@ -213,8 +222,10 @@ def run(quick: bool = False) -> list[dict]:
                        _no("hold: delay the certificate covers", why, "samples"),
                        _no("hold: hover at 2 cm noise", why),
                        _no("hold: cascade region covers the start", why, "m")]
-    rows += _montecarlo_rows(cert, QUICK_MC_SAMPLES if quick else MC_SAMPLES)
-    rows.append(_p95_row(cert))
+    samples = QUICK_MC_SAMPLES if quick else MC_SAMPLES
+    mc_rows, summary = _montecarlo_rows(cert, samples)
+    rows += mc_rows
+    rows.append(_p95_row(cert, summary, samples))
     delay = cert.certified_delay_samples  # 0 for a certificate that states none
     rows.append({"name": f"hold: delay the certificate covers ({cert.controller}, at {_rate_hz(cert):g} Hz)",
                  "value": float(delay), "unit": "samples", "target": f">= {DELAY_TARGET}",

@@ -20,6 +20,7 @@ from nniquad.analysis.sampled import zoh
 from nniquad.certificates import (Certificate, build_certificate, canonical_digest, certificate_gains,
                                   verify_certificate, write_certificate)
 from nniquad.certificates.export import controller_from_certificate
+from nniquad.scenarios.ranges import DEFAULT_RANGES
 from nniquad.laws.sni2 import SNI2Gains
 from nniquad.laws.sni2 import controller_matrices, sni2_from_nni
 from nniquad.errors import CertificateError, NniquadError
@@ -145,7 +146,9 @@ def test_monte_carlo_runs_the_certified_law(doc):
     setup = study_setup(doc)
     assert setup.controller == "sni2" and setup.controller_sampling == "discrete"
     assert setup.base.gains == SNI2_GAINS
-    res = montecarlo(doc, samples=4, seed=5, workers=1)
+    # in still air: the base law has no integral action, so under the default wind it settles off the setpoint
+    still = DEFAULT_RANGES.with_(wind_weight_fraction=(0.0, 0.0))
+    res = montecarlo(doc, samples=4, seed=5, workers=1, ranges=still)
     assert res.summary.n == 4 and res.summary.n_success == 4
 
 

@@ -70,7 +70,7 @@ class ScenarioRanges:
     wind_weight_fraction
         Magnitude of the constant horizontal wind force as a fraction of the
         nominal weight ``m g`` (default :data:`nniquad.config.WIND_WEIGHT_FRACTION_RANGE`,
-        0-6 %), direction uniform; used unless ``wind_N`` is given.
+        0-10 %), direction uniform; used unless ``wind_N`` is given.
     wind_N
         Absolute wind force magnitude range [N] instead of the fraction (default ``None``).
     max_displacement_m
