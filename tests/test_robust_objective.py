@@ -104,6 +104,31 @@ def test_the_scenario_noise_range_sets_the_noise_of_the_robust_set_and_nothing_e
             TuneOptions(model="full", scenario_noise_range_m=bad)
 
 
+def test_the_scenario_wind_range_sets_the_wind_of_the_robust_set_and_a_record_states_it():
+    """``scenario_wind_fraction_range`` replaces the wind range of the robust set: the corners push with its upper
+    end times ``m g`` (by hand), the draws lie in it; the default is the Monte Carlo range.  So that a design tuned
+    on the former 6 % range keeps a reproducible record, the options state the range they were tuned on."""
+    from nniquad.config import FORMER_WIND_WEIGHT_FRACTION_RANGE
+    from nniquad.tuning.objective import robust_scenarios
+
+    assert TuneOptions(model="full").robust_wind_fraction_range == DEFAULT_RANGES.wind_weight_fraction
+    lo, hi = FORMER_WIND_WEIGHT_FRACTION_RANGE
+    opts = TuneOptions(model="full", scenario_wind_fraction_range=[lo, hi])
+    assert opts.to_json()["scenario_wind_fraction_range"] == [lo, hi]
+    weight = V.m * V.g
+    scen = robust_scenarios(V, opts)
+    corners = [s for s in scen if s.label.startswith("corner")]
+    draws = [s for s in scen if s.label.startswith("random")]
+    assert corners and all(math.isclose(math.hypot(*s.wind_N), hi * weight, rel_tol=1e-12) for s in corners)
+    assert all(lo * weight - 1e-12 <= math.hypot(*s.wind_N) <= hi * weight + 1e-12 for s in draws)
+    default = robust_scenarios(V, TuneOptions(model="full"))
+    top = DEFAULT_RANGES.wind_weight_fraction[1] * weight
+    assert all(math.isclose(math.hypot(*s.wind_N), top, rel_tol=1e-12) for s in default if s.label.startswith("corner"))
+    for bad in ((0.1, 0.05), (-0.01, 0.05)):
+        with pytest.raises(NniquadError, match="scenario wind range"):
+            TuneOptions(model="full", scenario_wind_fraction_range=bad)
+
+
 def test_every_candidate_gets_the_same_perturbations_and_keeps_its_own_gains():
     """Common random numbers: plant, wind, start and noise are the scenario's; gains and inner loops the candidate's."""
     from nniquad.tuning.objective import robust_scenarios

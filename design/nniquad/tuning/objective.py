@@ -394,16 +394,19 @@ def robust_scenarios(vehicle: Vehicle, options: TuneOptions) -> list:
     """The fixed tuning set of these options (:func:`nniquad.tuning.robust_scenarios.tuning_scenarios`), cached.
 
     The ranges are the Monte Carlo defaults with the position noise of
-    :attr:`TuneOptions.robust_noise_range_m`.  The first entry is the nominal
+    :attr:`TuneOptions.robust_noise_range_m` and the wind of
+    :attr:`TuneOptions.robust_wind_fraction_range`.  The first entry is the nominal
     scenario (simulated by the nominal objective); the same list, and so the
     same plants, noise sequences, winds and start points, is used for every
     candidate (common random numbers).
     """
 
-    key = (vehicle, options.scenario_seed, options.roa_radius_m, options.noise_sigma_m, options.robust_noise_range_m)
+    key = (vehicle, options.scenario_seed, options.roa_radius_m, options.noise_sigma_m, options.robust_noise_range_m,
+           options.robust_wind_fraction_range)
     if key not in _SCENARIO_CACHE:
         _SCENARIO_CACHE.clear()
-        ranges = DEFAULT_RANGES.with_(noise_sigma_m=options.robust_noise_range_m)
+        ranges = DEFAULT_RANGES.with_(noise_sigma_m=options.robust_noise_range_m,
+                                      wind_weight_fraction=options.robust_wind_fraction_range)
         _SCENARIO_CACHE[key] = tuning_scenarios(vehicle, seed=options.scenario_seed, roa_radius_m=options.roa_radius_m,
                                                 ranges=ranges, noise_sigma_m=options.noise_sigma_m)
     return _SCENARIO_CACHE[key]

@@ -372,6 +372,9 @@ class TuneResult:
             "scenario_count": self.scenario_count,
             "scenario_seed": self.options.scenario_seed if self.objective == "robust" else None,
             "scenario_noise_range_m": list(self.options.robust_noise_range_m) if self.objective == "robust" else None,
+            "scenario_wind_fraction_range": (list(self.options.robust_wind_fraction_range)
+                                             if self.objective == "robust" else None),
+            "scenario_delay_samples": self.options.delay_samples if self.objective == "robust" else None,
             "worst_scenario": self.worst_scenario,
             "scenario_costs": self.scenario_costs,
             "margins": self.margins,

@@ -260,6 +260,11 @@ class TuneOptions:
         With feedforward: read it this much ahead [s] (:attr:`nniquad.sim.SimOptions.feedforward_lead_s`).
     tracking_window
         ``(t0, t1)`` [s] of the tracking RMS; the tracking run lasts ``t1``.  ``None``: :func:`default_tracking_window`.
+    scenario_wind_fraction_range
+        ``(lo, hi)``: the constant wind force of the robust scenario set as a fraction of ``m g`` (the box corners
+        take ``hi``).  ``None`` (default): the Monte Carlo default range, resolved by
+        :attr:`robust_wind_fraction_range`.  A tuning record states the range it was tuned on; one that states
+        none was tuned on :data:`nniquad.config.FORMER_WIND_WEIGHT_FRACTION_RANGE`.
     delay_samples
         Measurement delay [samples at :attr:`rate_hz`] of the robust objective's perturbed scenarios (the
         position reaches the law that many control periods late, :attr:`nniquad.sim.SimOptions.delay_samples`);
@@ -294,6 +299,7 @@ class TuneOptions:
     feedforward_lead_s: float = 0.0
     tracking_window: tuple[float, float] | None = None
     delay_samples: int | None = None
+    scenario_wind_fraction_range: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         self._check_reference()
@@ -348,6 +354,10 @@ class TuneOptions:
             object.__setattr__(self, "scenario_noise_range_m",
                                _range("scenario noise range", self.scenario_noise_range_m, "0 <= LO <= HI (m)",
                                       lambda lo, hi: 0.0 <= lo <= hi, NniquadError))
+        if self.scenario_wind_fraction_range is not None:
+            object.__setattr__(self, "scenario_wind_fraction_range",
+                               _range("scenario wind range", self.scenario_wind_fraction_range,
+                                      "0 <= LO <= HI (fraction of m g)", lambda lo, hi: 0.0 <= lo <= hi, NniquadError))
         if self.require_margins is None:  # the cascade margins are those of the NNI law's split
             object.__setattr__(self, "require_margins", self.model == "full" and self.nni_image)
         if self.require_margins and not self.nni_image:
@@ -415,9 +425,17 @@ class TuneOptions:
             return self.scenario_noise_range_m
         return DEFAULT_RANGES.noise_sigma_m
 
+    @property
+    def robust_wind_fraction_range(self) -> tuple[float, float]:
+        """The wind range of the robust scenario set [fraction of m g]: :attr:`scenario_wind_fraction_range`, or the
+        Monte Carlo default."""
+        if self.scenario_wind_fraction_range is not None:
+            return self.scenario_wind_fraction_range
+        return DEFAULT_RANGES.wind_weight_fraction
+
     def to_json(self) -> dict[str, Any]:
         d = asdict(self)
-        for key in ("mass_range", "scenario_noise_range_m"):
+        for key in ("mass_range", "scenario_noise_range_m", "scenario_wind_fraction_range"):
             d[key] = None if d[key] is None else list(d[key])
         if self.reference is None:  # the settling objective's record as it always was
             for key in ("reference", "feedforward", "feedforward_lead_s", "tracking_window"):

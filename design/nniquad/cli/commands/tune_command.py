@@ -27,6 +27,7 @@ from nniquad.config import (
     REQUIRED_PM_DEG,
     ROBUST_DELAY_SAMPLES,
     TUNING_SCENARIO_SEED,
+    WIND_WEIGHT_FRACTION_RANGE,
 )
 from nniquad.control.inner_gains import InnerLoopGains
 from nniquad.errors import CertificateError, NniquadError
@@ -141,6 +142,11 @@ def add_tuning_options(parser: argparse.ArgumentParser) -> None:
                              "take HI, the random draws U[LO, HI], one draw per position sample at --rate (default "
                              "0 0.02, the Monte Carlo study's; set it to your sensor's: a velocity-free law "
                              "differentiates the position, so the noise it must tolerate limits its speed)")
+    parser.add_argument("--scenario-wind-range", type=float, nargs=2, default=None, metavar=("LO", "HI"),
+                        help="constant wind force of the robust tuning scenarios as a fraction of m g: the box "
+                             "corners take HI, pushing against the return, the random draws U[LO, HI] (default "
+                             f"{WIND_WEIGHT_FRACTION_RANGE[0]:g} {WIND_WEIGHT_FRACTION_RANGE[1]:g}, the Monte Carlo "
+                             "study's)")
     add_delay_option(parser, None, "in the robust objective's perturbed scenarios (default "
                                    f"{ROBUST_DELAY_SAMPLES}, the robust default; the nominal run has none); certify "
                                    "also certifies the cascade with it (default "
@@ -160,9 +166,11 @@ def tune_options_from_args(args: argparse.Namespace):
     # the class the design is tuned in: the stated one, else the law's first (an integral law: cascade)
     in_class = law.in_class(args.law_class if args.law_class is not None else law.law_classes[0])
     robust = not (args.nominal or args.model != "full")
-    if args.scenario_noise_range is not None and not robust:
-        raise NniquadError("--scenario-noise-range sets the noise of the robust objective's scenarios: it needs "
-                           "--model full without --nominal")
+    for option, value in (("--scenario-noise-range", args.scenario_noise_range),
+                          ("--scenario-wind-range", args.scenario_wind_range)):
+        if value is not None and not robust:
+            raise NniquadError(f"{option} sets the robust objective's scenarios: it needs --model full without "
+                               "--nominal")
     follow = tracking_settings(args)
     return TuneOptions(**follow, model=args.model, gamma_max=args.gamma_max, roa_radius_m=args.roa_radius,
                        law_class=args.law_class, rate_hz=rate,
@@ -175,6 +183,8 @@ def tune_options_from_args(args: argparse.Namespace):
                        scenario_seed=args.scenario_seed, controller=controller,
                        scenario_noise_range_m=(None if args.scenario_noise_range is None
                                                else tuple(args.scenario_noise_range)),
+                       scenario_wind_fraction_range=(None if args.scenario_wind_range is None
+                                                     else tuple(args.scenario_wind_range)),
                        optimizer=args.optimizer, delay_samples=delay_samples(args) if robust else None)
 
 
