@@ -58,7 +58,7 @@ integral laws of :mod:`nniquad.laws.integral`) gets them times the tilt limit's 
 derivative; ``linear`` has no limit, so no excess.  In discrete time the sample update
 adds ``T`` times them times the excess of the command held over the period that ends,
 recomputed at the sample from the state and the measurement held over it.  That is the
-certified discrete law ``q⁺ = q + T (ξ_k + ψ_k/k_p)`` exactly on ``reduced`` with a constant
+certified discrete law ``q⁺ = q + T (ξ_k + ψ_k/k_s)`` exactly on ``reduced`` with a constant
 (or no) feedforward; a changing feedforward, and on ``full`` the limit ``g_z tan(T_lim)``,
 are read at the new sample, one period late.
 
