@@ -20,7 +20,7 @@ from nniquad.errors import MonteCarloError
 from nniquad.validate import finite_int
 
 __all__ = ["ScenarioRanges", "DEFAULT_RANGES", "BOX_KEYS", "certificate_rate_hz", "within_certificate_ranges",
-           "certified_delay_samples", "delay_coverage_note"]
+           "certified_delay_samples", "DelayCoverage"]
 
 
 def _pair(name: str, value: Any, *, lo: float | None = None, hi: float | None = None,
@@ -183,26 +183,48 @@ def certified_delay_samples(cert: Mapping[str, Any]) -> int:
     return d if isinstance(d, int) and not isinstance(d, bool) and d >= 0 else 0
 
 
-def delay_coverage_note(run_delay: int, certified: int, what: str = "run") -> str | None:
-    """Why a certificate does not cover the measurement delay of a run or study, or ``None`` when it does.
+@dataclass(frozen=True)
+class DelayCoverage:
+    """Whether a certificate covers the measurement delay of a run or study.
 
-    The cascade section proves its loop with exactly ``certified`` samples of delay: a longer delay is flagged, and
-    a shorter one is a different loop that this proof does not cover either (said, not flagged).
+    The cascade section proves its loop with exactly :attr:`certified` samples of delay: a longer delay is flagged,
+    and a shorter one is a different loop that this proof does not cover either (said, not flagged).
 
-    Parameters
+    Attributes
     ----------
-    run_delay, certified
+    run, certified
         The delay flown and the certificate's [samples].
-    what
-        ``"run"`` or ``"study"`` (the wording).
     """
-    if run_delay == certified:
-        return None
-    if run_delay > certified:
-        return (f"FLAGGED: a measurement delay of {run_delay} samples is beyond the certified delay ({certified} "
-                f"samples): not the certificate's {what}, and nothing certifies it")
-    return (f"not covered: a measurement delay of {run_delay} samples is shorter than the certified {certified}; "
-            f"the cascade section proves its loop with exactly {certified}, so it does not cover this {what}")
+
+    run: int
+    certified: int
+
+    @property
+    def covered(self) -> bool:
+        """Whether the run's delay is the certified one."""
+        return self.run == self.certified
+
+    @property
+    def beyond(self) -> bool:
+        """Whether the run's delay exceeds the certified one (flagged)."""
+        return self.run > self.certified
+
+    def note(self, what: str = "run") -> str | None:
+        """Why the certificate does not cover the delay, or ``None`` when it does.
+
+        Parameters
+        ----------
+        what
+            ``"run"`` or ``"study"`` (the wording).
+        """
+        if self.covered:
+            return None
+        if self.beyond:
+            return (f"FLAGGED: a measurement delay of {self.run} samples is beyond the certified delay "
+                    f"({self.certified} samples): not the certificate's {what}, and nothing certifies it")
+        return (f"not covered: a measurement delay of {self.run} samples is shorter than the certified "
+                f"{self.certified}; the cascade section proves its loop with exactly {self.certified}, so it does "
+                f"not cover this {what}")
 
 
 def within_certificate_ranges(cert: Mapping[str, Any]) -> tuple[ScenarioRanges, float, float]:

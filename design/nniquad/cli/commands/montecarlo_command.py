@@ -316,9 +316,9 @@ def run(args: argparse.Namespace) -> int:
                               "moving reference")
     cert = load_certificate(args.certificate)
     ranges, region = _ranges(args, cert)
-    delay_note = _delay_note(cert, ranges)
-    if delay_note is not None:
-        print(f"[montecarlo] {delay_note}", file=sys.stderr)
+    delay = _delay_coverage(cert, ranges)
+    if not delay.covered:
+        print(f"[montecarlo] {delay.note('study')}", file=sys.stderr)
     setup = replace(study_setup(cert, ranges, horizon_s=args.horizon, region_m=region), **follow)
     # the RK4 step against the fastest scenario the ranges can draw (strongest attitude gain, fastest motor)
     check_study_step(setup, ranges,
@@ -366,8 +366,7 @@ def run(args: argparse.Namespace) -> int:
             hint = _rerun_hint(args)
             data: dict[str, Any] = result.to_json()
             data["study"] = {"certificate": str(args.certificate), **data["study"],
-                             "beyond_certified_delay": delay_note is not None and delay_note.startswith("FLAGGED"),
-                             "delay_covered": delay_note is None}
+                             "beyond_certified_delay": delay.beyond, "delay_covered": delay.covered}
             data["rerun"] = hint
             if result.partial:
                 saved = _save_partial(partial_path(args.json, args.seed), data)
@@ -383,9 +382,9 @@ def run(args: argparse.Namespace) -> int:
         g = setup.base.gains
         print(f"gains: {gains_text(g)}   horizon {setup.horizon_s:g} s, "
               f"displacement up to {setup.region_m:.3g} m, settling band {setup.band_m:.3g} m")
-        if ranges.delay_samples or delay_note is not None:
+        if ranges.delay_samples or not delay.covered:
             print(f"measurement delay: {ranges.delay_samples} samples at {ranges.noise_rate_hz:g} Hz"
-                  + (f"; {delay_note}" if delay_note is not None else " (the certified delay)"))
+                  + (f"; {delay.note('study')}" if not delay.covered else " (the certified delay)"))
         print(result.table(rerun_hint=hint))
         print(f"{study.executor}, {study.workers} worker(s), batches of {study.batch_size}: "
               f"{study.scenarios_per_s:.2f} scenarios/s")
@@ -407,12 +406,12 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _delay_note(cert: Any, ranges: Any) -> str | None:
-    """Why the certificate does not cover the study's measurement delay, else ``None``."""
+def _delay_coverage(cert: Any, ranges: Any):
+    """Whether the certificate covers the study's measurement delay (a ``DelayCoverage``)."""
     # lazily: `nniquad --help` loads every command module, and its cold start stays under 0.5 s
-    from nniquad.scenarios.ranges import certified_delay_samples, delay_coverage_note
+    from nniquad.scenarios.ranges import DelayCoverage, certified_delay_samples
 
-    return delay_coverage_note(ranges.delay_samples, certified_delay_samples(cert), "study")
+    return DelayCoverage(ranges.delay_samples, certified_delay_samples(cert))
 
 
 def _within_certificate_verdict(results, hint: str) -> int:

@@ -303,9 +303,9 @@ def run(args: argparse.Namespace) -> int:
     elif base is not None:
         print(f"certificate: {args.certificate}, its reference run performance.{base.model} (vehicle, inner loops, "
               f"{_sampling_text(options)}, motor lag {fmt(options.motor_lag)}, start, horizon {options.horizon_s:g} s)")
-    delay_note = _delay_note(args, options)
-    if delay_note is not None:
-        print(f"certificate: {delay_note}")
+    delay = _delay_coverage(args, options)
+    if delay is not None and not delay.covered:
+        print(f"certificate: {delay.note()}")
     rows = [
         ("settling time (2 % band)", fmt(m.settling_s, "s"),
          "(following a reference)" if m.follows_reference else "not settled" if m.settling_s is None else ""),
@@ -366,8 +366,7 @@ def run(args: argparse.Namespace) -> int:
                                    "run": None if base is None else f"performance.{base.model}",
                                    "stated": None if compared is None else dict(flight.stated),
                                    "reproduced": None if compared is None else not compared,
-                                   "beyond_certified_delay": delay_note is not None and delay_note.startswith("FLAGGED"),
-                                   "delay_covered": delay_note is None}
+                                   "beyond_certified_delay": delay.beyond, "delay_covered": delay.covered}
         if args.json:
             atomic_write_json(args.json, data)
     for path in (written, args.plot, args.json):
@@ -416,12 +415,12 @@ def _full(value) -> str:
     return "-" if value is None else fmt(value) if isinstance(value, bool) else repr(value)
 
 
-def _delay_note(args: argparse.Namespace, options) -> str | None:
-    """With ``--certificate``: why the certificate does not cover this run's measurement delay, else ``None``."""
+def _delay_coverage(args: argparse.Namespace, options):
+    """With ``--certificate``: whether it covers this run's measurement delay (a ``DelayCoverage``), else ``None``."""
     if not args.certificate:
         return None
     # lazily: `nniquad --help` loads every command module, and its cold start stays under 0.5 s
     from nniquad.certificates.certificate import load_certificate
-    from nniquad.scenarios.ranges import certified_delay_samples, delay_coverage_note
+    from nniquad.scenarios.ranges import DelayCoverage, certified_delay_samples
 
-    return delay_coverage_note(options.delay_samples, certified_delay_samples(load_certificate(args.certificate)))
+    return DelayCoverage(options.delay_samples, certified_delay_samples(load_certificate(args.certificate)))
